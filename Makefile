@@ -1,0 +1,36 @@
+# fftnav: every target that needs the environment depends on .venv/.installed,
+# so `make test` or `make benchmark` alone sets everything up on a fresh machine.
+PYTHON ?= python3
+VENV := .venv
+BIN := $(VENV)/bin
+STAMP := $(VENV)/.installed
+
+.PHONY: install test lint benchmark bench figures clean
+
+install: $(STAMP)
+
+$(STAMP): pyproject.toml
+	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
+	$(BIN)/python -m pip install --quiet --upgrade pip
+	$(BIN)/python -m pip install --quiet -e '.[test]'
+	touch $(STAMP)
+
+test: $(STAMP)
+	$(BIN)/python -m pytest -q -n 2 tests
+
+lint: $(STAMP)
+	$(BIN)/ruff check fftnav tests
+
+benchmark: $(STAMP)
+	$(BIN)/fftnav run experiments/table1.toml --out results/table1
+
+bench: $(STAMP)
+	$(BIN)/fftnav bench pipeline --csv results/pipeline_latency.csv
+	$(BIN)/fftnav bench sim --env forest --csv results/sim_speed.csv
+	$(BIN)/fftnav bench sim --env rocky --csv results/sim_speed.csv --append
+
+figures: $(STAMP)
+	$(BIN)/fftnav figure filters --out results/figures
+
+clean:
+	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache
