@@ -56,10 +56,10 @@ def main(argv: Sequence[str] | None = None) -> int:
     args = parser.parse_args(argv)
     try:
         status = args.func(args)
+    except BrokenPipeError:  # e.g. `fftnav scan ... | head`
+        return 0
     except (CliError, ValueError, OSError, KeyError) as exc:
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         sys.stderr.write(f"fftnav {args.command}: error: {msg}\n")
         return EXIT_USAGE
-    except BrokenPipeError:  # e.g. `fftnav scan ... | head`
-        return 0
     return int(status or 0)
