@@ -1,0 +1,57 @@
+"""``fftnav bench {pipeline,sim}``: measured latency and simulation speed."""
+
+from __future__ import annotations
+
+import argparse
+import json
+
+
+def _emit(result: dict, args: argparse.Namespace, table: str) -> None:
+    if args.json:
+        print(json.dumps(result))
+    else:
+        print(table)
+
+
+def cmd_bench_pipeline(args: argparse.Namespace) -> int:
+    """Time the observation pipeline per scan (single and batch of 15) and its alternatives."""
+    from fftnav.bench import bench_pipeline, format_pipeline, record_csv
+
+    result = bench_pipeline(repeats=args.repeats)
+    if args.csv:
+        record_csv(result, args.csv, append=args.append)
+    _emit(result, args, format_pipeline(result))
+    return 0
+
+
+def cmd_bench_sim(args: argparse.Namespace) -> int:
+    """Real-time factor of the 15-robot swarm and lidar cost per tick."""
+    from fftnav.bench import record_csv
+    from fftnav.sim.bench import bench_sim, format_sim
+
+    result = bench_sim(env=args.env, seconds=args.seconds, seed=args.seed)
+    if args.csv:
+        record_csv(result, args.csv, append=args.append)
+    _emit(result, args, format_sim(result))
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("bench", help="measure latency and simulation speed")
+    benches = p.add_subparsers(dest="bench", metavar="BENCH", parser_class=type(p))
+    benches.required = True
+
+    b = benches.add_parser("pipeline", help="latency of the FFT observation pipeline")
+    b.add_argument("--repeats", type=int, default=2000, help="timed repetitions (default 2000)")
+    b.set_defaults(func=cmd_bench_pipeline)
+
+    s = benches.add_parser("sim", help="real-time factor of the PyBullet swarm")
+    s.add_argument("--env", choices=("forest", "rocky"), default="forest")
+    s.add_argument("--seconds", type=float, default=20.0, help="simulated seconds (default 20)")
+    s.add_argument("--seed", type=int, default=0)
+    s.set_defaults(func=cmd_bench_sim)
+
+    for q in (b, s):
+        q.add_argument("--json", action="store_true", help="print one JSON object")
+        q.add_argument("--csv", metavar="PATH", help="also record the run in this CSV")
+        q.add_argument("--append", action="store_true", help="append to --csv instead of replacing")

@@ -1,0 +1,37 @@
+"""``fftnav figure {filters,depth3d} --out DIR``: draw the paper's figures."""
+
+from __future__ import annotations
+
+import argparse
+from pathlib import Path
+
+
+def cmd_figure_filters(args: argparse.Namespace) -> int:
+    """Draw the panels of the paper's Fig. 3 and Fig. 5 into ``args.out``."""
+    from fftnav.report.filters_figure import draw_filter_figures
+
+    for path in draw_filter_figures(Path(args.out)):
+        print(path)
+    return 0
+
+
+def cmd_figure_depth3d(args: argparse.Namespace) -> int:
+    """Draw the paper's Fig. 4 (depth image and safe domain) into ``args.out``."""
+    from fftnav.report.depth3d import draw_depth3d_figure
+
+    for path in draw_depth3d_figure(Path(args.out), seed=args.seed):
+        print(path)
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("figure", help="draw the paper's figures")
+    figs = p.add_subparsers(dest="figure", metavar="FIGURE", parser_class=type(p))
+    figs.required = True
+    f = figs.add_parser("filters", help="Fig. 3 and Fig. 5: filters, scan, safe directions, extrema")
+    f.add_argument("--out", required=True, metavar="DIR", help="output folder for the PNGs")
+    f.set_defaults(func=cmd_figure_filters)
+    d = figs.add_parser("depth3d", help="Fig. 4: spherical depth image and safe flight domain")
+    d.add_argument("--out", required=True, metavar="DIR", help="output folder for the PNGs")
+    d.add_argument("--seed", type=int, default=0, help="seed of the 3D forest (default 0)")
+    d.set_defaults(func=cmd_figure_depth3d)

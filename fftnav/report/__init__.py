@@ -1,0 +1,1 @@
+"""Reports and figures: the only package that imports matplotlib."""
