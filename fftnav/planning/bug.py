@@ -1,0 +1,215 @@
+"""Bug planner driven by the FFT pipeline's safe directions (paper Sec. IV-B).
+
+The planner never looks at raw ranges to decide where it may go: its input is the safe mask of
+:mod:`fftnav.safe` (a beam is safe when the whole safety sector of width alpha around it is free
+up to l_th). The state machine, with its leave rule, loop detection, stall recovery and the
+no-safe-direction fallback, is documented in ``docs/planner.md``.
+
+Commands are either straight motion ``(v_max, 0)`` or rotation in place ``(0, w)`` (the paper's
+robots "move straight or rotate in place").
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from enum import IntEnum
+
+import numpy as np
+
+from fftnav.safe import is_safe_direction, nearest_safe_headings
+
+__all__ = ["Mode", "PlannerParams", "BugPlanner", "wrap_angle"]
+
+
+def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
+    """Wrap angles (rad) to ``[-pi, pi)``."""
+    return (np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi
+
+
+class Mode(IntEnum):
+    """Planner state of one robot."""
+
+    GO_TO_GOAL = 0
+    FOLLOW = 1
+    DONE = 2
+
+
+@dataclass(frozen=True)
+class PlannerParams:
+    """Planner constants (SI units).
+
+    Attributes
+    ----------
+    v_max_mps, w_max_radps : float
+        Speed limits: straight motion at ``v_max_mps``, rotation at most ``w_max_radps``.
+    control_hz : float
+        Control rate; a rotation command aims to close the heading error in one period.
+    heading_tol_rad : float
+        Drive straight only when the heading error is below this.
+    progress_m : float
+        Leave rule: the goal distance must be this much below the distance at the hit point.
+    loop_timeout_s : float
+        Loop detection: following for this long without getting ``progress_m`` closer to the
+        goal than ever before during the follow flips the side.
+    """
+
+    v_max_mps: float = 0.5
+    w_max_radps: float = 1.5
+    control_hz: float = 10.0
+    heading_tol_rad: float = math.radians(3.0)
+    progress_m: float = 0.05
+    loop_timeout_s: float = 25.0
+
+    def __post_init__(self) -> None:
+        for name in ("v_max_mps", "w_max_radps", "control_hz", "heading_tol_rad", "loop_timeout_s"):
+            value = getattr(self, name)
+            if not (math.isfinite(value) and value > 0):
+                raise ValueError(f"{name} must be finite and > 0, got {name}={value!r}")
+        if not (math.isfinite(self.progress_m) and self.progress_m >= 0):
+            raise ValueError(f"progress_m must be finite and >= 0, got progress_m={self.progress_m!r}")
+
+
+@dataclass
+class _Memory:
+    mode: Mode = Mode.GO_TO_GOAL
+    side: int = 0  # +1 left, -1 right
+    hit_dist_m: float = math.inf
+    best_dist_m: float = math.inf
+    best_time_s: float = 0.0
+
+
+@dataclass
+class BugPlanner:
+    """Bug planner for ``n_robots`` robots sharing one set of parameters.
+
+    Parameters
+    ----------
+    n_robots : int
+        Number of robots.
+    l_th_m : float
+        Planning distance of the robot geometry (used only near the goal, see ``step``).
+    fov_rad : float
+        Field of view of the scans whose masks are passed to ``step``.
+    params : PlannerParams
+        Speed limits and state-machine constants.
+    decide : callable
+        ``decide(robot) -> +1 (left) | -1 (right)``, called once per decision.
+    """
+
+    n_robots: int
+    l_th_m: float
+    fov_rad: float
+    decide: Callable[[int], int]
+    params: PlannerParams = field(default_factory=PlannerParams)
+
+    def __post_init__(self) -> None:
+        self.memory = [_Memory() for _ in range(self.n_robots)]
+        self.decisions = np.zeros((self.n_robots, 2), dtype=np.int64)  # [left, right]
+
+    def finish(self, robot: int) -> None:
+        """Mark a robot as done (arrived or failed): it gets zero commands from now on."""
+        self.memory[robot].mode = Mode.DONE
+
+    def step(
+        self,
+        time_s: float,
+        poses: np.ndarray,
+        goals: np.ndarray,
+        safe: np.ndarray,
+        ranges_m: np.ndarray,
+        openness: np.ndarray,
+    ) -> tuple[np.ndarray, np.ndarray]:
+        """Commands for every robot for one control period.
+
+        Parameters
+        ----------
+        time_s : float
+            Episode time.
+        poses : ndarray, shape (K, 3)
+            ``x_m, y_m, yaw_rad`` of every robot.
+        goals : ndarray, shape (K, 2)
+            Goal positions.
+        safe : ndarray of bool, shape (K, M)
+            Safe masks of the robots' current scans.
+        ranges_m : ndarray, shape (K, M)
+            Sanitised ranges (used only for the near-goal test and the fallback drive check).
+        openness : ndarray, shape (K, M)
+            Filtered clipped scan y1 (fallback when no beam is safe: the most open direction).
+
+        Returns
+        -------
+        commands : ndarray, shape (K, 2)
+            ``(v_mps, w_radps)``.
+        goal_blocked : ndarray of bool, shape (K,)
+            Whether the goal direction was blocked this tick (the robot "meets an obstacle":
+            the paper's trigger for broadcasting its observation).
+        """
+        p = self.params
+        k, beams = safe.shape
+        delta = goals - poses[:, :2]
+        dist = np.hypot(delta[:, 0], delta[:, 1])
+        beta = wrap_angle(np.arctan2(delta[:, 1], delta[:, 0]) - poses[:, 2])
+        clear = is_safe_direction(safe, beta, fov_rad=self.fov_rad)
+        # Near the goal, an obstacle behind the goal must not block it: the ray to the goal and
+        # the beams within one beam of it only need to reach past the goal.
+        near = dist < self.l_th_m
+        if near.any():
+            idx = np.rint((beta + math.pi) * beams / (2 * math.pi)).astype(int) % beams
+            around = np.stack([ranges_m[np.arange(k), (idx + o) % beams] for o in (-1, 0, 1)])
+            clear |= near & (around.min(axis=0) > dist)
+        left, right = nearest_safe_headings(safe, beta, fov_rad=self.fov_rad)
+        commands = np.zeros((k, 2))
+        for i in range(k):
+            mem = self.memory[i]
+            if mem.mode == Mode.DONE:
+                continue
+            target = self._target(i, mem, time_s, float(dist[i]), bool(clear[i]), beta[i],
+                                  left[i], right[i])
+            if math.isnan(target):  # no safe direction on the chosen side: fallback
+                best = int(np.argmax(openness[i]))
+                target = float(wrap_angle(-math.pi + best * 2 * math.pi / beams))
+                if abs(target) <= p.heading_tol_rad and ranges_m[i, best] <= self.l_th_m / 2:
+                    commands[i] = (0.0, mem.side * p.w_max_radps or p.w_max_radps)
+                    continue
+            commands[i] = self._command(target)
+        return commands, ~clear
+
+    def _target(
+        self, i: int, mem: _Memory, t: float, dist: float, clear: bool, beta: float,
+        left: float, right: float,
+    ) -> float:
+        """Heading (rad, robot frame) to steer to; NaN if the chosen side has no safe beam."""
+        p = self.params
+        if mem.mode == Mode.FOLLOW:
+            if clear and dist < mem.hit_dist_m - p.progress_m:
+                mem.mode = Mode.GO_TO_GOAL  # leave rule: goal direction safe and progress made
+            else:
+                if dist < mem.best_dist_m - p.progress_m:
+                    mem.best_dist_m, mem.best_time_s = dist, t
+                elif t - mem.best_time_s > p.loop_timeout_s:  # loop detection: flip the side
+                    mem.side = -mem.side
+                    mem.hit_dist_m = mem.best_dist_m = dist
+                    mem.best_time_s = t
+                if clear:
+                    return beta
+                return left if mem.side > 0 else right
+        if clear:
+            return beta
+        side = self.decide(i)
+        if side not in (1, -1):
+            raise ValueError(f"a policy must return +1 (left) or -1 (right), got {side!r}")
+        self.decisions[i, 0 if side > 0 else 1] += 1
+        mem.mode, mem.side = Mode.FOLLOW, side
+        mem.hit_dist_m = mem.best_dist_m = dist
+        mem.best_time_s = t
+        return left if side > 0 else right
+
+    def _command(self, target_rad: float) -> tuple[float, float]:
+        """Straight motion if aligned with ``target_rad``, else rotation in place toward it."""
+        p = self.params
+        if abs(target_rad) <= p.heading_tol_rad:
+            return (p.v_max_mps, 0.0)
+        w = float(np.clip(target_rad * p.control_hz, -p.w_max_radps, p.w_max_radps))
+        return (0.0, w)

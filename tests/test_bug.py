@@ -1,0 +1,115 @@
+import math
+
+import numpy as np
+import pytest
+
+from fftnav.planning.bug import BugPlanner, Mode, PlannerParams
+from fftnav.planning.policies import LEFT, RIGHT
+
+M = 360
+FOV = 2 * math.pi
+
+
+def _mask(blocked_deg=()):
+    """Safe everywhere except the given (lo, hi) degree intervals and the rear 15 degrees."""
+    ang = np.degrees(-math.pi + np.arange(M) * 2 * math.pi / M)
+    safe = np.abs(ang) < 172.5
+    for lo, hi in blocked_deg:
+        safe &= ~((ang >= lo) & (ang <= hi))
+    return safe
+
+
+def _planner(side, n=1, **kw):
+    calls = []
+
+    def decide(i):
+        calls.append(i)
+        return side
+
+    return BugPlanner(n, l_th_m=0.6, fov_rad=FOV, decide=decide, params=PlannerParams(**kw)), calls
+
+
+def _step(planner, t, pose, goal, safe):
+    safe = np.atleast_2d(safe)
+    ranges = np.where(safe, 3.0, 0.3)
+    return planner.step(t, np.array([pose], float), np.array([goal], float), safe, ranges,
+                        ranges.astype(float))
+
+
+def test_clear_goal_drives_straight_and_misaligned_goal_rotates_toward_it():
+    p, calls = _planner(LEFT)
+    cmd, blocked = _step(p, 0.0, (0, 0, 0), (10, 0), _mask())
+    assert cmd.tolist() == [[0.5, 0.0]] and not blocked[0] and calls == []
+    cmd, _ = _step(p, 0.1, (0, 0, 0), (0, 10), _mask())  # goal at +90 deg: rotate left, capped
+    assert cmd.tolist() == [[0.0, 1.5]]
+    cmd, _ = _step(p, 0.2, (0, 0, 0), (10, -1.0), _mask())  # small error: one-period rotation
+    assert cmd[0, 0] == 0.0 and cmd[0, 1] == pytest.approx(10 * math.atan2(-1.0, 10), abs=1e-9)
+
+
+@pytest.mark.parametrize(("side", "sign"), [(LEFT, 1), (RIGHT, -1)])
+def test_blocked_goal_asks_the_policy_once_and_turns_to_that_side(side, sign):
+    p, calls = _planner(side)
+    cmd, blocked = _step(p, 0.0, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+    assert blocked[0] and calls == [0]
+    assert cmd[0, 0] == 0.0 and np.sign(cmd[0, 1]) == sign
+    assert p.memory[0].mode == Mode.FOLLOW and p.decisions[0].tolist() == (
+        [1, 0] if side == LEFT else [0, 1]
+    )
+    # still blocked next tick: keeps the side without a new decision
+    _step(p, 0.1, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+    assert calls == [0]
+
+
+def test_leave_rule_needs_clear_goal_and_progress():
+    p, _ = _planner(LEFT)
+    _step(p, 0.0, (0, 0, 0), (10, 0), _mask([(-30, 30)]))  # hit at d = 10
+    _step(p, 0.1, (0, 0.5, 0), (10, 0), _mask())  # clear but farther: stay in FOLLOW
+    assert p.memory[0].mode == Mode.FOLLOW
+    _step(p, 0.2, (1.0, 0.5, 0), (10, 0), _mask())  # clear and closer: leave
+    assert p.memory[0].mode == Mode.GO_TO_GOAL
+
+
+def test_loop_detection_flips_the_side_after_the_timeout():
+    p, calls = _planner(LEFT, loop_timeout_s=5.0)
+    for k in range(80):  # blocked forever, no progress
+        cmd, _ = _step(p, 0.1 * k, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+    assert calls == [0] and p.memory[0].side == RIGHT and cmd[0, 1] < 0
+
+
+def test_near_goal_an_obstacle_behind_the_goal_does_not_block_it():
+    p, calls = _planner(LEFT)
+    safe = _mask([(-30, 30)])
+    ranges = np.where(safe, 3.0, 0.5)[None]  # obstacle 0.5 m ahead, goal 0.3 m ahead
+    cmd, blocked = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[0.3, 0]]), safe[None],
+                          ranges, ranges)
+    assert not blocked[0] and calls == [] and cmd.tolist() == [[0.5, 0.0]]
+
+
+def test_no_safe_beam_rotates_toward_the_side_when_the_open_direction_is_too_close():
+    p, _ = _planner(RIGHT)
+    safe = np.zeros((1, M), bool)
+    ranges = np.full((1, M), 0.2)
+    openness = ranges.copy()
+    openness[0, 180] = 0.25  # most open straight ahead but only 0.2 m: cannot drive
+    cmd = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[10, 0]]), safe, ranges, openness)[0]
+    assert cmd.tolist() == [[0.0, -1.5]]
+
+
+def test_done_robots_get_zero_commands():
+    p, _ = _planner(LEFT, n=2)
+    p.finish(1)
+    safe = np.stack([_mask(), _mask()])
+    cmd = p.step(0.0, np.zeros((2, 3)), np.array([[10, 0], [10, 0]]), safe, safe * 3.0,
+                 safe * 1.0)[0]
+    assert cmd[1].tolist() == [0.0, 0.0] and cmd[0].tolist() == [0.5, 0.0]
+
+
+def test_policy_must_return_a_side():
+    p = BugPlanner(1, l_th_m=0.6, fov_rad=FOV, decide=lambda i: 0)
+    with pytest.raises(ValueError, match=r"a policy must return \+1 \(left\) or -1 \(right\), got 0"):
+        _step(p, 0.0, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+
+
+def test_bad_params_are_named():
+    with pytest.raises(ValueError, match=r"v_max_mps must be finite and > 0, got v_max_mps=0"):
+        PlannerParams(v_max_mps=0)
