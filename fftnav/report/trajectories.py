@@ -1,0 +1,53 @@
+"""Trajectories of one episode drawn over its map (the paper's Fig. 7 style)."""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+__all__ = ["draw_trajectories", "plot_episode"]
+
+
+def draw_trajectories(
+    ax: Any, world: Any, trajectories: Sequence[np.ndarray], rows: Sequence[dict] | None = None
+) -> None:
+    """Draw the map (obstacles, starts, goals) and every robot's path on ``ax``.
+
+    Arrived robots are solid lines, failed ones dashed with a cross where they stopped.
+    """
+    from fftnav.report.world_plot import draw_world
+
+    draw_world(world, ax)
+    colors = plt.cm.viridis(np.linspace(0.0, 0.95, max(len(trajectories), 1)))
+    for i, path in enumerate(trajectories):
+        ok = True if rows is None else bool(rows[i]["arrived"])
+        ax.plot(path[:, 0], path[:, 1], color=colors[i], lw=1.2, ls="-" if ok else "--")
+        if not ok:
+            ax.plot(path[-1, 0], path[-1, 1], "x", color="crimson", ms=8, mew=2)
+
+
+def plot_episode(
+    world: Any,
+    trajectories: Sequence[np.ndarray],
+    rows: Sequence[dict],
+    path: str | Path,
+    *,
+    title: str = "",
+) -> Path:
+    """Write a PNG of one episode's trajectories over its map; returns the path."""
+    fig, ax = plt.subplots(figsize=(6.5, 6.5), dpi=120)
+    draw_trajectories(ax, world, trajectories, rows)
+    arrived = sum(bool(r["arrived"]) for r in rows)
+    ax.set_title(title or f"{rows[0]['policy']}: {arrived}/{len(rows)} arrived")
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, bbox_inches="tight")
+    plt.close(fig)
+    return out
