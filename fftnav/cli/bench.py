@@ -36,6 +36,19 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_planning(args: argparse.Namespace) -> int:
+    """Time the optimal-path reference (heapq A* vs batched Dijkstra) on a generated world."""
+    from fftnav.planning.bench import bench_optimal_paths, format_optimal_paths
+
+    result = bench_optimal_paths(env=args.env, seed=args.seed, r0_m=args.r0)
+    if args.csv:
+        from fftnav.bench import record_csv
+
+        record_csv(result, args.csv, append=args.append)
+    _emit(result, args, format_optimal_paths(result))
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="measure latency and simulation speed")
     benches = p.add_subparsers(dest="bench", metavar="BENCH", parser_class=type(p))
@@ -51,7 +64,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--seed", type=int, default=0)
     s.set_defaults(func=cmd_bench_sim)
 
-    for q in (b, s):
+    g = benches.add_parser("planning", help="time of the optimal-path reference (A*, geodesic)")
+    g.add_argument("--env", choices=("forest", "rocky"), default="forest")
+    g.add_argument("--seed", type=int, default=0)
+    g.add_argument("--r0", type=float, default=0.15, help="inflation radius r0, m (default 0.15)")
+    g.set_defaults(func=cmd_bench_planning)
+
+    for q in (b, s, g):
         q.add_argument("--json", action="store_true", help="print one JSON object")
         q.add_argument("--csv", metavar="PATH", help="also record the run in this CSV")
         q.add_argument("--append", action="store_true", help="append to --csv instead of replacing")

@@ -1,0 +1,330 @@
+"""Navigation metrics: pure functions of trajectories and per-robot tables (no simulator).
+
+Definitions follow Anderson et al. 2018, "On Evaluation of Embodied Navigation Agents"
+(arXiv:1807.06757), as used by the paper (Sec. IV, Table I): Arrival Rate (AR), Average Path
+Length (APL) and Success weighted by (normalised inverse) Path Length,
+
+    SPL = (1/N) sum_i S_i l_i / max(p_i, l_i),
+
+with S_i the success indicator, p_i the length of the path the robot actually took and l_i the
+optimal (shortest-path) length from its start to its goal. Distances in metres, times in seconds.
+``docs/metrics.md`` states every definition and the l = 0 guard.
+
+:data:`MEASURES` maps a measure name to a function of an episode's per-robot table (a mapping or
+``pandas.DataFrame`` with the columns of :data:`fftnav.episode.EPISODE_COLUMNS`), in the manner of
+habitat-lab's measure registry, so reports look measures up by name.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Iterable, Mapping
+from typing import Any
+
+import numpy as np
+from numpy.typing import ArrayLike
+
+__all__ = [
+    "MEASURES",
+    "arrival_rate",
+    "arrived",
+    "average_path_length_m",
+    "evaluate",
+    "path_length_m",
+    "spl",
+    "spl_terms",
+    "time_to_goal_s",
+]
+
+
+def _positions(trajectory: ArrayLike) -> np.ndarray:
+    pos = np.asarray(trajectory, dtype=float)
+    if pos.ndim != 2 or pos.shape[1] not in (2, 3) or pos.shape[0] == 0:
+        raise ValueError(
+            f"trajectory must be a (T, 2) or (T, 3) array of positions with T >= 1, "
+            f"got trajectory.shape={pos.shape}"
+        )
+    if not np.isfinite(pos).all():
+        raise ValueError("trajectory must be finite, got trajectory with NaN or inf")
+    return pos
+
+
+def path_length_m(trajectory: ArrayLike) -> float:
+    """Length of a trajectory: the sum of its segment lengths, sum_t |x_(t+1) - x_t|.
+
+    Parameters
+    ----------
+    trajectory : array_like, shape (T, 2) or (T, 3)
+        Ground-truth positions ``x, y`` (or ``x, y, z``) in metres, in time order. Pass
+        positions only, not poses: a yaw column would be summed as a coordinate.
+
+    Returns
+    -------
+    float
+        p_i of Anderson et al. 2018, in metres (0 for a single sample).
+    """
+    pos = _positions(trajectory)
+    return float(np.linalg.norm(np.diff(pos, axis=0), axis=1).sum())
+
+
+def _times(n: int, dt_s: float | None, times_s: ArrayLike | None) -> np.ndarray:
+    if (dt_s is None) == (times_s is None):
+        raise ValueError(
+            f"give exactly one of dt_s and times_s, got dt_s={dt_s}, times_s={times_s}"
+        )
+    if dt_s is not None:
+        if not (np.isfinite(dt_s) and dt_s > 0):
+            raise ValueError(f"dt_s must be finite and > 0, got dt_s={dt_s}")
+        return np.arange(n) * dt_s
+    times = np.asarray(times_s, dtype=float)
+    if times.shape != (n,) or not np.isfinite(times).all() or np.any(np.diff(times) < 0):
+        raise ValueError(
+            f"times_s must be {n} finite non-decreasing times (one per trajectory sample), "
+            f"got times_s with shape={times.shape}"
+        )
+    return times
+
+
+def time_to_goal_s(
+    trajectory: ArrayLike,
+    goal: ArrayLike,
+    *,
+    success_radius_m: float = 0.3,
+    dt_s: float | None = None,
+    times_s: ArrayLike | None = None,
+) -> float:
+    """First time the robot is within ``success_radius_m`` of its goal.
+
+    Parameters
+    ----------
+    trajectory : array_like, shape (T, 2) or (T, 3)
+        Positions in metres.
+    goal : array_like, shape (2,) or (3,)
+        Goal position in metres (same dimension as the trajectory).
+    success_radius_m : float, optional
+        Arrival radius r (default 0.3 m, the paper's robot radius); "within" includes the boundary.
+    dt_s, times_s : optional
+        Sample times: either a fixed step ``dt_s`` (sample t at ``t * dt_s``) or the (T,) times.
+        Exactly one must be given.
+
+    Returns
+    -------
+    float
+        Seconds; NaN if the robot never comes within the radius.
+    """
+    pos = _positions(trajectory)
+    goal_arr = np.asarray(goal, dtype=float)
+    if goal_arr.shape != (pos.shape[1],) or not np.isfinite(goal_arr).all():
+        raise ValueError(
+            f"goal must be {pos.shape[1]} finite coordinates like the trajectory, got goal={goal}"
+        )
+    if not (np.isfinite(success_radius_m) and success_radius_m > 0):
+        raise ValueError(
+            f"success_radius_m must be finite and > 0, got success_radius_m={success_radius_m}"
+        )
+    times = _times(len(pos), dt_s, times_s)
+    inside = np.flatnonzero(np.linalg.norm(pos - goal_arr, axis=1) <= success_radius_m)
+    return float(times[inside[0]]) if inside.size else float("nan")
+
+
+def arrived(
+    trajectory: ArrayLike,
+    goal: ArrayLike,
+    *,
+    success_radius_m: float = 0.3,
+    time_limit_s: float = 120.0,
+    dt_s: float | None = None,
+    times_s: ArrayLike | None = None,
+    collided: bool = False,
+) -> bool:
+    """Success S_i: within ``success_radius_m`` of the goal by ``time_limit_s``, no collision.
+
+    Parameters
+    ----------
+    trajectory, goal, success_radius_m, dt_s, times_s
+        As in :func:`time_to_goal_s`.
+    time_limit_s : float, optional
+        Episode time limit (default 120 s); arriving exactly at the limit counts (up to
+        floating-point rounding: ``1200 * 0.1`` exceeds 120 by 1.4e-14).
+    collided : bool, optional
+        Whether the robot hit an obstacle (a collision is fatal; robot-robot contacts are
+        counted separately and are not).
+
+    Returns
+    -------
+    bool
+    """
+    if not (np.isfinite(time_limit_s) and time_limit_s > 0):
+        raise ValueError(f"time_limit_s must be finite and > 0, got time_limit_s={time_limit_s}")
+    t = time_to_goal_s(
+        trajectory, goal, success_radius_m=success_radius_m, dt_s=dt_s, times_s=times_s
+    )
+    return bool(not collided and (t <= time_limit_s or math.isclose(t, time_limit_s)))
+
+
+def _success(success: ArrayLike) -> np.ndarray:
+    s = np.asarray(success)
+    if s.ndim != 1 or s.size == 0 or not np.isin(s, (0, 1)).all():
+        raise ValueError(
+            f"success must be a non-empty 1-D array of booleans, got success={success!r}"
+        )
+    return s.astype(bool)
+
+
+def _lengths(values: ArrayLike, name: str, n: int) -> np.ndarray:
+    arr = np.asarray(values, dtype=float)
+    if arr.shape != (n,) or not np.isfinite(arr).all() or np.any(arr < 0):
+        raise ValueError(
+            f"{name} must be {n} finite lengths >= 0 (one per robot), got {name}={values!r}"
+        )
+    return arr
+
+
+def spl_terms(
+    success: ArrayLike, path_length_m: ArrayLike, optimal_length_m: ArrayLike
+) -> np.ndarray:
+    """Per-robot SPL terms S_i l_i / max(p_i, l_i) (Anderson et al. 2018, eq. 1).
+
+    Guard: a robot with ``max(p_i, l_i) = 0`` (it starts on its goal and never moves) scores
+    S_i, the limit of the ratio l / max(p, l) as p, l -> 0 with p <= l. A robot with l_i = 0 that
+    moves (p_i > 0) scores 0 by the formula.
+
+    Parameters
+    ----------
+    success : array_like of bool, shape (N,)
+        S_i.
+    path_length_m : array_like of float, shape (N,)
+        p_i, metres travelled (>= 0).
+    optimal_length_m : array_like of float, shape (N,)
+        l_i, shortest-path length (>= 0), e.g. grid A* at 0.05 m as in the paper.
+
+    Returns
+    -------
+    ndarray of float, shape (N,)
+        Each in [0, 1]; p_i < l_i (possible when the grid reference is longer than the true
+        optimum) is capped at 1.
+    """
+    s = _success(success)
+    p = _lengths(path_length_m, "path_length_m", s.size)
+    l = _lengths(optimal_length_m, "optimal_length_m", s.size)
+    longest = np.maximum(p, l)
+    ratio = np.divide(l, longest, out=np.ones_like(l), where=longest > 0)
+    return np.where(s, ratio, 0.0)
+
+
+def spl(success: ArrayLike, path_length_m: ArrayLike, optimal_length_m: ArrayLike) -> float:
+    """SPL = (1/N) sum_i S_i l_i / max(p_i, l_i) over all N robots (Anderson et al. 2018).
+
+    Parameters and the l = 0 guard as in :func:`spl_terms`. Returns a fraction in [0, 1].
+    """
+    return float(spl_terms(success, path_length_m, optimal_length_m).mean())
+
+
+def arrival_rate(success: ArrayLike) -> float:
+    """AR: the fraction of robots that arrived, (1/N) sum_i S_i, in [0, 1]."""
+    return float(_success(success).mean())
+
+
+def average_path_length_m(success: ArrayLike, path_length_m: ArrayLike) -> float:
+    """APL: mean path length p_i over the robots that arrived, in metres; NaN if none arrived."""
+    s = _success(success)
+    p = _lengths(path_length_m, "path_length_m", s.size)
+    return float(p[s].mean()) if s.any() else float("nan")
+
+
+Table = Mapping[str, Any]
+#: Measures by name, each a function of a per-robot table returning one float.
+MEASURES: dict[str, Callable[[Table], float]] = {}
+
+
+def _measure(name: str) -> Callable[[Callable[[Table], float]], Callable[[Table], float]]:
+    def register(fn: Callable[[Table], float]) -> Callable[[Table], float]:
+        MEASURES[name] = fn
+        return fn
+
+    return register
+
+
+def _column(table: Table, name: str) -> np.ndarray:
+    if name not in table:
+        raise ValueError(f"table must have a column {name!r}, got columns {list(table)}")
+    return np.asarray(table[name])
+
+
+@_measure("arrival_rate")
+def _ar(table: Table) -> float:
+    """AR, fraction of robots with ``arrived``."""
+    return arrival_rate(_column(table, "arrived"))
+
+
+@_measure("apl_m")
+def _apl(table: Table) -> float:
+    """APL, mean ``path_length_m`` of arrived robots (m); NaN if none arrived."""
+    return average_path_length_m(_column(table, "arrived"), _column(table, "path_length_m"))
+
+
+@_measure("spl")
+def _spl(table: Table) -> float:
+    """SPL against ``optimal_length_m`` (8-connected A*, the paper's reference)."""
+    return spl(
+        _column(table, "arrived"),
+        _column(table, "path_length_m"),
+        _column(table, "optimal_length_m"),
+    )
+
+
+@_measure("spl_geodesic")
+def _spl_geodesic(table: Table) -> float:
+    """SPL against ``geodesic_length_m`` (near-Euclidean, 32-connected)."""
+    return spl(
+        _column(table, "arrived"),
+        _column(table, "path_length_m"),
+        _column(table, "geodesic_length_m"),
+    )
+
+
+@_measure("collision_rate")
+def _collision_rate(table: Table) -> float:
+    """Fraction of robots that hit an obstacle (``collided``)."""
+    return float(np.mean(_column(table, "collided").astype(bool)))
+
+
+@_measure("time_to_goal_s")
+def _time_to_goal(table: Table) -> float:
+    """Mean ``time_s`` of arrived robots (s); NaN if none arrived."""
+    s = _success(_column(table, "arrived"))
+    return float(np.mean(_column(table, "time_s")[s].astype(float))) if s.any() else float("nan")
+
+
+@_measure("bytes_sent")
+def _bytes_sent(table: Table) -> float:
+    """Mean ``bytes_sent`` per robot."""
+    return float(np.mean(_column(table, "bytes_sent").astype(float)))
+
+
+@_measure("robot_contacts")
+def _robot_contacts(table: Table) -> float:
+    """Mean ``robot_contacts`` (robot-robot contacts, not fatal) per robot."""
+    return float(np.mean(_column(table, "robot_contacts").astype(float)))
+
+
+def evaluate(table: Table, names: Iterable[str] | None = None) -> dict[str, float]:
+    """Evaluate measures by name on a per-robot table.
+
+    Parameters
+    ----------
+    table : mapping or pandas.DataFrame
+        Per-robot columns (see each measure's docstring for the columns it needs).
+    names : iterable of str, optional
+        Measure names from :data:`MEASURES`; all of them by default.
+
+    Returns
+    -------
+    dict
+        ``{name: value}`` in the order requested.
+    """
+    names = list(MEASURES) if names is None else list(names)
+    unknown = [n for n in names if n not in MEASURES]
+    if unknown:
+        raise ValueError(f"names must be measures from {sorted(MEASURES)}, got unknown {unknown}")
+    return {n: MEASURES[n](table) for n in names}

@@ -1,0 +1,49 @@
+"""Near-Euclidean geodesic length on an occupancy grid (32-connected grid search).
+
+8-connected grid paths (the paper's A* reference) run up to 8.2 % longer than the straight line
+(at 22.5 degrees), which inflates SPL (Anderson et al. 2018). Searching with the 32 primitive
+moves of components up to 3 (``(1, 0), (3, 1), (2, 1), (3, 2), (1, 1)`` and their mirror images,
+each allowed only if the segment between cell centres touches free cells only) bounds the free-space
+excess at 1.3 % (:func:`fftnav.planning.gridgraph.max_excess`), while staying an exact shortest
+path over a feasible set of segments: the length never undercuts a collision-free polyline.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fftnav.planning.gridgraph import shortest_paths
+
+__all__ = ["geodesic_lengths"]
+
+
+def geodesic_lengths(
+    occupied: np.ndarray,
+    starts: np.ndarray,
+    goals: np.ndarray,
+    *,
+    connectivity: int = 32,
+) -> np.ndarray:
+    """Geodesic (shortest collision-free) lengths, in cells, for many start/goal pairs.
+
+    Parameters
+    ----------
+    occupied : ndarray of bool, shape (H, W)
+        True = occupied (inflated by r0 for a robot of radius r0).
+    starts, goals : array_like of int, shape (N, 2)
+        ``(row, col)`` free cells.
+    connectivity : int, optional
+        32 (default, <= 1.3 % over Euclidean in free space), 16 (<= 2.7 %) or 8 (<= 8.2 %).
+
+    Returns
+    -------
+    ndarray of float, shape (N,)
+        Lengths in cells (multiply by the resolution for metres).
+
+    Raises
+    ------
+    UnreachableGoalError
+        If some goal cannot be reached from its start.
+    """
+    paths = shortest_paths(occupied, starts, goals, connectivity=connectivity)
+    return np.array([p.length_cells for p in paths], dtype=float)
