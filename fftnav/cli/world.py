@@ -1,0 +1,113 @@
+"""``fftnav world {generate,render,grid,scan}``: world files, pictures, grids and lidar scans."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import numpy as np
+
+
+def cmd_generate(args: argparse.Namespace) -> int:
+    """Generate a seeded world and write its JSON file."""
+    from fftnav.world import generate_world, load_preset, save_world
+
+    overrides = {}
+    if args.size is not None:  # goals stay as far from the top edge as starts from the bottom
+        overrides["size_m"] = list(args.size)
+        overrides["goal_y_m"] = args.size[1] - load_preset(args.env)["start_y_m"]
+    if args.density is not None:
+        overrides["density_per_m2"] = args.density
+    if args.robots is not None:
+        overrides["robots"] = args.robots
+    world = generate_world(args.env, args.seed, **overrides)
+    save_world(world, args.out)
+    print(f"{args.out}: {args.env} seed {args.seed}, {len(world.obstacles)} obstacles, "
+          f"{len(world.starts)} robots")
+    return 0
+
+
+def cmd_render(args: argparse.Namespace) -> int:
+    """Draw a world file top-down into an image."""
+    from fftnav.report.world_plot import render_world
+    from fftnav.world import load_world
+
+    render_world(load_world(args.world), args.out)
+    print(args.out)
+    return 0
+
+
+def cmd_grid(args: argparse.Namespace) -> int:
+    """Rasterise a world file into an occupancy grid (.npy, optionally a ROS map pair)."""
+    from fftnav.grid import occupancy_grid, write_ros_map
+    from fftnav.world import load_world
+
+    og = occupancy_grid(load_world(args.world), resolution_m=args.resolution,
+                        inflate_m=args.inflate)
+    np.save(args.out, og.grid)
+    print(f"{args.out}: {og.grid.shape[0]} rows (y) x {og.grid.shape[1]} cols (x), "
+          f"{og.grid.mean():.1%} occupied")
+    if args.ros_map:
+        for path in write_ros_map(og, args.ros_map):
+            print(path)
+    return 0
+
+
+def cmd_scan(args: argparse.Namespace) -> int:
+    """Print the PyBullet lidar scan of a robot at a pose as JSON."""
+    from fftnav.sim.swarm import SimConfig, SwarmSim
+    from fftnav.world import World, load_world
+
+    world = load_world(args.world)
+    x, y, yaw_deg = args.pose
+    w, h = world.size_m
+    if not (0 <= x <= w and 0 <= y <= h and math.isfinite(yaw_deg)):
+        raise ValueError(f"pose must lie in the world [0, {w:g}] x [0, {h:g}] with a finite yaw, "
+                         f"got pose={args.pose}")
+    probe = World(world.env, world.seed, world.size_m, world.obstacles,
+                  np.array([[x, y, math.radians(yaw_deg)]]), np.array([[x, y]]))
+    config = SimConfig(beams=args.beams, range_m=args.range, blind_deg=args.blind)
+    with SwarmSim(probe, config=config) as sim:
+        obs = sim.reset(seed=0)
+        print(json.dumps({"angles_deg": np.degrees(sim.lidar.angles_rad).round(6).tolist(),
+                          "ranges": obs.scans[0].round(6).tolist()}))
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("world", help="generate, render, rasterise and scan worlds")
+    cmds = p.add_subparsers(dest="world", metavar="ACTION", parser_class=type(p))
+    cmds.required = True
+
+    g = cmds.add_parser("generate", help="write a seeded forest or rocky world file")
+    g.add_argument("--env", choices=("forest", "rocky"), required=True)
+    g.add_argument("--seed", type=int, required=True)
+    g.add_argument("--size", type=float, nargs=2, metavar=("W", "H"),
+                   help="metres; goals then lie on y = H - start_y_m")
+    g.add_argument("--density", type=float, help="obstacles per m^2 of the whole world")
+    g.add_argument("--robots", type=int, help="number of robots (starts and goals)")
+    g.add_argument("--out", required=True, help="world JSON file to write")
+    g.set_defaults(func=cmd_generate)
+
+    r = cmds.add_parser("render", help="draw a world top-down (PNG, SVG, PDF)")
+    r.add_argument("world", help="world JSON file")
+    r.add_argument("--out", required=True, help="image file")
+    r.set_defaults(func=cmd_render)
+
+    q = cmds.add_parser("grid", help="occupancy grid (.npy, True = occupied, row = y from bottom)")
+    q.add_argument("world", help="world JSON file")
+    q.add_argument("--resolution", type=float, default=0.05, help="cell size, m (default 0.05)")
+    q.add_argument("--inflate", type=float, default=0.0, help="inflate obstacles by M metres")
+    q.add_argument("--out", required=True, help=".npy file to write")
+    q.add_argument("--ros-map", metavar="PREFIX", help="also write PREFIX.yaml + PREFIX.pgm")
+    q.set_defaults(func=cmd_grid)
+
+    s = cmds.add_parser("scan", help="print the PyBullet lidar scan at a pose as JSON")
+    s.add_argument("world", help="world JSON file")
+    s.add_argument("--pose", type=float, nargs=3, metavar=("X", "Y", "YAW"), required=True,
+                   help="metres, metres, degrees")
+    s.add_argument("--beams", type=int, default=360)
+    s.add_argument("--range", type=float, default=3.0, help="maximum range R, m")
+    s.add_argument("--blind", type=float, default=15.0, help="blind sector at the back, degrees")
+    s.set_defaults(func=cmd_scan)

@@ -1,0 +1,59 @@
+"""Top-down pictures of worlds (obstacles, starts, goals, scale bar)."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+from matplotlib.patches import Circle as CirclePatch  # noqa: E402
+from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
+
+from fftnav.world import Circle, World  # noqa: E402
+
+__all__ = ["draw_world", "render_world"]
+
+
+def draw_world(world: World, ax: Any) -> None:
+    """Draw ``world`` on a matplotlib axes: obstacles (grey), starts (blue triangles pointing
+    along the start yaw), goals (green stars), the world border and a 1 m scale bar.
+    Axes are in metres, equal aspect, x right and y up."""
+    for obstacle in world.obstacles:
+        patch = (CirclePatch(obstacle.center, obstacle.radius) if isinstance(obstacle, Circle)
+                 else PolygonPatch(obstacle.vertices, closed=True))
+        patch.set(facecolor="0.45", edgecolor="0.2", linewidth=0.5)
+        ax.add_patch(patch)
+    w, h = world.size_m
+    ax.plot([0, w, w, 0, 0], [0, 0, h, h, 0], color="k", lw=0.8)
+    sx, sy, yaw = world.starts.T
+    ax.quiver(sx, sy, 0.5 * np.cos(yaw), 0.5 * np.sin(yaw), color="tab:blue", angles="xy",
+              scale_units="xy", scale=1, width=0.004)
+    ax.plot(sx, sy, "o", color="tab:blue", ms=3, label="starts")
+    ax.plot(world.goals[:, 0], world.goals[:, 1], "*", color="tab:green", ms=7, label="goals")
+    bar_y = -0.04 * h
+    ax.plot([0, 1], [bar_y, bar_y], color="k", lw=2)
+    ax.text(0.5, bar_y * 1.8, "1 m", ha="center", va="top", fontsize=8)
+    ax.set_xlim(-0.02 * w, 1.02 * w)
+    ax.set_ylim(-0.1 * h, 1.02 * h)
+    ax.set_aspect("equal")
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m)")
+
+
+def render_world(world: World, path: str | Path) -> Path:
+    """Draw ``world`` (see :func:`draw_world`) into an image file; return its path."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig, ax = plt.subplots(figsize=(6, 6.4), dpi=120)
+    draw_world(world, ax)
+    ax.set_title(f"{world.env} world, seed {world.seed}: {len(world.obstacles)} obstacles, "
+                 f"{len(world.starts)} robots", fontsize=9)
+    ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
+    fig.tight_layout()
+    fig.savefig(path)
+    plt.close(fig)
+    return path
