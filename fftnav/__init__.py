@@ -6,8 +6,17 @@ Data flow, one module per stage::
          -> planner -> simulator -> metrics -> runner -> report
 """
 
+from fftnav.codec import MessageError, decode_message, decode_sigma, encode_sigma
+from fftnav.filters import FilterBank
+from fftnav.fusion import decide_turn
 from fftnav.geometry import DRONE, REAL_ROBOT, SIM_ROBOT, RobotGeometry
+from fftnav.pipeline import Pipeline, PipelineResult
+from fftnav.safe import is_safe_direction, nearest_safe_headings
 
 __version__ = "0.1.0"
 
-__all__ = ["RobotGeometry", "SIM_ROBOT", "REAL_ROBOT", "DRONE", "__version__"]
+__all__ = [
+    "RobotGeometry", "SIM_ROBOT", "REAL_ROBOT", "DRONE", "__version__",
+    "FilterBank", "Pipeline", "PipelineResult", "is_safe_direction", "nearest_safe_headings",
+    "encode_sigma", "decode_sigma", "decode_message", "MessageError", "decide_turn",
+]

@@ -1,0 +1,174 @@
+"""Latency benchmarks of the observation pipeline, and a generic CSV recorder.
+
+Timings run on one thread and, where the OS allows it, one CPU: the process is pinned to a
+single core with ``os.sched_setaffinity`` for the duration of the run; scipy.fft is called with
+``workers=1``, and numpy's FFT, ``numpy.convolve`` and ``scipy.ndimage`` are single-threaded
+(no BLAS call is involved). Alternatives are timed round-robin in the same loop, so a busy
+machine slows them alike; each figure is the median over the repeats.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime
+import os
+import platform
+import socket
+import time
+from collections.abc import Callable
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from fftnav.geometry import SIM_ROBOT
+from fftnav.pipeline import Pipeline
+from fftnav.safe import safe_mask, sliding_min_safe_mask
+from fftnav.scene import trunk_scans
+
+__all__ = ["bench_pipeline", "format_pipeline", "record_csv"]
+
+BATCH = 15
+
+
+@contextmanager
+def _one_cpu():
+    """Pin this process to one CPU while timing (no-op where unsupported)."""
+    if not hasattr(os, "sched_setaffinity"):
+        yield None
+        return
+    before = os.sched_getaffinity(0)
+    cpu = max(before)
+    os.sched_setaffinity(0, {cpu})
+    try:
+        yield cpu
+    finally:
+        os.sched_setaffinity(0, before)
+
+
+def _median_us(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str, float]:
+    times = {name: np.empty(repeats) for name in fns}
+    for fn in fns.values():  # warm-up
+        fn()
+    for r in range(repeats):
+        for name, fn in fns.items():
+            t0 = time.perf_counter_ns()
+            fn()
+            times[name][r] = time.perf_counter_ns() - t0
+    return {name: float(np.median(t)) / 1e3 for name, t in times.items()}
+
+
+def bench_pipeline(*, repeats: int = 2000, seed: int = 0) -> dict:
+    """Time the pipeline per scan, single and in a batch of 15, beside other mask methods.
+
+    The scans are 15 analytic trunk scenes (:func:`fftnav.scene.trunk_scans`) with the paper's
+    simulated robot and lidar (M = 360, R = 3 m, 15 degree blind sector).
+
+    Parameters
+    ----------
+    repeats : int
+        Timed repetitions of each alternative, ``>= 1``.
+    seed : int
+        Seed of the scenes.
+
+    Returns
+    -------
+    dict
+        ``single_us`` (one scan: safe mask, extrema, compact message), ``batch15_us_per_scan``
+        (same, batch of 15), ``batch15_with_p_s_us_per_scan`` (plus quadrant areas and P_s),
+        the safe mask alone per scan in a batch of 15 by FFT (``mask_fft_us_per_scan``), by
+        ``numpy.convolve`` (``mask_convolve_us_per_scan``) and by a sliding-window minimum
+        (``mask_sliding_min_us_per_scan``), ``masks_agree``, ``repeats``, ``cpu``.
+    """
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats must be an integer >= 1, got repeats={repeats!r}")
+    pipe = Pipeline(SIM_ROBOT)
+    bank = pipe.bank
+    scans = trunk_scans(np.random.default_rng(seed), BATCH)
+    box = bank.h1[bank.h1 > 0]  # the centred window of h1
+
+    def mask_convolve() -> np.ndarray:
+        s = np.minimum(pipe.normalise(scans), bank.threshold)
+        y1 = np.array([np.convolve(row, box, mode="same") for row in s])
+        return safe_mask(y1, threshold=bank.threshold)
+
+    def mask_sliding_min() -> np.ndarray:
+        return sliding_min_safe_mask(
+            pipe.normalise(scans), window_beams=bank.window_beams, threshold=bank.threshold
+        )
+
+    masks = [pipe.safe_mask(scans), mask_convolve(), mask_sliding_min()]
+    fns = {
+        "single": lambda: pipe.process(scans[0], with_p_s=False),
+        "batch": lambda: pipe.process(scans, with_p_s=False),
+        "batch_p_s": lambda: pipe.process(scans),
+        "mask_fft": lambda: pipe.safe_mask(scans),
+        "mask_convolve": mask_convolve,
+        "mask_sliding_min": mask_sliding_min,
+    }
+    with _one_cpu() as cpu:
+        us = _median_us(fns, repeats)
+    return {
+        "single_us": round(us["single"], 2),
+        "batch15_us_per_scan": round(us["batch"] / BATCH, 2),
+        "batch15_with_p_s_us_per_scan": round(us["batch_p_s"] / BATCH, 2),
+        "mask_fft_us_per_scan": round(us["mask_fft"] / BATCH, 2),
+        "mask_convolve_us_per_scan": round(us["mask_convolve"] / BATCH, 2),
+        "mask_sliding_min_us_per_scan": round(us["mask_sliding_min"] / BATCH, 2),
+        "masks_agree": all(np.array_equal(masks[0], m) for m in masks[1:]),
+        "repeats": repeats,
+        "cpu": cpu,
+    }
+
+
+def format_pipeline(result: dict) -> str:
+    """Human-readable table of :func:`bench_pipeline`'s result (microseconds)."""
+    rows = [
+        ("pipeline, 1 scan (mask + extrema + message)", result["single_us"], "us"),
+        ("pipeline, batch of 15", result["batch15_us_per_scan"], "us/scan"),
+        ("pipeline + P_s, batch of 15", result["batch15_with_p_s_us_per_scan"], "us/scan"),
+        ("safe mask by FFT, batch of 15", result["mask_fft_us_per_scan"], "us/scan"),
+        (
+            "safe mask by numpy.convolve, batch of 15",
+            result["mask_convolve_us_per_scan"],
+            "us/scan",
+        ),
+        (
+            "safe mask by sliding minimum, batch of 15",
+            result["mask_sliding_min_us_per_scan"],
+            "us/scan",
+        ),
+    ]
+    lines = [f"{name:<46} {value:>9.2f} {unit}" for name, value, unit in rows]
+    lines.append(
+        f"masks agree: {result['masks_agree']}; median of {result['repeats']} repeats, "
+        f"pinned to CPU {result['cpu']}"
+    )
+    return "\n".join(lines)
+
+
+def record_csv(result: dict, path: str | Path, *, append: bool = False) -> None:
+    """Write one row: the result's keys as columns plus ``timestamp``, ``host``, ``python``,
+    ``numpy``. With ``append`` the row is added to an existing file, whose header must match."""
+    row = {
+        **result,
+        "timestamp": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "host": socket.gethostname(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+    }
+    path = Path(path)
+    exists = append and path.exists() and path.stat().st_size > 0
+    if exists:
+        with path.open(newline="") as fh:
+            header = next(csv.reader(fh), [])
+        if header != list(row):
+            raise ValueError(
+                f"cannot append to {str(path)!r}: its columns {header} differ from {list(row)}"
+            )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("a" if exists else "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(row))
+        if not exists:
+            writer.writeheader()
+        writer.writerow(row)
