@@ -1,0 +1,57 @@
+"""``fftnav run CONFIG [--out DIR] [--workers N] [--executor local|dask] [--scheduler ADDR]
+[--fresh] [--quiet]``: run or resume an experiment, then write its summary and report."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+
+
+def cmd_run(args: argparse.Namespace) -> int:
+    """Run (or resume) an experiment, then write its summary, report and figures.
+
+    Exit status 0 when every episode finished, 1 when some raised (see ``DIR/errors.csv``),
+    130 when interrupted (rerun the same command to resume).
+    """
+    from fftnav.report.experiment import write_report
+    from fftnav.runner import load_config, run_experiment
+
+    config = load_config(args.config)
+    out = args.out or config.out
+    try:
+        outcome = run_experiment(config, out, workers=args.workers, executor=args.executor,
+                                 scheduler=args.scheduler, progress=not args.quiet,
+                                 fresh=args.fresh)
+    except KeyboardInterrupt:
+        sys.stderr.write(f"fftnav run: interrupted; finished episodes are kept in {out}, "
+                         "rerun the same command to resume\n")
+        return 130
+    report = write_report(config, out)
+    print(f"{outcome.completed} episodes run, {outcome.skipped} already done, "
+          f"{len(outcome.failed)} failed, {outcome.wall_time_s:.1f} s; report: {report}")
+    for task, error in outcome.failed:
+        sys.stderr.write(f"fftnav run: {task.task_id} failed: {error.error_type}: "
+                         f"{error.message}\n")
+    return 1 if outcome.failed else 0
+
+
+def _workers(text: str) -> int:
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return int(text)
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("run", help="run an experiment config (resumable) and write its report")
+    p.add_argument("config", metavar="CONFIG", help="experiment TOML, e.g. experiments/smoke.toml")
+    p.add_argument("--out", metavar="DIR", help="output folder (default: experiment.out)")
+    p.add_argument("--workers", type=_workers, metavar="N",
+                   help="worker processes (default: all cores; 1 runs in-process)")
+    p.add_argument("--executor", choices=("local", "dask"), default="local",
+                   help="local process pool (default) or a Dask cluster")
+    p.add_argument("--scheduler", metavar="ADDR",
+                   help="Dask scheduler address, e.g. tcp://host:8786 (default: a LocalCluster)")
+    p.add_argument("--fresh", action="store_true",
+                   help="rerun every episode instead of resuming (results replaced as they come)")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.set_defaults(func=cmd_run)

@@ -1,0 +1,219 @@
+"""Report of an experiment folder: ``report.md`` beside the paper's Table I, and its figures.
+
+Reads what :func:`fftnav.runner.run_experiment` wrote (``episodes.csv``, ``summary.csv``,
+``paired_tests.csv``, ``run_info.json``, ``config.toml``, ``trajectories/``) and writes
+``report.md`` and ``figures/*.png`` into the same folder:
+
+- ``trajectories_<env>.png``: all robots of the first map, one panel per policy (paper Fig. 7);
+- ``spl_apl.png``: SPL and APL per env and policy with 95% bootstrap intervals over maps, the
+  paper's Table I values as crosses;
+- ``path_lengths.png``: distributions of the path lengths of the robots that arrived.
+"""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from fftnav.runner.config import ExperimentConfig
+from fftnav.runner.run import write_atomic
+from fftnav.runner.tasks import task_world
+
+__all__ = ["PAPER_TABLE1", "PAPER_NAMES", "write_report"]
+
+#: The paper's Table I (Gazebo): (env, policy) -> (AR %, APL m, SPL %).
+PAPER_TABLE1: dict[tuple[str, str], tuple[float, float, float]] = {
+    ("forest", "bug-left"): (99.7, 21.328, 87.3),
+    ("forest", "bug-right"): (98.7, 21.320, 87.3),
+    ("forest", "fusion"): (100.0, 19.452, 95.7),
+    ("rocky", "bug-left"): (99.3, 20.780, 90.1),
+    ("rocky", "bug-right"): (100.0, 20.688, 90.5),
+    ("rocky", "fusion"): (100.0, 19.197, 97.6),
+}
+#: The paper's names of our policies.
+PAPER_NAMES = {"bug-left": "Bug (left)", "bug-right": "Bug (right)", "fusion": "Proposed"}
+
+
+def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
+    """Write ``report.md`` and ``figures/*.png`` for an experiment folder.
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+        The experiment that was run into ``out_dir`` (its worlds are regenerated for the maps).
+    out_dir : str or Path
+        Folder written by :func:`fftnav.runner.run_experiment`.
+
+    Returns
+    -------
+    Path
+        The ``report.md`` written.
+    """
+    out = Path(out_dir)
+    figures = out / "figures"
+    figures.mkdir(exist_ok=True)
+    episodes = pd.read_csv(out / "episodes.csv")
+    summary = pd.read_csv(out / "summary.csv")
+    paired = pd.read_csv(out / "paired_tests.csv")
+    info = json.loads((out / "run_info.json").read_text())
+    pictures = [draw_trajectories(config, out, env, episodes, figures) for env in config.envs]
+    pictures = [p for p in pictures if p is not None]
+    if len(summary):
+        pictures += [draw_metric_bars(summary, figures / "spl_apl.png"),
+                     draw_path_lengths(episodes, figures / "path_lengths.png")]
+    lines = [
+        f"# Experiment `{config.name}`",
+        "",
+        f"{len(config.envs)} env(s) x {config.maps} maps (seeds {config.map_seed}..."
+        f"{config.map_seed + config.maps - 1}) x {len(config.policies)} policies, "
+        f"{config.robots} robots per episode. fftnav {info['fftnav_version']}, git "
+        f"`{info['git_revision']}`, {info['executor']} executor, "
+        f"{info['workers'] or info['scheduler']} workers, "
+        f"wall time {info['wall_time_total_s']:.1f} s "
+        f"(last invocation {info['wall_time_s']:.1f} s: "
+        f"{info['tasks_completed']} episodes run, {info['tasks_skipped']} already done, "
+        f"{info['tasks_failed']} failed).",
+        "",
+        *([f"**{info['tasks_failed']} episode(s) failed and are missing from the tables: see "
+           "`errors.csv`; rerun the same command to retry them.**", ""]
+          if info["tasks_failed"] else []),
+        "## Results beside the paper's Table I",
+        "",
+        "Ours: AR and SPL in percent with 95% bootstrap intervals over maps; APL in metres over "
+        "the robots that arrived. Paper: Table I (Gazebo, 20 maps, 15 robots).",
+        "",
+        *_markdown(results_table(summary)),
+        "",
+        "## Paired tests (per-map SPL, Wilcoxon signed-rank, two-sided)",
+        "",
+        *(_markdown(paired.round(4)) if len(paired) else ["(no `fusion` rows to compare)"]),
+        "",
+        "## Figures",
+        "",
+        *(f"![{p.stem}](figures/{p.name})" for p in pictures),
+        "",
+        "## Config",
+        "",
+        "```toml",
+        config.source.strip(),
+        "```",
+        "",
+    ]
+    path = out / "report.md"
+    write_atomic(path, "\n".join(lines))
+    return path
+
+
+def results_table(summary: pd.DataFrame) -> pd.DataFrame:
+    """Our AR / APL / SPL (percent, metres) beside the paper's Table I, one row per env/policy."""
+    rows = []
+    for r in summary.itertuples(index=False):
+        paper = PAPER_TABLE1.get((r.env, r.policy), (np.nan,) * 3)
+        rows.append({
+            "env": r.env,
+            "policy": r.policy,
+            "paper name": PAPER_NAMES.get(r.policy, "-"),
+            "AR %": _ci(100 * r.ar, 100 * r.ar_ci_low, 100 * r.ar_ci_high, 1),
+            "APL m": _ci(r.apl_m, r.apl_ci_low, r.apl_ci_high, 3),
+            "SPL %": _ci(100 * r.spl, 100 * r.spl_ci_low, 100 * r.spl_ci_high, 1),
+            "paper AR %": _fmt(paper[0], 1),
+            "paper APL m": _fmt(paper[1], 3),
+            "paper SPL %": _fmt(paper[2], 1),
+        })
+    return pd.DataFrame(rows)
+
+
+def draw_trajectories(config: ExperimentConfig, out: Path, env: str, episodes: pd.DataFrame,
+                      figures: Path) -> Path | None:
+    """All robots' paths on the env's first map, one panel per policy (like the paper's Fig. 7).
+
+    Arrived robots solid, failed ones dashed with a cross (:mod:`fftnav.report.trajectories`).
+    """
+    from fftnav.report.trajectories import draw_trajectories as draw_paths
+
+    map_seed = config.map_seed
+    found = [(p, out / "trajectories" / f"{env}-{map_seed}-{p}.npz") for p in config.policies]
+    found = [(p, f) for p, f in found if f.exists()]
+    if not found:
+        return None
+    world = task_world(config, env, map_seed)
+    fig = Figure(figsize=(4.2 * len(found), 4.6), layout="constrained")
+    axes = fig.subplots(1, len(found), squeeze=False)[0]
+    for ax, (policy, file) in zip(axes, found, strict=True):
+        rows = episodes[(episodes.env == env) & (episodes.map_seed == map_seed)
+                        & (episodes.policy == policy)].sort_values("robot")
+        with np.load(file) as data:
+            paths = [data[f"arr_{i}"] for i in range(len(data.files))]
+        draw_paths(ax, world, paths, rows.to_dict("records"))
+        ax.set_title(f"{policy} ({PAPER_NAMES.get(policy, 'extra')}): "
+                     f"{int(rows.arrived.sum())}/{len(rows)} arrived")
+    fig.suptitle(f"{env}, map seed {map_seed}: trajectories of {config.robots} robots")
+    path = figures / f"trajectories_{env}.png"
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def draw_metric_bars(summary: pd.DataFrame, path: Path) -> Path:
+    """SPL (%) and APL (m) bars per env and policy with 95% intervals; paper values as crosses."""
+    fig = Figure(figsize=(10, 4), layout="constrained")
+    envs = list(dict.fromkeys(summary["env"]))
+    policies = list(dict.fromkeys(summary["policy"]))
+    width = 0.8 / len(policies)
+    panels = (("spl", 100, "SPL (%)", 2), ("apl", 1, "APL (m)", 1))
+    for ax, (metric, scale, label, paper_col) in zip(fig.subplots(1, 2), panels, strict=True):
+        value = "apl_m" if metric == "apl" else metric
+        for j, policy in enumerate(policies):
+            rows = summary[summary["policy"] == policy].set_index("env").reindex(envs)
+            x = np.arange(len(envs)) + (j - (len(policies) - 1) / 2) * width
+            y = scale * rows[value].to_numpy()
+            err = scale * np.abs(rows[[f"{metric}_ci_low", f"{metric}_ci_high"]].to_numpy().T
+                                 - rows[value].to_numpy())
+            ax.bar(x, y, width, yerr=err, capsize=3, label=policy, color=f"C{j}")
+            paper = [PAPER_TABLE1.get((e, policy), (np.nan,) * 3)[paper_col] for e in envs]
+            ax.plot(x, paper, "kx", ms=8, label="paper" if j == 0 else None)
+        ax.set_xticks(np.arange(len(envs)), envs)
+        ax.set_ylabel(label)
+    fig.legend(*fig.axes[0].get_legend_handles_labels(), loc="outside upper center",
+               ncols=len(policies) + 1, fontsize=8)
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def draw_path_lengths(episodes: pd.DataFrame, path: Path) -> Path:
+    """Box plots of the path lengths (m) of the robots that arrived, per env and policy."""
+    envs = list(dict.fromkeys(episodes["env"]))
+    fig = Figure(figsize=(5 * len(envs), 4), layout="constrained")
+    arrived = episodes[episodes["arrived"].astype(bool)]
+    for ax, env in zip(fig.subplots(1, len(envs), squeeze=False)[0], envs, strict=True):
+        data = arrived[arrived["env"] == env]
+        policies = sorted(episodes.loc[episodes["env"] == env, "policy"].unique())
+        ax.boxplot([data.loc[data["policy"] == p, "path_length_m"] for p in policies],
+                   tick_labels=policies)
+        ax.axhline(data["optimal_length_m"].mean(), ls="--", color="grey",
+                   label="mean optimal length")
+        ax.set_title(f"{env}: path length of the robots that arrived")
+        ax.set_ylabel("path length (m)")
+        ax.legend(fontsize=8)
+    fig.savefig(path, dpi=110)
+    return path
+
+
+def _fmt(value: float, digits: int) -> str:
+    return "-" if np.isnan(value) else f"{value:.{digits}f}"
+
+
+def _ci(value: float, low: float, high: float, digits: int) -> str:
+    """``value [low, high]``; the interval is left out when undefined (NaN)."""
+    interval = "" if np.isnan(low) else f" [{low:.{digits}f}, {high:.{digits}f}]"
+    return _fmt(value, digits) + interval
+
+
+def _markdown(table: pd.DataFrame) -> list[str]:
+    """A DataFrame as Markdown table lines (no extra dependency)."""
+    cells = [[str(c) for c in table.columns]] + [[str(v) for v in r] for r in table.to_numpy()]
+    return ["| " + " | ".join(r) + " |" for r in cells[:1]] + [
+        "|" + "---|" * len(table.columns)] + ["| " + " | ".join(r) + " |" for r in cells[1:]]

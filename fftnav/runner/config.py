@@ -1,0 +1,243 @@
+"""Experiment configurations: a TOML file -> a validated :class:`ExperimentConfig`.
+
+The file has an ``[experiment]`` table (what to run), an optional ``[world]`` table of overrides
+for :func:`fftnav.world.generate_world` (with optional per-env sub-tables such as
+``[world.forest]``), and the episode sections ``[robot]``, ``[sensor]``, ``[comms]``,
+``[episode]`` of :class:`fftnav.episode.EpisodeConfig`. Every unknown key or invalid value raises
+``ValueError`` naming the key, e.g. ``experiment.maps must be an integer >= 1, got 0``.
+See ``docs/experiments.md`` for the reference of every key.
+"""
+
+from __future__ import annotations
+
+import math
+import re
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fftnav.episode import EpisodeConfig
+from fftnav.planning.policies import POLICIES
+from fftnav.world import ENVS, load_preset
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = ["ExperimentConfig", "load_config", "parse_config"]
+
+_EXPERIMENT_KEYS = ("name", "envs", "maps", "map_seed", "robots", "policies", "trajectory_maps",
+                    "out")
+_NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
+
+
+@dataclass(frozen=True)
+class ExperimentConfig:
+    """A validated experiment: which episodes to run and with which parameters.
+
+    Attributes
+    ----------
+    name : str
+        Experiment name (letters, digits, ``_.-``).
+    envs : tuple of str
+        Environments, e.g. ``("forest", "rocky")``.
+    maps : int
+        Number of maps per environment; map ``i`` is generated with seed ``map_seed + i``.
+    map_seed : int
+        Seed of the first map (>= 0).
+    robots : int
+        Robots per episode (the paper uses 15).
+    policies : tuple of str
+        Decision policies, each run on every map (paired comparison).
+    trajectory_maps : int
+        How many maps per env keep their trajectories for the figures (first maps first).
+    out : str
+        Default output folder (``--out`` overrides it).
+    world : dict
+        Overrides passed to ``generate_world`` for every env.
+    world_by_env : dict
+        Extra per-env overrides (``[world.<env>]``), applied after ``world``.
+    episode : EpisodeConfig
+        Robot, sensor, communication and episode parameters.
+    source : str
+        The TOML text the config was parsed from (copied into the output folder).
+    """
+
+    name: str
+    envs: tuple[str, ...]
+    maps: int
+    map_seed: int
+    robots: int
+    policies: tuple[str, ...]
+    trajectory_maps: int = 1
+    out: str = ""
+    world: dict[str, Any] = field(default_factory=dict)
+    world_by_env: dict[str, dict[str, Any]] = field(default_factory=dict)
+    episode: EpisodeConfig = field(default_factory=EpisodeConfig)
+    source: str = field(default="", repr=False, compare=False)
+
+    def world_overrides(self, env: str) -> dict[str, Any]:
+        """Overrides for ``generate_world(env, seed, **overrides)``.
+
+        ``robot_radius_m`` (the radius the reachability check uses) defaults to ``robot.r0_m``;
+        then ``[world]``, then ``[world.<env>]``.
+        """
+        return {"robot_radius_m": self.episode.r0_m, **self.world, **self.world_by_env.get(env, {})}
+
+
+def load_config(path: str | Path) -> ExperimentConfig:
+    """Read and validate an experiment TOML file.
+
+    Parameters
+    ----------
+    path : str or Path
+        The TOML file.
+
+    Returns
+    -------
+    ExperimentConfig
+
+    Raises
+    ------
+    ValueError
+        Invalid TOML, unknown key or invalid value (the message names the key).
+    OSError
+        The file cannot be read.
+    """
+    text = Path(path).read_text(encoding="utf-8")
+    try:
+        data = tomllib.loads(text)
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: invalid TOML: {exc}") from None
+    return parse_config(data, source=text)
+
+
+def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
+    """Validate a parsed TOML document.
+
+    Parameters
+    ----------
+    data : dict
+        The document, as ``tomllib`` returns it.
+    source : str
+        Its text, kept for the copy written into the output folder.
+
+    Returns
+    -------
+    ExperimentConfig
+
+    Raises
+    ------
+    ValueError
+        Unknown section or key, missing or invalid value; the message names the key.
+    """
+    sections = EpisodeConfig().SECTIONS
+    allowed = ("experiment", "world", *sections)
+    for name in data:
+        if name not in allowed:
+            raise ValueError(f"unknown section [{name}]; expected one of {list(allowed)}")
+    exp = _table(data, "experiment")
+    _check_keys("experiment", exp, _EXPERIMENT_KEYS)
+    for key in ("name", "envs", "maps", "map_seed", "robots", "policies"):
+        if key not in exp:
+            raise ValueError(f"experiment.{key} is required")
+    name = exp["name"]
+    if not (isinstance(name, str) and _NAME.match(name)):
+        raise ValueError(f"experiment.name must be a non-empty string of letters, digits, "
+                         f"'_', '.', '-', got {name!r}")
+    envs = _names("experiment.envs", exp["envs"], ENVS)
+    maps = _integer("experiment.maps", exp["maps"], 1)
+    trajectory_maps = _integer("experiment.trajectory_maps", exp.get("trajectory_maps", 1), 0)
+    if trajectory_maps > maps:
+        raise ValueError(f"experiment.trajectory_maps must be <= experiment.maps={maps}, "
+                         f"got {trajectory_maps}")
+    out = exp.get("out", f"results/{name}")
+    if not (isinstance(out, str) and out):
+        raise ValueError(f"experiment.out must be a non-empty string, got {out!r}")
+
+    world = _table(data, "world")
+    common = {k: v for k, v in world.items() if not isinstance(v, dict)}
+    by_env = {k: v for k, v in world.items() if isinstance(v, dict)}
+    for env, table in by_env.items():
+        if env not in envs:
+            raise ValueError(f"world.{env} is not one of experiment.envs={list(envs)}")
+        _check_world_keys(f"world.{env}", env, table)
+    for env in envs:
+        _check_world_keys("world", env, common)
+
+    episode = {}
+    for section, keys in sections.items():
+        table = _table(data, section)
+        _check_keys(section, table, keys)
+        episode[section] = {k: _episode_value(f"{section}.{k}", v, getattr(EpisodeConfig, k))
+                            for k, v in table.items()}
+    return ExperimentConfig(
+        name=name,
+        envs=envs,
+        maps=maps,
+        map_seed=_integer("experiment.map_seed", exp["map_seed"], 0),
+        robots=_integer("experiment.robots", exp["robots"], 1),
+        policies=_names("experiment.policies", exp["policies"], tuple(POLICIES)),
+        trajectory_maps=trajectory_maps,
+        out=out,
+        world=common,
+        world_by_env=by_env,
+        episode=EpisodeConfig.from_sections(episode),
+        source=source,
+    )
+
+
+def _table(data: dict[str, Any], name: str) -> dict[str, Any]:
+    table = data.get(name, {})
+    if not isinstance(table, dict):
+        raise ValueError(f"{name} must be a table [{name}], got {table!r}")
+    return table
+
+
+def _check_keys(section: str, table: dict[str, Any], keys: tuple[str, ...]) -> None:
+    for key in table:
+        if key not in keys:
+            raise ValueError(f"unknown key {section}.{key}; expected one of {list(keys)}")
+
+
+def _check_world_keys(section: str, env: str, table: dict[str, Any]) -> None:
+    """World overrides must be keys of the env's preset (``worlds/<env>.toml``)."""
+    preset = load_preset(env)
+    for key in table:
+        if key in ("env", "robots"):
+            raise ValueError(f"{section}.{key} cannot be overridden; set experiment.{key}s")
+        if key not in preset:
+            raise ValueError(f"unknown key {section}.{key}; expected one of {sorted(preset)}")
+
+
+def _integer(key: str, value: Any, low: int) -> int:
+    if isinstance(value, bool) or not isinstance(value, int) or value < low:
+        raise ValueError(f"{key} must be an integer >= {low}, got {value!r}")
+    return value
+
+
+def _names(key: str, value: Any, known: tuple[str, ...]) -> tuple[str, ...]:
+    if (not isinstance(value, list) or not value
+            or not all(isinstance(v, str) for v in value) or len(set(value)) != len(value)):
+        raise ValueError(f"{key} must be a non-empty list of distinct strings, got {value!r}")
+    for v in value:
+        if v not in known:
+            raise ValueError(f"{key}: unknown name {v!r}; expected some of {list(known)}")
+    return tuple(value)
+
+
+def _episode_value(key: str, value: Any, default: Any) -> Any:
+    """Type check against the field's default: same type (an int is accepted for a float)."""
+    if isinstance(default, str):
+        if not isinstance(value, str):
+            raise ValueError(f"{key} must be a string, got {value!r}")
+        return value
+    kind = int if isinstance(default, int) else float
+    ok_types = (int,) if kind is int else (int, float)
+    if isinstance(value, bool) or not isinstance(value, ok_types) or not math.isfinite(value):
+        raise ValueError(f"{key} must be a finite {kind.__name__}, got {value!r}")
+    if value < 0:
+        raise ValueError(f"{key} must be >= 0, got {value!r}")
+    return kind(value)

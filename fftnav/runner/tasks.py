@@ -1,0 +1,107 @@
+"""Episode tasks: one task = (env, map, policy); ``run_task`` turns one into per-robot rows.
+
+Seeds: map ``i`` of an experiment is generated with ``map_seed + i``; the episode seed (sensor
+noise, packet loss, random decisions) is derived from ``(map_seed + i, env)`` with
+``numpy.random.SeedSequence``, so every policy sees the same map *and* the same episode seed
+(paired comparisons), and a task's result depends only on the task and the config.
+"""
+
+from __future__ import annotations
+
+import json
+import zlib
+from dataclasses import dataclass
+from functools import lru_cache
+from typing import Any
+
+import numpy as np
+
+from fftnav.runner.config import ExperimentConfig
+
+__all__ = ["Task", "TaskResult", "episode_seed", "make_tasks", "run_task", "task_world"]
+
+
+@dataclass(frozen=True, order=True)
+class Task:
+    """One episode to run. Ordering (env, map_seed, policy) is the order of rows in the CSVs."""
+
+    env: str
+    map_seed: int
+    policy: str
+    episode_seed: int
+    keep_trajectories: bool
+
+    @property
+    def task_id(self) -> str:
+        """File-name-safe identifier, e.g. ``forest-1000-fusion``."""
+        return f"{self.env}-{self.map_seed}-{self.policy}"
+
+
+@dataclass
+class TaskResult:
+    """Per-robot rows (``fftnav.episode.EPISODE_COLUMNS``) and, if kept, trajectories (T_i, 3)."""
+
+    rows: list[dict[str, Any]]
+    trajectories: list[np.ndarray] | None
+
+
+def episode_seed(env: str, map_seed: int) -> int:
+    """Episode seed of a map: ``SeedSequence((map_seed, crc32(env)))``, a 32-bit integer."""
+    seq = np.random.SeedSequence((map_seed, zlib.crc32(env.encode())))
+    return int(seq.generate_state(1)[0])
+
+
+def make_tasks(config: ExperimentConfig) -> list[Task]:
+    """All tasks of an experiment, sorted (env, map_seed, policy).
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+
+    Returns
+    -------
+    list of Task
+        ``len(envs) * maps * len(policies)`` tasks; the first ``trajectory_maps`` maps of each
+        env keep their trajectories.
+    """
+    tasks = [
+        Task(env, config.map_seed + i, policy, episode_seed(env, config.map_seed + i),
+             i < config.trajectory_maps)
+        for env in config.envs
+        for i in range(config.maps)
+        for policy in config.policies
+    ]
+    return sorted(tasks)
+
+
+def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
+    """Generate the task's world (cached per process) and run its episode.
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+    task : Task
+
+    Returns
+    -------
+    TaskResult
+    """
+    from fftnav.episode import run_episode
+
+    world = task_world(config, task.env, task.map_seed)
+    result = run_episode(world, task.policy, seed=task.episode_seed, config=config.episode)
+    return TaskResult(result.rows, result.trajectories if task.keep_trajectories else None)
+
+
+def task_world(config: ExperimentConfig, env: str, map_seed: int) -> Any:
+    """The world of a map: ``generate_world(env, map_seed, robots=..., **overrides)``, cached."""
+    return _cached_world(env, map_seed, config.robots,
+                         json.dumps(config.world_overrides(env), sort_keys=True))
+
+
+@lru_cache(maxsize=8)
+def _cached_world(env: str, map_seed: int, robots: int, overrides_json: str) -> Any:
+    """Per-process cache of generated worlds (the policies of a map share its world)."""
+    from fftnav.world import generate_world
+
+    return generate_world(env, map_seed, robots=robots, **json.loads(overrides_json))

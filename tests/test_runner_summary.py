@@ -1,0 +1,95 @@
+"""Summary tables: bootstrap intervals and paired tests against hand-computed cases."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fftnav.runner import bootstrap_ratio_ci, paired_tests, summarize
+
+
+def test_bootstrap_two_maps_hand_computed():
+    # per-map means 0 and 1: resampled means are 0, 0.5, 1 with probability 1/4, 1/2, 1/4, so
+    # the 2.5% and 97.5% percentiles are 0 and 1
+    assert bootstrap_ratio_ci([0.0, 3.0], [3.0, 3.0]) == (0.0, 1.0)
+
+
+def test_bootstrap_is_of_the_pooled_ratio_not_the_mean_of_ratios():
+    den = np.array([1.0, 5.0, 20.0, 3.0])
+    assert bootstrap_ratio_ci(0.25 * den, den) == pytest.approx((0.25, 0.25))
+
+
+def test_bootstrap_matches_normal_theory_for_many_maps():
+    rng = np.random.default_rng(3)
+    x = rng.normal(0.8, 0.1, size=400)
+    low, high = bootstrap_ratio_ci(x, np.ones_like(x), n_resamples=4000, seed=1)
+    half = 1.96 * x.std() / np.sqrt(x.size)
+    assert (low + high) / 2 == pytest.approx(x.mean(), abs=0.1 * half)
+    assert (high - low) / 2 == pytest.approx(half, rel=0.1)
+    assert bootstrap_ratio_ci(x, np.ones_like(x), seed=1) == bootstrap_ratio_ci(
+        x, np.ones_like(x), seed=1)
+
+
+def test_bootstrap_one_map_has_no_interval_and_bad_options_are_refused():
+    assert np.isnan(bootstrap_ratio_ci([1.0], [2.0])).all()
+    with pytest.raises(ValueError, match=r"confidence must be in \(0, 1\), got confidence=1\.0"):
+        bootstrap_ratio_ci([1.0, 2.0], [1.0, 1.0], confidence=1.0)
+    with pytest.raises(ValueError, match=r"n_resamples must be an integer >= 1, got n_resamples=0"):
+        bootstrap_ratio_ci([1.0, 2.0], [1.0, 1.0], n_resamples=0)
+    with pytest.raises(ValueError, match=r"numerators and denominators must be 1-D"):
+        bootstrap_ratio_ci([1.0, 2.0], [1.0])
+
+
+def episodes(rows):
+    cols = ["env", "map_seed", "policy", "robot", "arrived", "collided", "path_length_m",
+            "optimal_length_m", "spl", "bytes_sent", "messages_sent"]
+    return pd.DataFrame(rows, columns=cols)
+
+
+def test_summary_metrics_hand_computed():
+    df = episodes([
+        ("forest", 1, "fusion", 0, True, False, 10.0, 9.0, 0.9, 100, 2),
+        ("forest", 1, "fusion", 1, False, True, 99.0, 9.0, 0.0, 300, 4),
+        ("forest", 2, "fusion", 0, True, False, 12.0, 9.0, 0.8, 0, 0),
+        ("forest", 2, "fusion", 1, True, False, 14.0, 9.0, 0.7, 0, 0),
+        ("forest", 1, "random", 0, False, False, 5.0, 9.0, 0.0, 0, 0),
+    ])
+    s = summarize(df).set_index("policy")
+    f = s.loc["fusion"]
+    assert (f.env, f.episodes, f.robots) == ("forest", 2, 4)
+    assert f.ar == pytest.approx(0.75) and f.apl_m == pytest.approx(12.0)
+    assert f.spl == pytest.approx(0.6) and f.collision_rate == pytest.approx(0.25)
+    assert f.bytes_per_robot == pytest.approx(100) and f.messages_per_robot == pytest.approx(1.5)
+    # maps: SPL 0.45 and 0.75 -> the interval spans exactly these two (two-map case)
+    assert (f.spl_ci_low, f.spl_ci_high) == pytest.approx((0.45, 0.75))
+    r = s.loc["random"]
+    assert r.ar == 0 and np.isnan(r.apl_m) and np.isnan(r.spl_ci_low)  # one map: no interval
+
+
+def test_paired_tests_align_maps_not_rows():
+    rng = np.random.default_rng(0)
+    baseline = rng.uniform(0.2, 0.9, size=7)  # per-map SPL, very different across maps
+    rows = []
+    for i, b in enumerate(baseline):
+        for robot, jitter in enumerate((-0.05, 0.05)):  # per-map mean = b
+            rows.append(("rocky", 100 + i, "bug-left", robot, True, False, 1.0, 1.0, b + jitter,
+                         0, 0))
+            if i != 3:  # map 103 has no fusion result: it must be left out of the pairing
+                rows.append(("rocky", 100 + i, "fusion", robot, True, False, 1.0, 1.0,
+                             b + 0.1 + jitter, 0, 0))
+    df = episodes(rows).sample(frac=1.0, random_state=1)  # completion order is arbitrary
+    test = paired_tests(df).iloc[0]
+    assert (test.env, test.reference, test.policy, test.maps) == ("rocky", "fusion", "bug-left", 6)
+    assert test.median_diff == pytest.approx(0.1)
+    # all six differences positive: W- = 0 and the exact two-sided p-value is 2 / 2**6
+    assert test.statistic == 0 and test.p_value == pytest.approx(2 / 2**6)
+    assert test.spl_reference - test.spl_policy == pytest.approx(0.1)
+
+
+def test_paired_tests_without_reference_or_differences():
+    df = episodes([("forest", m, p, 0, True, False, 1.0, 1.0, 0.5, 0, 0)
+                   for m in (1, 2) for p in ("bug-left", "fusion")])
+    equal = paired_tests(df).iloc[0]
+    assert equal.maps == 2 and equal.median_diff == 0 and np.isnan(equal.p_value)
+    assert paired_tests(df[df.policy != "fusion"]).empty
