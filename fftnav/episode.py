@@ -8,6 +8,7 @@ Ties the stages together: PyBullet swarm (``fftnav.sim``) -> FFT pipeline (``fft
 from __future__ import annotations
 
 import dataclasses
+import functools
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -214,6 +215,16 @@ class _Decider:
         return decision.p
 
 
+@functools.lru_cache(maxsize=8)
+def _reference_lengths(world_json: str, r0_m: float) -> tuple[np.ndarray, np.ndarray]:
+    """Grid A* and geodesic lengths of a world's robots, cached: every policy run on the same map
+    in this process reuses them (they take about a second or two per 20 m x 20 m map)."""
+    from fftnav.planning.reference import optimal_lengths
+    from fftnav.world import World
+
+    return optimal_lengths(World.from_json(world_json), r0_m=r0_m)
+
+
 def run_episode(
     world: Any,
     policy: str,
@@ -260,7 +271,6 @@ def run_episode(
     from fftnav.pipeline import Pipeline
     from fftnav.planning.bug import BugPlanner, PlannerParams
     from fftnav.planning.policies import DecisionContext, get_policy
-    from fftnav.planning.reference import optimal_lengths
     from fftnav.sim.swarm import SimConfig, SwarmSim
 
     cfg = config or EpisodeConfig()
@@ -281,7 +291,7 @@ def run_episode(
                               lambda: decider.fused_probability(i), rng)
         return pol.decide(ctx)
 
-    planner = BugPlanner(n, l_th_m=geometry.l_th_m, fov_rad=fov_rad, decide=decide,
+    planner = BugPlanner(n, l_th_m=geometry.l_th_m, r0_m=cfg.r0_m, fov_rad=fov_rad, decide=decide,
                          params=PlannerParams(v_max_mps=cfg.v_max_mps, w_max_radps=cfg.w_max_radps,
                                               control_hz=cfg.control_hz))
     sim_cfg = SimConfig(r0_m=cfg.r0_m, v_max=cfg.v_max_mps, w_max=cfg.w_max_radps,
@@ -330,7 +340,7 @@ def run_episode(
                     planner.finish(int(i))
                     sim.park(int(i))
     trajectories = [np.array(t) for t in traj]
-    optimal, geodesic = optimal_lengths(world, r0_m=cfg.r0_m)
+    optimal, geodesic = _reference_lengths(world.to_json(), cfg.r0_m)
     dt = 1.0 / cfg.control_hz
     rows = []
     for i in range(n):

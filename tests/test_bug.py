@@ -26,7 +26,7 @@ def _planner(side, n=1, **kw):
         calls.append(i)
         return side
 
-    return BugPlanner(n, l_th_m=0.6, fov_rad=FOV, decide=decide, params=PlannerParams(**kw)), calls
+    return BugPlanner(n, l_th_m=0.6, r0_m=0.15, fov_rad=FOV, decide=decide, params=PlannerParams(**kw)), calls
 
 
 def _step(planner, t, pose, goal, safe):
@@ -105,7 +105,7 @@ def test_done_robots_get_zero_commands():
 
 
 def test_policy_must_return_a_side():
-    p = BugPlanner(1, l_th_m=0.6, fov_rad=FOV, decide=lambda i: 0)
+    p = BugPlanner(1, l_th_m=0.6, r0_m=0.15, fov_rad=FOV, decide=lambda i: 0)
     with pytest.raises(ValueError, match=r"a policy must return \+1 \(left\) or -1 \(right\), got 0"):
         _step(p, 0.0, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
 

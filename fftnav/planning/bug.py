@@ -20,12 +20,45 @@ import numpy as np
 
 from fftnav.safe import is_safe_direction, nearest_safe_headings
 
-__all__ = ["Mode", "PlannerParams", "BugPlanner", "wrap_angle"]
+__all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free", "wrap_angle"]
 
 
 def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
     """Wrap angles (rad) to ``[-pi, pi)``."""
     return (np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi
+
+
+def corridor_free(
+    ranges_m: np.ndarray, angles_rad: np.ndarray, *, half_width_m: float, lookahead_m: float
+) -> np.ndarray:
+    """Headings along which a short straight move cannot touch anything seen by the scan.
+
+    Heading ``h`` (each beam angle) is free when no scan point ``(d, theta)`` lies in the
+    rectangle ``0 < d cos(theta - h) <= lookahead_m``, ``|d sin(theta - h)| < half_width_m``
+    ahead of the robot. Zero readings (blind sector, invalid beams) are not points.
+
+    Parameters
+    ----------
+    ranges_m : ndarray, shape (K, M)
+        Sanitised ranges (m).
+    angles_rad : ndarray, shape (M,)
+        Beam angles (rad, CCW from the heading).
+    half_width_m, lookahead_m : float
+        Corridor half width (the robot radius plus a margin) and length (m).
+
+    Returns
+    -------
+    ndarray of bool, shape (K, M)
+    """
+    free = np.ones(ranges_m.shape, dtype=bool)
+    reach = math.hypot(lookahead_m, half_width_m)
+    for k in np.flatnonzero(((ranges_m > 0) & (ranges_m < reach)).any(axis=1)):
+        near = (ranges_m[k] > 0) & (ranges_m[k] < reach)
+        d, theta = ranges_m[k, near], angles_rad[near]
+        delta = theta[None, :] - angles_rad[:, None]  # (headings, points)
+        x, y = d * np.cos(delta), d * np.sin(delta)
+        free[k] = ~((x > 0) & (x <= lookahead_m) & (np.abs(y) < half_width_m)).any(axis=1)
+    return free
 
 
 class Mode(IntEnum):
@@ -53,6 +86,9 @@ class PlannerParams:
     loop_timeout_s : float
         Loop detection: following for this long without getting ``progress_m`` closer to the
         goal than ever before during the follow flips the side.
+    clearance_m, lookahead_m : float
+        Clearance guard: a heading is drivable only if no scan point lies within
+        ``r0 + clearance_m`` of its line over the next ``r0 + lookahead_m`` (:func:`corridor_free`).
     """
 
     v_max_mps: float = 0.5
@@ -61,6 +97,8 @@ class PlannerParams:
     heading_tol_rad: float = math.radians(3.0)
     progress_m: float = 0.05
     loop_timeout_s: float = 25.0
+    clearance_m: float = 0.03
+    lookahead_m: float = 0.1
 
     def __post_init__(self) -> None:
         for name in ("v_max_mps", "w_max_radps", "control_hz", "heading_tol_rad", "loop_timeout_s"):
@@ -68,7 +106,9 @@ class PlannerParams:
             if not (math.isfinite(value) and value > 0):
                 raise ValueError(f"{name} must be finite and > 0, got {name}={value!r}")
         if not (math.isfinite(self.progress_m) and self.progress_m >= 0):
-            raise ValueError(f"progress_m must be finite and >= 0, got progress_m={self.progress_m!r}")
+            raise ValueError(
+                f"progress_m must be finite and >= 0, got progress_m={self.progress_m!r}"
+            )
 
 
 @dataclass
@@ -90,6 +130,8 @@ class BugPlanner:
         Number of robots.
     l_th_m : float
         Planning distance of the robot geometry (used only near the goal, see ``step``).
+    r0_m : float
+        Robot collision radius (the clearance guard's corridor).
     fov_rad : float
         Field of view of the scans whose masks are passed to ``step``.
     params : PlannerParams
@@ -100,6 +142,7 @@ class BugPlanner:
 
     n_robots: int
     l_th_m: float
+    r0_m: float
     fov_rad: float
     decide: Callable[[int], int]
     params: PlannerParams = field(default_factory=PlannerParams)
@@ -148,6 +191,9 @@ class BugPlanner:
         """
         p = self.params
         k, beams = safe.shape
+        angles = -math.pi + np.arange(beams) * (2 * math.pi / beams)
+        safe = safe & corridor_free(ranges_m, angles, half_width_m=self.r0_m + p.clearance_m,
+                                    lookahead_m=self.r0_m + p.lookahead_m)
         delta = goals - poses[:, :2]
         dist = np.hypot(delta[:, 0], delta[:, 1])
         beta = wrap_angle(np.arctan2(delta[:, 1], delta[:, 0]) - poses[:, 2])
