@@ -74,7 +74,9 @@ class Channel:
         if not (0.0 <= loss < 1.0):
             raise ValueError(f"loss must be in [0, 1), got loss={loss!r}")
         if not (isinstance(delay_ticks, (int, np.integer)) and delay_ticks >= 0):
-            raise ValueError(f"delay_ticks must be an integer >= 0, got delay_ticks={delay_ticks!r}")
+            raise ValueError(
+                f"delay_ticks must be an integer >= 0, got delay_ticks={delay_ticks!r}"
+            )
         self.n_robots = int(n_robots)
         self.range_m = float(range_m)
         self.loss = float(loss)
