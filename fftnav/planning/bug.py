@@ -52,11 +52,13 @@ def corridor_free(
     """
     free = np.ones(ranges_m.shape, dtype=bool)
     reach = math.hypot(lookahead_m, half_width_m)
-    for k in np.flatnonzero(((ranges_m > 0) & (ranges_m < reach)).any(axis=1)):
-        near = (ranges_m[k] > 0) & (ranges_m[k] < reach)
-        d, theta = ranges_m[k, near], angles_rad[near]
-        delta = theta[None, :] - angles_rad[:, None]  # (headings, points)
-        x, y = d * np.cos(delta), d * np.sin(delta)
+    near_all = (ranges_m > 0) & (ranges_m < reach)
+    cos_h, sin_h = np.cos(angles_rad)[:, None], np.sin(angles_rad)[:, None]
+    for k in np.flatnonzero(near_all.any(axis=1)):
+        d, theta = ranges_m[k, near_all[k]], angles_rad[near_all[k]]
+        px, py = d * np.cos(theta), d * np.sin(theta)
+        x = cos_h * px + sin_h * py  # (headings, points): the points in each heading's frame
+        y = cos_h * py - sin_h * px
         free[k] = ~((x > 0) & (x <= lookahead_m) & (np.abs(y) < half_width_m)).any(axis=1)
     return free
 
