@@ -120,10 +120,10 @@ def test_corridor_free_blocks_exactly_the_headings_whose_corridor_holds_the_poin
 
     ang = -math.pi + np.arange(M) * 2 * math.pi / M
     ranges = np.zeros((2, M))  # zero readings are not points
-    ranges[0, 200] = 0.2  # one point 0.2 m away at +20 degrees
+    ranges[0, 200] = 0.21  # one point 0.21 m away at +20 degrees
     free = corridor_free(ranges, ang, half_width_m=0.1, lookahead_m=0.25)
     rel = ang - ang[200]
-    # analytic: blocked iff 0 < 0.2 cos(rel) <= 0.25 and |0.2 sin(rel)| < 0.1, i.e. |rel| < 30 deg
-    expected_blocked = np.abs(rel) < math.asin(0.1 / 0.2) - 1e-12
+    # analytic: blocked iff 0 < 0.21 cos(rel) <= 0.25 and |0.21 sin(rel)| < 0.1 (|rel| < 28.4 deg)
+    expected_blocked = np.abs(rel) < math.asin(0.1 / 0.21)
     np.testing.assert_array_equal(~free[0], expected_blocked)
     assert free[1].all()
