@@ -368,7 +368,9 @@ def run_episode(
     return EpisodeResult(rows=rows, trajectories=trajectories)
 
 
-def episode_csv(rows: list[dict[str, Any]], *, columns: tuple[str, ...] = EPISODE_COLUMNS) -> str:
+def episode_csv(
+    rows: list[dict[str, Any]], *, columns: tuple[str, ...] = EPISODE_COLUMNS, header: bool = True
+) -> str:
     """Rows as CSV text: ``columns`` in order, booleans ``true``/``false``, floats ``%.6f``
     (fixed, so the same episode gives byte-identical files), NaN as an empty field."""
 
@@ -379,6 +381,6 @@ def episode_csv(rows: list[dict[str, Any]], *, columns: tuple[str, ...] = EPISOD
             return "" if np.isnan(value) else f"{value:.6f}"
         return str(value)
 
-    lines = [",".join(columns)]
+    lines = [",".join(columns)] if header else []
     lines += [",".join(cell(row[c]) for c in columns) for row in rows]
     return "\n".join(lines) + "\n"

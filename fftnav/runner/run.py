@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from fftnav.episode import EPISODE_COLUMNS
+from fftnav.episode import EPISODE_COLUMNS, episode_csv
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
 from fftnav.runner.summary import paired_tests, summarize
@@ -208,11 +208,10 @@ def _save_task(out: Path, task: Task, result: TaskResult) -> TaskResult:
     missing = sorted({c for row in result.rows for c in EPISODE_COLUMNS if c not in row})
     if not result.rows or missing:
         raise ValueError(f"task {task.task_id} returned no rows or rows without {missing}")
-    rows = pd.DataFrame(result.rows, columns=list(EPISODE_COLUMNS))
-    rows = rows.assign(env=task.env, map_seed=task.map_seed, policy=task.policy,
-                       episode_seed=task.episode_seed).sort_values("robot")
-    write_atomic(_task_csv(out, task), rows[list(CSV_COLUMNS)].to_csv(
-        index=False, header=False, float_format=FLOAT_FORMAT))
+    keys = {"env": task.env, "map_seed": task.map_seed, "policy": task.policy,
+            "episode_seed": task.episode_seed}
+    rows = sorted(({**row, **keys} for row in result.rows), key=lambda row: row["robot"])
+    write_atomic(_task_csv(out, task), episode_csv(rows, columns=CSV_COLUMNS, header=False))
     return result
 
 
