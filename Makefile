@@ -31,6 +31,7 @@ bench: $(STAMP)
 
 figures: $(STAMP)
 	$(BIN)/fftnav figure filters --out results/figures
+	$(BIN)/fftnav figure depth3d --out results/figures
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache

@@ -14,7 +14,7 @@ import sys
 from collections.abc import Sequence
 
 #: Subcommand modules, in the order ``fftnav --help`` lists them.
-_MODULES = ("scan", "scan3d", "world", "episode", "run", "figure", "bench")
+_MODULES = ("scan", "scan3d", "fly3d", "world", "episode", "run", "figure", "bench")
 
 EXIT_USAGE = 2
 

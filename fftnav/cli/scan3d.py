@@ -1,0 +1,61 @@
+"""``fftnav scan3d FILE.npy``: safe-direction domain of one spherical depth image, as JSON."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import math
+
+import numpy as np
+
+
+def cmd_scan3d(args: argparse.Namespace) -> int:
+    """Load a (rows, cols) depth image in metres and print its safe mask and summary."""
+    from fftnav.geometry import RobotGeometry
+    from fftnav.spherical import DiscFilterBank, SphericalGrid
+
+    for flag, value, top in (("--fov-el", args.fov_el, 180.0), ("--fov-az", args.fov_az, 360.0)):
+        if not 0 < value <= top:
+            raise ValueError(f"{flag} must be in (0, {top:g}] degrees, got {flag}={value:g}")
+    try:
+        depth = np.load(args.file, allow_pickle=False)
+    except ValueError as exc:
+        raise ValueError(f"cannot read FILE={args.file!r} as a .npy array: {exc}") from exc
+    if depth.ndim != 2:
+        raise ValueError(f"FILE must hold a 2D (rows, cols) depth image, got shape={depth.shape}")
+    if not np.issubdtype(depth.dtype, np.number) or np.issubdtype(depth.dtype, np.complexfloating):
+        raise ValueError(f"FILE must hold real numbers, got dtype={depth.dtype}")
+    grid = SphericalGrid(depth.shape[0], depth.shape[1], math.radians(args.fov_el),
+                         math.radians(args.fov_az))
+    geometry = RobotGeometry(r0_m=args.r0, r_m=args.r)
+    bank = DiscFilterBank(grid, geometry=geometry, range_m=args.range)
+    mask = bank.safe_mask(depth)
+    print(json.dumps({
+        "rows": grid.rows,
+        "cols": grid.cols,
+        "l_th_m": geometry.l_th_m,
+        "alpha_deg": geometry.alpha_deg,
+        "footprint": list(bank.footprint.shape),
+        "safe_fraction": float(mask.mean()),
+        "safe_mask": mask.astype(int).tolist(),
+    }))
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser(
+        "scan3d", help="safe directions of a spherical depth image (.npy, metres)",
+        description="Row 0 is the top elevation (+fov_el/2), column 0 the azimuth -fov_az/2 "
+                    "(-180 deg for a full circle). Prints one JSON object.")
+    p.add_argument("file", metavar="FILE.npy", help="2D depth image in metres (rows x cols)")
+    p.add_argument("--fov-az", type=float, default=360.0, metavar="DEG",
+                   help="azimuth field of view in degrees (default 360)")
+    p.add_argument("--fov-el", type=float, default=90.0, metavar="DEG",
+                   help="elevation field of view in degrees (default 90)")
+    p.add_argument("--r0", type=float, default=0.15, metavar="M",
+                   help="lateral collision radius r0 in metres (default 0.15, the paper's drone)")
+    p.add_argument("--r", type=float, default=0.65, metavar="M",
+                   help="protective radius r in metres (default 0.65, the paper's drone)")
+    p.add_argument("--range", type=float, default=10.0, metavar="M",
+                   help="maximum range R in metres (default 10)")
+    p.set_defaults(func=cmd_scan3d)

@@ -1,0 +1,103 @@
+"""``fftnav scan3d`` and ``fftnav figure depth3d`` as subprocesses."""
+
+from __future__ import annotations
+
+import json
+import math
+import re
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from fftnav.geometry import RobotGeometry
+from fftnav.spherical import DiscFilterBank, SphericalGrid
+
+
+def _run(*args: str) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "fftnav", *args], capture_output=True, text=True,
+                          timeout=120)
+
+
+def _corridor(rows: int, cols: int, fov_el_deg: float = 90.0, fov_az_deg: float = 360.0
+              ) -> np.ndarray:
+    d = SphericalGrid(rows, cols, math.radians(fov_el_deg), math.radians(fov_az_deg)).directions()
+    with np.errstate(divide="ignore"):
+        return np.minimum(1.2 / np.abs(d[..., 1]), 1.0 / np.abs(d[..., 2]))
+
+
+def test_scan3d_prints_the_safe_mask_in_the_image_layout(tmp_path) -> None:
+    depth = _corridor(90, 360)
+    depth[0, :] = np.nan  # invalid readings in the top row: blocked, and harmless there
+    path = tmp_path / "corridor.npy"
+    np.save(path, depth)
+    proc = _run("scan3d", str(path))
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    mask = np.array(out["safe_mask"])
+    assert mask.shape == (90, 360) and set(np.unique(mask)) == {0, 1}
+    expected = DiscFilterBank(SphericalGrid(90, 360)).safe_mask(depth)
+    np.testing.assert_array_equal(mask, expected.astype(int))
+    assert out["safe_fraction"] == pytest.approx(expected.mean())
+    assert out["l_th_m"] == pytest.approx(2.8167, abs=1e-4)
+    assert out["alpha_deg"] == pytest.approx(26.7, abs=0.05)
+    # column 0 is azimuth -180 (back of the corridor), column 180 straight ahead
+    eq = 44
+    assert mask[eq, 0] == mask[eq, 180] == 1 and mask[eq, 90] == mask[eq, 270] == 0
+
+
+def test_scan3d_options_change_the_filter(tmp_path) -> None:
+    depth = _corridor(40, 121, fov_el_deg=60.0, fov_az_deg=180.0)
+    path = tmp_path / "c.npy"
+    np.save(path, depth)
+    proc = _run("scan3d", str(path), "--fov-az", "180", "--fov-el", "60", "--r0", "0.29",
+                "--r", "0.7", "--range", "5")
+    assert proc.returncode == 0, proc.stderr
+    mask = np.array(json.loads(proc.stdout)["safe_mask"])
+    bank = DiscFilterBank(SphericalGrid(40, 121, math.radians(60), math.radians(180)),
+                          geometry=RobotGeometry(r0_m=0.29, r_m=0.7), range_m=5.0)
+    np.testing.assert_array_equal(mask, bank.safe_mask(depth).astype(int))
+    assert mask.any() and mask[20, 60] == 1 and mask[20, 0] == mask[20, 120] == 0
+
+
+@pytest.mark.parametrize(
+    ("content", "args", "match"),
+    [
+        (np.ones(5), (), r"FILE must hold a 2D \(rows, cols\) depth image, got shape=\(5,\)"),
+        (np.ones((2, 3, 4)), (), r"got shape=\(2, 3, 4\)"),
+        (np.array([["a", "b"], ["c", "d"]]), (), r"FILE must hold real numbers, got dtype=<U1"),
+        (np.ones((90, 360)), ("--fov-el", "200"), r"--fov-el must be in \(0, 180\] degrees"),
+        (np.ones((90, 360)), ("--fov-az", "0"), r"--fov-az must be in \(0, 360\] degrees"),
+        (np.ones((90, 360)), ("--r", "0.1"), r"r_m must be finite and > r0_m=0.15, got r_m=0.1"),
+        (np.ones((90, 360)), ("--range", "2"), r"range_m must be finite and > l_th_m=2.817"),
+        (np.ones((90, 360)), ("--range", "x"), r"invalid float value: 'x'"),
+        (np.ones((1, 360)), (), r"rows must be an integer >= 2, got rows=1"),
+        (np.ones((5, 360)), ("--fov-el", "10"), r"rows must be >= the disc footprint's 11 .*=5"),
+    ],
+)
+def test_scan3d_bad_input_is_one_line_exit_2(tmp_path, content, args, match) -> None:
+    path = tmp_path / "bad.npy"
+    np.save(path, content)
+    proc = _run("scan3d", str(path), *args)
+    assert proc.returncode == 2 and proc.stdout == ""
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1 and "Traceback" not in proc.stderr
+    assert re.search(match, lines[0]), lines[0]
+
+
+def test_scan3d_unreadable_files(tmp_path) -> None:
+    junk = tmp_path / "junk.npy"
+    junk.write_text("not an array")
+    for path, match in ((junk, "cannot read FILE="), (tmp_path / "missing.npy", "No such file")):
+        proc = _run("scan3d", str(path))
+        assert proc.returncode == 2 and match in proc.stderr
+        assert len(proc.stderr.strip().splitlines()) == 1
+
+
+def test_figure_depth3d_draws_two_pngs(tmp_path) -> None:
+    proc = _run("figure", "depth3d", "--out", str(tmp_path), "--seed", "2")
+    assert proc.returncode == 0, proc.stderr
+    paths = proc.stdout.split()
+    assert [p.rsplit("/", 1)[-1] for p in paths] == ["fig4_depth.png", "fig4_safe.png"]
+    assert all((tmp_path / p.rsplit("/", 1)[-1]).stat().st_size > 20_000 for p in paths)
