@@ -13,6 +13,7 @@ import numpy as np
 
 from fftnav.compress import quadrant_areas, reconstruct
 from fftnav.geometry import RobotGeometry
+from fftnav.scan import wrap_angle
 
 __all__ = [
     "NEIGHBOUR_WEIGHT_RATIO",
@@ -57,15 +58,11 @@ def own_probability(x0: np.ndarray, *, ws: float = 1.0, b0: float = 0.0) -> np.n
     return sigmoid(x0 @ w0 + b0)
 
 
-def _wrap(a: np.ndarray) -> np.ndarray:
-    return (np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi
-
-
 def rotate_sigma(sigma: np.ndarray, yaw_rad: float) -> np.ndarray:
     """Express a neighbour's Sigma in the receiver frame: add the neighbour's yaw relative to
     the receiver to every angle (wrapped to ``[-pi, pi)``); distances unchanged. New array."""
     out = np.array(sigma, dtype=np.float64).reshape(-1, 2)
-    out[:, 0] = _wrap(out[:, 0] + yaw_rad)
+    out[:, 0] = wrap_angle(out[:, 0] + yaw_rad)
     return out
 
 
@@ -86,7 +83,7 @@ def neighbour_input(
     """
     sig = np.asarray(sigma, dtype=np.float64).reshape(-1, 2)
     mins = np.asarray(is_min, dtype=bool)
-    rel = np.abs(_wrap(sig[:, 0] - target_rad))
+    rel = np.abs(wrap_angle(sig[:, 0] - target_rad))
     inside = rel <= alpha_rad / 2.0
     edges = target_rad + np.array([-alpha_rad, alpha_rad]) / 2.0
     candidates = np.concatenate([sig[inside, 1], reconstruct(sig, edges, full_circle=True)])

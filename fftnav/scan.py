@@ -17,6 +17,7 @@ __all__ = [
     "beam_angles_rad",
     "as_scan_batch",
     "sanitize_ranges",
+    "wrap_angle",
 ]
 
 FULL_CIRCLE_RAD = 2.0 * math.pi
@@ -25,6 +26,11 @@ FULL_CIRCLE_RAD = 2.0 * math.pi
 def is_full_circle(fov_rad: float) -> bool:
     """True when the field of view is a full circle (``2 pi`` within 1e-9 rad)."""
     return abs(fov_rad - FULL_CIRCLE_RAD) < 1e-9
+
+
+def wrap_angle(angle_rad: np.ndarray | float) -> np.ndarray:
+    """Angles wrapped to ``[-pi, pi)`` (radians), as a new array."""
+    return (np.asarray(angle_rad, dtype=np.float64) + math.pi) % FULL_CIRCLE_RAD - math.pi
 
 
 def _check_fov_beams(beams: int, fov_rad: float) -> None:

@@ -18,14 +18,10 @@ from enum import IntEnum
 
 import numpy as np
 
-from fftnav.safe import is_safe_direction, nearest_safe_headings
+from fftnav.safe import beam_index, nearest_safe_headings
+from fftnav.scan import beam_angles_rad, wrap_angle
 
-__all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free", "wrap_angle"]
-
-
-def wrap_angle(a: np.ndarray | float) -> np.ndarray | float:
-    """Wrap angles (rad) to ``[-pi, pi)``."""
-    return (np.asarray(a) + math.pi) % (2.0 * math.pi) - math.pi
+__all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
 
 
 def corridor_free(
@@ -193,36 +189,41 @@ class BugPlanner:
         """
         p = self.params
         k, beams = safe.shape
-        angles = -math.pi + np.arange(beams) * (2 * math.pi / beams)
-        safe = safe & corridor_free(ranges_m, angles, half_width_m=self.r0_m + p.clearance_m,
-                                    lookahead_m=self.r0_m + p.lookahead_m)
+        angles = beam_angles_rad(beams, self.fov_rad)
+        free = corridor_free(ranges_m, angles, half_width_m=self.r0_m + p.clearance_m,
+                             lookahead_m=self.r0_m + p.lookahead_m)
+        safe = safe & free
         delta = goals - poses[:, :2]
         dist = np.hypot(delta[:, 0], delta[:, 1])
         beta = wrap_angle(np.arctan2(delta[:, 1], delta[:, 0]) - poses[:, 2])
-        clear = is_safe_direction(safe, beta, fov_rad=self.fov_rad)
-        # Near the goal, an obstacle behind the goal must not block it: the ray to the goal and
-        # the beams within one beam of it only need to reach past the goal.
-        near = dist < self.l_th_m
+        # A goal outside a partial field of view is neither clear nor blocked: turn to see it.
+        visible = np.abs(beta) <= self.fov_rad / 2.0 + 1e-9
+        goal_beam = beam_index(beta, beams=beams, fov_rad=self.fov_rad)
+        clear = visible & safe[np.arange(k), goal_beam]
+        # Near the goal, an obstacle behind the goal must not block it: the beam toward the goal
+        # and its two neighbours only need to reach past the goal (and be drivable).
+        near = visible & (dist < self.l_th_m)
         if near.any():
-            idx = np.rint((beta + math.pi) * beams / (2 * math.pi)).astype(int) % beams
-            around = np.stack([ranges_m[np.arange(k), (idx + o) % beams] for o in (-1, 0, 1)])
-            clear |= near & (around.min(axis=0) > dist)
+            around = np.stack([ranges_m[np.arange(k), np.clip(goal_beam + o, 0, beams - 1)]
+                               for o in (-1, 0, 1)])
+            clear |= near & free[np.arange(k), goal_beam] & (around.min(axis=0) > dist)
         left, right = nearest_safe_headings(safe, beta, fov_rad=self.fov_rad)
         commands = np.zeros((k, 2))
         for i in range(k):
             mem = self.memory[i]
             if mem.mode == Mode.DONE:
                 continue
+            if not visible[i] and mem.mode == Mode.GO_TO_GOAL:
+                commands[i] = self._command(float(beta[i]))
+                continue
             target = self._target(i, mem, time_s, float(dist[i]), bool(clear[i]), beta[i],
                                   left[i], right[i])
-            if math.isnan(target):  # no safe direction on the chosen side: fallback
-                best = int(np.argmax(openness[i]))
-                target = float(wrap_angle(-math.pi + best * 2 * math.pi / beams))
-                if abs(target) <= p.heading_tol_rad and ranges_m[i, best] <= self.l_th_m / 2:
-                    commands[i] = (0.0, mem.side * p.w_max_radps or p.w_max_radps)
-                    continue
-            commands[i] = self._command(target)
-        return commands, ~clear
+            if math.isnan(target):  # no safe heading on the chosen side: stall fallback
+                commands[i] = self._stall_command(mem.side, angles, openness[i], ranges_m[i],
+                                                  free[i])
+            else:
+                commands[i] = self._command(target)
+        return commands, visible & ~clear
 
     def _target(
         self, i: int, mem: _Memory, t: float, dist: float, clear: bool, beta: float,
@@ -247,12 +248,30 @@ class BugPlanner:
             return beta
         side = self.decide(i)
         if side not in (1, -1):
-            raise ValueError(f"a policy must return +1 (left) or -1 (right), got {side!r}")
+            raise ValueError(
+                f"a policy must return +1 (left) or -1 (right), got {side!r} for robot {i}"
+            )
         self.decisions[i, 0 if side > 0 else 1] += 1
         mem.mode, mem.side = Mode.FOLLOW, side
         mem.hit_dist_m = mem.best_dist_m = dist
         mem.best_time_s = t
         return left if side > 0 else right
+
+    def _stall_command(
+        self, side: int, angles: np.ndarray, openness: np.ndarray, ranges_m: np.ndarray,
+        free: np.ndarray,
+    ) -> tuple[float, float]:
+        """No safe beam on side ``side``: head for the most open drivable direction that is
+        straight ahead or on that side (largest y1 among beams reading more than l_th / 2);
+        if there is none, rotate in place toward ``side``. Only directions on one side are
+        considered, so the robot never turns back and forth."""
+        p = self.params
+        ahead_on_side = angles * side >= -p.heading_tol_rad
+        candidates = ahead_on_side & free & (ranges_m > self.l_th_m / 2.0)
+        if candidates.any():
+            best = int(np.argmax(np.where(candidates, openness, -np.inf)))
+            return self._command(float(angles[best]))
+        return (0.0, side * p.w_max_radps)
 
     def _command(self, target_rad: float) -> tuple[float, float]:
         """Straight motion if aligned with ``target_rad``, else rotation in place toward it."""
