@@ -53,7 +53,9 @@ class Channel:
     loss : float
         Probability in ``[0, 1)`` that a given receiver misses a given packet.
     delay_ticks : int
-        Control ticks between sending and delivery (>= 0).
+        Extra control ticks of latency (>= 0). A packet broadcast during tick ``t`` (after the
+        robots have decided for that tick) is in the receivers' inboxes from tick
+        ``t + 1 + delay_ticks`` on: with no delay, neighbours use it on the next tick.
     rng : numpy.random.Generator
         Source of the packet-loss draws.
     """
@@ -108,7 +110,7 @@ class Channel:
         pose = tuple(float(v) for v in poses[sender])
         packet = Packet(sender=sender, tick=tick, payload=payload, sender_pose=pose)  # type: ignore[arg-type]
         for r in receivers:
-            self._in_flight.append((tick + self.delay_ticks, int(r), packet))
+            self._in_flight.append((tick + 1 + self.delay_ticks, int(r), packet))
 
     def deliver(self, tick: int) -> None:
         """Move the packets due at or before ``tick`` into the receivers' inboxes."""

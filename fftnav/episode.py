@@ -299,9 +299,11 @@ def run_episode(
                         range_m=cfg.range_m, fov_deg=cfg.fov_deg, blind_deg=cfg.blind_deg,
                         noise_std_m=cfg.noise_std_m, dropout=cfg.dropout,
                         embodiment=cfg.embodiment)
+    optimal, geodesic = _reference_lengths(world.to_json(), cfg.r0_m)  # unreachable: fail early
     active = np.ones(n, dtype=bool)
     collided = np.zeros(n, dtype=bool)
     robot_contacts = np.zeros(n, dtype=np.int64)
+    in_contact = np.zeros(n, dtype=bool)
     max_ticks = int(round(cfg.time_limit_s * cfg.control_hz))
     with SwarmSim(world, config=sim_cfg, gui=gui) as sim:
         obs = sim.reset(seed=sim_seed)
@@ -329,7 +331,8 @@ def run_episode(
                         channel.broadcast(int(i), res.messages[j], tick=tick, poses=obs.poses,
                                           active=active)
             obs = sim.step(commands)
-            robot_contacts += obs.robot_contact & active
+            robot_contacts += obs.robot_contact & active & ~in_contact  # count contact onsets
+            in_contact = obs.robot_contact & active
             for i in idx:
                 traj[i].append(obs.poses[i].copy())
                 hit = bool(obs.obstacle_contact[i])
@@ -340,7 +343,6 @@ def run_episode(
                     planner.finish(int(i))
                     sim.park(int(i))
     trajectories = [np.array(t) for t in traj]
-    optimal, geodesic = _reference_lengths(world.to_json(), cfg.r0_m)
     dt = 1.0 / cfg.control_hz
     rows = []
     for i in range(n):

@@ -127,3 +127,44 @@ def test_corridor_free_blocks_exactly_the_headings_whose_corridor_holds_the_poin
     expected_blocked = np.abs(rel) < math.asin(0.1 / 0.21)
     np.testing.assert_array_equal(~free[0], expected_blocked)
     assert free[1].all()
+
+
+def test_stall_fallback_turns_one_way_until_it_faces_the_only_opening():
+    """Enclosed at 0.28 m except a 90 degree opening at +120 deg that reads 0.5 m (< l_th, so no
+    beam is safe): with side right the robot must keep turning right (never back and forth) and
+    then drive into the opening."""
+    p, _ = _planner(RIGHT)
+    ang = -math.pi + np.arange(M) * 2 * math.pi / M
+    yaw, dt, ws, drove_at = 0.0, 0.1, [], None
+    for tick in range(60):
+        world_dir = np.degrees((ang + yaw + math.pi) % (2 * math.pi) - math.pi)
+        ranges = np.where(np.abs(world_dir - 120.0) < 45.0, 0.5, 0.28)[None]
+        safe = np.zeros((1, M), bool)  # nothing reads l_th = 0.6 m
+        openness = np.minimum(ranges, 0.6) / 3.0
+        cmd = p.step(0.1 * tick, np.array([[0, 0, yaw]]), np.array([[10, 0]]), safe, ranges,
+                     openness)[0][0]
+        if cmd[0] > 0:
+            drove_at = yaw
+            break
+        ws.append(cmd[1])
+        yaw += cmd[1] * dt
+    assert ws and all(w < 0 for w in ws)
+    assert drove_at is not None
+    assert abs(((math.degrees(drove_at) - 120.0) + 180) % 360 - 180) < 10.0
+
+
+def test_partial_field_of_view_uses_its_own_beam_angles():
+    """180 deg lidar, 181 beams: a point 0.25 m away at +30 deg blocks driving straight ahead
+    (it lies within r0 + clearance of the path) although every beam is 'safe'."""
+    fov = math.pi
+    p = BugPlanner(1, l_th_m=0.6, r0_m=0.15, fov_rad=fov, decide=lambda i: LEFT)
+    ranges = np.full((1, 181), 3.0)
+    ranges[0, 120] = 0.25  # beam 120 of 181 over 180 deg is at +30 deg
+    cmd, blocked = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[10, 0]]),
+                          np.ones((1, 181), bool), ranges, ranges / 3.0)
+    assert blocked[0] and cmd[0, 0] == 0.0
+    # a goal behind a 180 degree lidar is not "blocked": the robot turns to look at it
+    p2 = BugPlanner(1, l_th_m=0.6, r0_m=0.15, fov_rad=fov, decide=lambda i: LEFT)
+    cmd, blocked = p2.step(0.0, np.array([[0, 0, 0.0]]), np.array([[-10, 1]]),
+                           np.ones((1, 181), bool), np.full((1, 181), 3.0), np.ones((1, 181)))
+    assert not blocked[0] and cmd[0, 0] == 0.0 and cmd[0, 1] == 1.5

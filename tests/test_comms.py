@@ -13,13 +13,13 @@ def test_range_delay_and_byte_count():
     poses = _poses((0, 0), (4, 0), (6, 0))
     active = np.ones(3, bool)
     ch.broadcast(0, b"abcd", tick=10, poses=poses, active=active)
-    ch.deliver(11)
-    assert ch.inbox(1, tick=11, max_age_ticks=10) == []  # not yet delivered
     ch.deliver(12)
-    got = ch.inbox(1, tick=12, max_age_ticks=10)
+    assert ch.inbox(1, tick=12, max_age_ticks=10) == []  # due at tick 10 + 1 + 2
+    ch.deliver(13)
+    got = ch.inbox(1, tick=13, max_age_ticks=10)
     assert [p.payload for p in got] == [b"abcd"] and got[0].sender_pose == (0.0, 0.0, 0.0)
-    assert ch.inbox(2, tick=12, max_age_ticks=10) == []  # 6 m away: out of range
-    assert ch.inbox(0, tick=12, max_age_ticks=10) == []  # no echo to the sender
+    assert ch.inbox(2, tick=13, max_age_ticks=10) == []  # 6 m away: out of range
+    assert ch.inbox(0, tick=13, max_age_ticks=10) == []  # no echo to the sender
     assert ch.bytes_sent.tolist() == [4, 0, 0] and ch.messages_sent.tolist() == [1, 0, 0]
 
 
@@ -28,16 +28,16 @@ def test_newest_packet_per_sender_and_age_limit():
     poses, active = _poses((0, 0), (1, 0)), np.ones(2, bool)
     ch.broadcast(0, b"old", tick=0, poses=poses, active=active)
     ch.broadcast(0, b"new", tick=3, poses=poses, active=active)
-    ch.deliver(3)
-    assert [p.payload for p in ch.inbox(1, tick=3, max_age_ticks=10)] == [b"new"]
+    ch.deliver(4)
+    assert [p.payload for p in ch.inbox(1, tick=4, max_age_ticks=10)] == [b"new"]
     assert ch.inbox(1, tick=20, max_age_ticks=10) == []
 
 
 def test_inactive_robots_receive_nothing():
     ch = Channel(2, range_m=5.0, rng=np.random.default_rng(0))
     ch.broadcast(0, b"x", tick=0, poses=_poses((0, 0), (1, 0)), active=np.array([True, False]))
-    ch.deliver(0)
-    assert ch.inbox(1, tick=0, max_age_ticks=10) == []
+    ch.deliver(1)
+    assert ch.inbox(1, tick=1, max_age_ticks=10) == []
 
 
 def test_packet_loss_rate_is_seeded_and_close_to_nominal():
@@ -46,8 +46,8 @@ def test_packet_loss_rate_is_seeded_and_close_to_nominal():
         n = 0
         for t in range(4000):
             ch.broadcast(0, b"x", tick=t, poses=_poses((0, 0), (1, 0)), active=np.ones(2, bool))
-            ch.deliver(t)
-            n += len(ch.inbox(1, tick=t, max_age_ticks=0))
+            ch.deliver(t + 1)
+            n += len(ch.inbox(1, tick=t + 1, max_age_ticks=1))
         return n
 
     assert received(1) == received(1)

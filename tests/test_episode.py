@@ -164,3 +164,49 @@ def test_cli_bad_policy_exits_2_with_one_line(tmp_path):
     run = _fftnav("episode", "--world", "w.json", "--policy", "nope", cwd=tmp_path)
     assert run.returncode == 2 and "Traceback" not in run.stderr
     assert run.stderr.count("\n") == 1 and "unknown policy 'nope'" in run.stderr
+
+
+@pytest.mark.parametrize("turn", [0.0, 0.7, 2.0, -2.9])
+def test_decider_fuses_in_the_goal_frame_whatever_the_world_orientation(turn):
+    """The episode's decider (own Sigma rotated into the goal frame, neighbour packets decoded
+    and placed with the relative pose) gives the same P_s and P when the whole scene is rotated,
+    and the same P as decide_turn called by hand in the goal frame."""
+    from fftnav.comms import Channel
+    from fftnav.episode import _Decider
+    from fftnav.fusion import rotate_sigma
+
+    pipe = Pipeline(SIM_ROBOT, beams=360, range_m=3.0)
+    trees = [Circle((4.0, 3.0), 0.3, 1.0), Circle((3.0, 4.6), 0.25, 1.0)]
+    world = _world(trees, [[4, 2.2, UP + 0.3], [2.5, 3.5, UP - 0.2]], [[4, 9], [2.5, 9]])
+    angles = pipe.angles_rad[None, :] + world.starts[:, 2:3]
+    res = pipe.process(raycast_world(world, world.starts[:, :2], angles, 3.0))
+
+    c, s = math.cos(turn), math.sin(turn)
+    rot = np.array([[c, -s], [s, c]])
+    poses = world.starts.copy()
+    poses[:, :2] = poses[:, :2] @ rot.T
+    poses[:, 2] += turn
+    goal = np.array([4.0, 9.0]) @ rot.T
+    channel = Channel(2, range_m=6.0, rng=np.random.default_rng(0))
+    channel.broadcast(1, res.messages[1], tick=0, poses=poses, active=np.ones(2, bool))
+    channel.deliver(1)
+    dec = _Decider(SIM_ROBOT, CFG, channel, np.random.default_rng(0), True)
+    dec.tick, dec.poses, dec.sigma = 1, poses, {0: res.sigma[0]}
+    d = goal - poses[0, :2]
+    dec.beta = np.array([math.atan2(d[1], d[0]) - poses[0, 2], 0.0])
+    p_s, p = dec.own_probability(0), dec.fused_probability(0)
+
+    # by hand, in the unrotated world: goal frame = heading + beta
+    beta = math.atan2(9.0 - 2.2, 0.0) - world.starts[0, 2]
+    frame = world.starts[0, 2] + beta
+    rel = world.starts[1, :2] - world.starts[0, :2]
+    cf, sf = math.cos(frame), math.sin(frame)
+    rel_pose = [[cf * rel[0] + sf * rel[1], -sf * rel[0] + cf * rel[1],
+                 world.starts[1, 2] - frame]]
+    sig, is_min = decode_message(res.messages[1], range_m=3.0)
+    ref = decide_turn(rotate_sigma(res.sigma[0], -beta), neighbours=[(sig, is_min)],
+                      rel_poses=np.array(rel_pose), target_rad=0.0, geometry=SIM_ROBOT,
+                      range_m=3.0, max_range_m=6.0)
+    assert p_s == pytest.approx(ref.p_s, abs=1e-12)
+    assert p == pytest.approx(ref.p, abs=1e-12)
+    assert ref.sides.tolist() == [1] and ref.p != ref.p_s  # the neighbour is fused, on the left
