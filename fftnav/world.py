@@ -317,6 +317,40 @@ def _place(env: str, seed: int, p: dict[str, Any], rng: np.random.Generator) -> 
     return World(env, seed, (w, h), tuple(placed), starts.astype(float), goals.astype(float))
 
 
+def world_parameters(env: str, *, preset: dict[str, Any] | None = None,
+                     **overrides: Any) -> dict[str, Any]:
+    """The preset of ``env`` with ``overrides`` applied, validated: every override must be a
+    preset key and have the preset value's type (a number for a number, an integer for an
+    integer, a list of as many numbers for a list); then the values are checked together."""
+    params = dict(load_preset(env) if preset is None else preset)
+    unknown = sorted(set(overrides) - set(params))
+    if unknown:
+        raise ValueError(f"unknown world parameter(s) {unknown}; expected some of {sorted(params)}")
+    for key, value in overrides.items():
+        default = params[key]
+        if isinstance(default, (list, tuple)):
+            ok = (isinstance(value, (list, tuple)) and len(value) == len(default)
+                  and all(_is_number(v) for v in value))
+            kind = f"a list of {len(default)} numbers"
+        elif isinstance(default, bool) or isinstance(default, str):
+            ok, kind = type(value) is type(default), type(default).__name__
+        elif isinstance(default, int):
+            ok = isinstance(value, (int, np.integer)) and not isinstance(value, bool)
+            kind = "an integer"
+        else:
+            ok, kind = _is_number(value), "a number"
+        if not ok:
+            raise ValueError(f"{key} must be {kind}, got {key}={value!r}")
+    params.update(overrides)
+    _check_params(env, params)
+    return params
+
+
+def _is_number(value: Any) -> bool:
+    return (isinstance(value, (int, float, np.integer, np.floating)) and not isinstance(value, bool)
+            and math.isfinite(value))
+
+
 def generate_world(env: str, seed: int, *, preset: dict[str, Any] | None = None,
                    **overrides: Any) -> World:
     """Generate a seeded forest or rocky-ruin world (paper Sec. IV-B).
@@ -344,14 +378,9 @@ def generate_world(env: str, seed: int, *, preset: dict[str, Any] | None = None,
         (4-connected free space of the occupancy grid inflated by that radius); if not, the
         world is redrawn from the generator seeded ``[seed, attempt]``.
     """
-    params = dict(load_preset(env) if preset is None else preset)
-    unknown = sorted(set(overrides) - set(params))
-    if unknown:
-        raise ValueError(f"unknown world parameter(s) {unknown}; expected some of {sorted(params)}")
-    params.update(overrides)
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got seed={seed!r}")
-    _check_params(env, params)
+    params = world_parameters(env, preset=preset, **overrides)
     from fftnav.grid import unreachable_robots
 
     for attempt in range(params["max_attempts"]):

@@ -59,7 +59,11 @@ def test_valid_config_maps_sections_to_episode_config():
     ("comms.packet_loss", -0.1, r"comms\.packet_loss must be >= 0, got -0\.1"),
     ("comms.broadcast", 1, r"comms\.broadcast must be a string, got 1"),
     ("sensor.dropout", 1.5, r"dropout must be in \[0, 1\), got dropout=1\.5"),
-    ("world.robots", 4, r"world\.robots cannot be overridden; set experiment\.robots"),
+    ("world.robots", 4, r"world\.robots cannot be overridden; it is set by the experiment"),
+    ("world.density_per_m2", -1.0,
+     r"\[world\] for env 'forest': density_per_m2 must be in \[0, 1\], got density_per_m2=-1\.0"),
+    ("world.size_m", "big",
+     r"\[world\] for env 'forest': size_m must be a list of 2 numbers, got size_m='big'"),
     ("world.density", 0.1, r"unknown key world\.density; expected one of"),
 ])
 def test_invalid_value_or_unknown_key_is_refused_naming_the_key(path, value, match):
@@ -88,7 +92,7 @@ def test_invalid_toml_names_the_file(tmp_path):
         load_config(path)
 
 
-@pytest.mark.parametrize("name", ["table1", "smoke"])
+@pytest.mark.parametrize("name", ["table1", "smoke", "forest5"])
 def test_shipped_configs_are_valid(name):
     config = load_config(ROOT / "experiments" / f"{name}.toml")
     assert config.name == name

@@ -116,7 +116,7 @@ def test_rows_missing_columns_are_a_task_error(tmp_path):
 
     outcome = run_experiment(CONFIG, tmp_path, workers=1, task_fn=no_spl, progress=False)
     assert len(outcome.failed) == N_TASKS
-    assert "rows without ['spl']" in outcome.failed[0][1].message
+    assert "rows without the columns ['spl']" in outcome.failed[0][1].message
     assert len(pd.read_csv(tmp_path / "episodes.csv")) == 0
 
 

@@ -19,7 +19,7 @@ from typing import Any
 
 from fftnav.episode import EpisodeConfig
 from fftnav.planning.policies import POLICIES
-from fftnav.world import ENVS, load_preset
+from fftnav.world import ENVS, load_preset, world_parameters
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -157,6 +157,7 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
     if not (isinstance(out, str) and out):
         raise ValueError(f"experiment.out must be a non-empty string, got {out!r}")
 
+    robots = _integer("experiment.robots", exp["robots"], 1)
     world = _table(data, "world")
     common = {k: v for k, v in world.items() if not isinstance(v, dict)}
     by_env = {k: v for k, v in world.items() if isinstance(v, dict)}
@@ -166,6 +167,11 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
         _check_world_keys(f"world.{env}", env, table)
     for env in envs:
         _check_world_keys("world", env, common)
+        overrides = {**common, **by_env.get(env, {}), "robots": robots}
+        try:
+            world_parameters(env, **overrides)
+        except ValueError as exc:  # name the config section the bad value came from
+            raise ValueError(f"[world] for env {env!r}: {exc}") from None
 
     episode = {}
     for section, keys in sections.items():
@@ -178,7 +184,7 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
         envs=envs,
         maps=maps,
         map_seed=_integer("experiment.map_seed", exp["map_seed"], 0),
-        robots=_integer("experiment.robots", exp["robots"], 1),
+        robots=robots,
         policies=_names("experiment.policies", exp["policies"], tuple(POLICIES)),
         trajectory_maps=trajectory_maps,
         out=out,
@@ -207,7 +213,7 @@ def _check_world_keys(section: str, env: str, table: dict[str, Any]) -> None:
     preset = load_preset(env)
     for key in table:
         if key in ("env", "robots"):
-            raise ValueError(f"{section}.{key} cannot be overridden; set experiment.{key}s")
+            raise ValueError(f"{section}.{key} cannot be overridden; it is set by the experiment")
         if key not in preset:
             raise ValueError(f"unknown key {section}.{key}; expected one of {sorted(preset)}")
 

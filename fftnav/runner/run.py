@@ -205,9 +205,11 @@ def _save_task(out: Path, task: Task, result: TaskResult) -> TaskResult:
         buffer = io.BytesIO()
         np.savez_compressed(buffer, *result.trajectories)
         write_atomic(out / "trajectories" / f"{task.task_id}.npz", buffer.getvalue())
+    if not result.rows:
+        raise ValueError(f"task {task.task_id} returned no rows")
     missing = sorted({c for row in result.rows for c in EPISODE_COLUMNS if c not in row})
-    if not result.rows or missing:
-        raise ValueError(f"task {task.task_id} returned no rows or rows without {missing}")
+    if missing:
+        raise ValueError(f"task {task.task_id} returned rows without the columns {missing}")
     keys = {"env": task.env, "map_seed": task.map_seed, "policy": task.policy,
             "episode_seed": task.episode_seed}
     rows = sorted(({**row, **keys} for row in result.rows), key=lambda row: row["robot"])
