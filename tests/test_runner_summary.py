@@ -44,25 +44,27 @@ def test_bootstrap_one_map_has_no_interval_and_bad_options_are_refused():
 def episodes(rows):
     cols = ["env", "map_seed", "policy", "robot", "arrived", "collided", "path_length_m",
             "optimal_length_m", "spl", "bytes_sent", "messages_sent"]
-    return pd.DataFrame(rows, columns=cols)
+    return pd.DataFrame(rows, columns=cols).assign(geodesic_length_m=8.5)
 
 
 def test_summary_metrics_hand_computed():
     df = episodes([
         ("forest", 1, "fusion", 0, True, False, 10.0, 9.0, 0.9, 100, 2),
         ("forest", 1, "fusion", 1, False, True, 99.0, 9.0, 0.0, 300, 4),
-        ("forest", 2, "fusion", 0, True, False, 12.0, 9.0, 0.8, 0, 0),
-        ("forest", 2, "fusion", 1, True, False, 14.0, 9.0, 0.7, 0, 0),
+        ("forest", 2, "fusion", 0, True, False, 12.0, 9.0, 0.75, 0, 0),
+        ("forest", 2, "fusion", 1, True, False, 14.0, 9.0, 9 / 14, 0, 0),
         ("forest", 1, "random", 0, False, False, 5.0, 9.0, 0.0, 0, 0),
     ])
     s = summarize(df).set_index("policy")
     f = s.loc["fusion"]
     assert (f.env, f.episodes, f.robots) == ("forest", 2, 4)
     assert f.ar == pytest.approx(0.75) and f.apl_m == pytest.approx(12.0)
-    assert f.spl == pytest.approx(0.6) and f.collision_rate == pytest.approx(0.25)
+    assert f.spl == pytest.approx((0.9 + 0 + 0.75 + 9 / 14) / 4)
+    assert f.spl_geodesic == pytest.approx((8.5 / 10 + 0 + 8.5 / 12 + 8.5 / 14) / 4)
+    assert f.collision_rate == pytest.approx(0.25)
     assert f.bytes_per_robot == pytest.approx(100) and f.messages_per_robot == pytest.approx(1.5)
-    # maps: SPL 0.45 and 0.75 -> the interval spans exactly these two (two-map case)
-    assert (f.spl_ci_low, f.spl_ci_high) == pytest.approx((0.45, 0.75))
+    # maps: SPL 0.45 and (0.75 + 9/14)/2 -> the interval spans exactly these two (two maps)
+    assert (f.spl_ci_low, f.spl_ci_high) == pytest.approx((0.45, (0.75 + 9 / 14) / 2))
     r = s.loc["random"]
     assert r.ar == 0 and np.isnan(r.apl_m) and np.isnan(r.spl_ci_low)  # one map: no interval
 

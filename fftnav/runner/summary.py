@@ -15,13 +15,15 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from fftnav.metrics import evaluate
+
 __all__ = ["SUMMARY_COLUMNS", "PAIRED_COLUMNS", "bootstrap_ratio_ci", "summarize", "paired_tests"]
 
 SUMMARY_COLUMNS: tuple[str, ...] = (
     "env", "policy", "episodes", "robots",
     "ar", "ar_ci_low", "ar_ci_high",
     "apl_m", "apl_ci_low", "apl_ci_high",
-    "spl", "spl_ci_low", "spl_ci_high",
+    "spl", "spl_ci_low", "spl_ci_high", "spl_geodesic",
     "collision_rate", "bytes_per_robot", "messages_per_robot",
 )
 PAIRED_COLUMNS: tuple[str, ...] = (
@@ -95,7 +97,8 @@ def summarize(episodes: pd.DataFrame, *, n_resamples: int = 2000, seed: int = 0)
     Returns
     -------
     DataFrame
-        Columns ``SUMMARY_COLUMNS``; sorted by env, policy. APL is NaN where no robot arrived.
+        Columns ``SUMMARY_COLUMNS``; sorted by env, policy. Point estimates come from the
+        measures registry (:data:`fftnav.metrics.MEASURES`); APL is NaN where no robot arrived.
     """
     df = episodes.assign(arrived=episodes["arrived"].astype(bool), n=1)
     df["arrived_path_m"] = df["path_length_m"].where(df["arrived"], 0.0)
@@ -106,12 +109,14 @@ def summarize(episodes: pd.DataFrame, *, n_resamples: int = 2000, seed: int = 0)
         ci = {name: bootstrap_ratio_ci(num, den, n_resamples=n_resamples, seed=seed)
               for name, num, den in (("ar", arrived, n), ("apl", maps["arrived_path_m"], arrived),
                                      ("spl", maps["spl"], n))}
+        m = evaluate(g, ("arrival_rate", "apl_m", "spl", "spl_geodesic", "collision_rate",
+                         "bytes_sent"))
         rows.append((
             env, policy, len(maps), int(n.sum()),
-            arrived.sum() / n.sum(), *ci["ar"],
-            maps["arrived_path_m"].sum() / arrived.sum() if arrived.sum() else np.nan, *ci["apl"],
-            g["spl"].mean(), *ci["spl"],
-            g["collided"].astype(bool).mean(), g["bytes_sent"].mean(), g["messages_sent"].mean(),
+            m["arrival_rate"], *ci["ar"],
+            m["apl_m"], *ci["apl"],
+            m["spl"], *ci["spl"], m["spl_geodesic"],
+            m["collision_rate"], m["bytes_sent"], g["messages_sent"].mean(),
         ))
     return pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
 
