@@ -184,13 +184,16 @@ def git_revision() -> str:
 
 
 def _check_same_experiment(config: ExperimentConfig, out: Path) -> None:
-    """Refuse a folder whose ``config.json`` (canonical form, without ``out``) differs."""
+    """Refuse a folder whose ``config.json`` (canonical config without ``out``, and the fftnav
+    version that wrote it) differs: resuming must not mix configs or code versions."""
+    from fftnav import __version__
+
     record = out / "config.json"
-    canonical = json.dumps({**asdict(config), "out": None, "source": None}, indent=1,
-                           sort_keys=True)
+    canonical = json.dumps({**asdict(config), "out": None, "source": None,
+                            "fftnav_version": __version__}, indent=1, sort_keys=True)
     if record.exists() and record.read_text() != canonical:
-        raise ValueError(f"{out} holds results of a different experiment config "
-                         f"({record}); use another --out")
+        raise ValueError(f"{out} holds results of a different experiment config or fftnav "
+                         f"version ({record}); use another --out")
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(record, canonical)
 
