@@ -37,7 +37,7 @@ def cmd_episode(args: argparse.Namespace) -> int:
 
     world = load_world(args.world)
     config = EpisodeConfig(**_overrides(args.set or []))
-    result = run_episode(world, args.policy, seed=args.seed, config=config)
+    result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui)
     text = episode_csv(result.rows)
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
@@ -65,4 +65,5 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--plot", metavar="P.png", help="draw the trajectories over the map")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override an episode parameter, e.g. --set time_limit_s=60 (repeatable)")
+    p.add_argument("--gui", action="store_true", help="watch the episode in the PyBullet GUI")
     p.set_defaults(func=cmd_episode)
