@@ -49,6 +49,25 @@ def test_ranges_equal_analytic_intersections_within_1cm(env):
     assert np.all((got > low - 0.01) & (got < high + 0.01))
 
 
+@pytest.mark.parametrize("env", ["forest", "rocky"])
+def test_culled_scan_is_bitwise_equal_to_casting_every_ray(env):
+    world = generate_world(env, 7)
+    rng = np.random.default_rng(2)
+    for _ in range(3):  # 15 robots anywhere (near obstacles and each other), any heading
+        poses = np.c_[rng.uniform(0.0, 20.0, (15, 2)), rng.uniform(-math.pi, math.pi, 15)]
+        probe = World(env, 7, world.size_m, world.obstacles, poses, poses[:, :2])
+        with SwarmSim(probe) as sim:
+            obs = sim.reset(seed=0)
+            lidar = sim.lidar
+            cast = lidar.rays_cast
+            lidar.cull = False
+            full = lidar.scan(obs.poses)
+        culled = obs.scans
+        assert culled.tobytes() == full.tobytes()
+        assert lidar.rays_cast - cast == 15 * lidar.live.sum() > 1.4 * cast  # culling culls
+        assert (culled[:, lidar.live] < 3.0).sum() > 500  # with many returns
+
+
 def test_blind_sector_beam_order_and_robots_see_each_other():
     # two robots facing each other 1 m apart, no obstacles: each sees the other dead ahead
     starts = np.array([[2.0, 2.0, 0.0], [3.0, 2.0, math.pi]])

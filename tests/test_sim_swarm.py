@@ -41,8 +41,10 @@ def test_same_seed_and_commands_give_bitwise_equal_trajectories():
         rng = np.random.default_rng(3)
         with SwarmSim(world, config=config) as sim:
             obs = [sim.reset(seed=seed)]
-            for _ in range(30):
-                obs.append(sim.step(np.c_[rng.uniform(0, 0.5, 15), rng.uniform(-1.5, 1.5, 15)]))
+            for _ in range(30):  # arcs, straight runs and turns in place
+                cmd = np.c_[rng.uniform(0, 0.5, 15), rng.uniform(-1.5, 1.5, 15)]
+                cmd[rng.random((15, 2)) < 0.3] = 0.0
+                obs.append(sim.step(cmd))
         return np.array([o.poses for o in obs]), np.array([o.scans for o in obs])
 
     (pa, sa), (pb, sb), (pc, sc) = run(1), run(1), run(2)
@@ -122,7 +124,7 @@ def test_parked_robot_leaves_the_world():
     ({"beams": 1}, "beams must be an integer >= 2, got beams=1"),
     ({"blind_deg": 400.0}, "need 0 <= blind_deg < fov_deg <= 360"),
     ({"dropout": 1.5}, r"dropout must be a probability in \[0, 1\], got dropout=1.5"),
-    ({"embodiment": "legs"}, "embodiment must be 'body', got embodiment='legs'"),
+    ({"embodiment": "legs"}, "embodiment must be 'body' or 'wheeled', got embodiment='legs'"),
 ])
 def test_config_errors_name_the_parameter(kwargs, message):
     assert SimConfig().substeps == 24

@@ -3,22 +3,32 @@
 Beams lie in the robot's yaw-only frame at the lidar height, ordered from -Theta/2 to +Theta/2
 relative to the heading (``fftnav.scan.beam_angles_rad``, paper Sec. IV-B: M = 360, R = 3 m,
 Theta = 360 deg, a 15 deg blind sector at the back reading 0).
+
+Only rays that can hit something are cast: a ray whose direction lies outside the angular
+sector that every obstacle and every other robot within range R subtends (the exact sector of
+a circle, or of a convex polygon's vertices) cannot hit anything, so it reads R without a
+Bullet query. The shapes are widened by ``CULL_MARGIN_M``, so the scan is bit-identical to
+casting every ray, and each cast ray costs Bullet 1.5 to 2 us.
 """
 
 from __future__ import annotations
 
 import math
 import time
+from collections.abc import Sequence
 
 import numpy as np
 import pybullet as p
 
 from fftnav.scan import beam_angles_rad
 
-__all__ = ["MAX_BATCH_RAYS", "Lidar"]
+__all__ = ["CULL_MARGIN_M", "MAX_BATCH_RAYS", "Lidar"]
 
 #: Rays per ``rayTestBatch`` call; Bullet's limit is 16,384 (MAX_RAY_INTERSECTION_BATCH_SIZE).
 MAX_BATCH_RAYS = 16_000
+#: Widening of every body's outline when culling rays (m): far above Bullet's collision margins
+#: and floating-point error, so no ray that Bullet would report as a hit is ever culled.
+CULL_MARGIN_M = 0.02
 
 
 class Lidar:
@@ -44,10 +54,23 @@ class Lidar:
         ``start + hitFraction * (R - start)``.
     mask : int
         Bullet collision-filter mask of the rays (which body groups they can hit).
+    circles : numpy.ndarray, (N, 3), optional
+        Static bodies the rays can hit that lie inside a vertical cylinder: (x m, y m, radius m).
+    polygons : sequence of numpy.ndarray, optional
+        Static bodies the rays can hit that lie inside a vertical prism: its convex outline
+        ``(n, 2)`` (m), one array per body.
+    robot_radius_m : float, optional
+        Radius of a vertical cylinder about each robot's centre that contains every part of the
+        robot the rays can hit (m).
+    cull : bool, optional
+        Cast only the rays that point into a body's sector (default); False casts every live
+        beam (same ranges, slower: kept for tests and benchmarks).
     """
 
     def __init__(self, client: int, *, beams: int, range_m: float, fov_deg: float,
-                 blind_deg: float, height_m: float, start_m: float, mask: int) -> None:
+                 blind_deg: float, height_m: float, start_m: float, mask: int,
+                 circles: np.ndarray | None = None, polygons: Sequence[np.ndarray] = (),
+                 robot_radius_m: float = 0.0, cull: bool = True) -> None:
         self._client = client
         self.range_m = float(range_m)
         self.angles_rad = beam_angles_rad(beams, math.radians(fov_deg))
@@ -56,14 +79,29 @@ class Lidar:
         self._start_m = float(start_m)
         self._height_m = float(height_m)
         self._mask = int(mask)
+        # Static bodies as bounding circles (centre, radius), polygons also by their vertices
+        # (padded by repeating the first one; NaN rows for circles).
+        circles = np.reshape(np.zeros((0, 3)) if circles is None else circles, (-1, 3))
+        outlines = [np.asarray(xy, dtype=float) for xy in polygons]
+        self._circles = np.concatenate([circles, np.reshape([_bounds(xy) for xy in outlines],
+                                                            (-1, 3))])
+        size = max((len(xy) for xy in outlines), default=1)
+        self._vertices = np.full((len(self._circles), size, 2), np.nan)
+        for i, xy in enumerate(outlines, start=len(circles)):
+            self._vertices[i] = np.concatenate([xy, np.repeat(xy[:1], size - len(xy), axis=0)])
+        self._robot_radius_m = float(robot_radius_m)
+        self.cull = bool(cull)
         #: Wall-clock seconds spent in ``scan`` so far (read by the speed bench).
         self.seconds_spent = 0.0
+        #: Rays actually cast so far (after culling).
+        self.rays_cast = 0
 
     def scan(self, poses: np.ndarray) -> np.ndarray:
         """Ranges ``(K, M)`` in metres for robots at ``poses`` ``(K, 3)`` (x m, y m, yaw rad).
 
-        All live beams of all robots go in one ``rayTestBatch`` call (split only above
-        ``MAX_BATCH_RAYS``); blind-sector beams read 0.
+        The rays that can hit something (all live beams if ``cull`` is False) of all robots go
+        in one ``rayTestBatch`` call (split only above ``MAX_BATCH_RAYS``); the other live
+        beams read R and blind-sector beams read 0.
         """
         tic = time.perf_counter()
         poses = np.asarray(poses, dtype=float)
@@ -73,15 +111,78 @@ class Lidar:
             return out
         theta = poses[:, 2:3] + self.angles_rad[self.live]
         direction = np.stack([np.cos(theta), np.sin(theta), np.zeros_like(theta)], axis=-1)
-        centre = np.c_[poses[:, :2], np.full(k, self._height_m)][:, None, :]
-        starts = (centre + self._start_m * direction).reshape(-1, 3)
-        ends = (centre + self.range_m * direction).reshape(-1, 3)
-        fractions = np.empty(len(starts))
+        fractions = np.ones(theta.shape)
+        cast = self._may_hit(poses) if self.cull else np.ones(theta.shape, dtype=bool)
+        direction = direction[cast]
+        centre = np.c_[poses[:, :2], np.full(k, self._height_m)][np.nonzero(cast)[0]]
+        starts = centre + self._start_m * direction
+        ends = centre + self.range_m * direction
+        hit = np.empty(len(starts))
         for s in range(0, len(starts), MAX_BATCH_RAYS):
             hits = p.rayTestBatch(starts[s:s + MAX_BATCH_RAYS], ends[s:s + MAX_BATCH_RAYS],
                                   collisionFilterMask=self._mask, physicsClientId=self._client)
-            fractions[s:s + len(hits)] = [h[2] for h in hits]
-        out[:, self.live] = (self._start_m
-                             + fractions * (self.range_m - self._start_m)).reshape(k, -1)
+            hit[s:s + len(hits)] = [h[2] for h in hits]
+        fractions[cast] = hit
+        out[:, self.live] = self._start_m + fractions * (self.range_m - self._start_m)
+        self.rays_cast += len(starts)
         self.seconds_spent += time.perf_counter() - tic
         return out
+
+    def _may_hit(self, poses: np.ndarray) -> np.ndarray:
+        """``(K, L)`` mask of the live rays that point into the sector of a widened body
+        (obstacle or other robot) that comes within range R of the robot."""
+        k, margin = len(poses), CULL_MARGIN_M
+        centres = np.concatenate([self._circles[:, :2], poses[:, :2]])
+        radii = np.concatenate([self._circles[:, 2], np.full(k, self._robot_radius_m)]) + margin
+        rel = centres[None, :, :] - poses[:, None, :2]  # (K, N + K, 2)
+        dist = np.hypot(rel[..., 0], rel[..., 1])
+        near = dist < self.range_m + radii
+        near[np.arange(k), len(self._circles) + np.arange(k)] = False  # not itself
+        robot, body = np.nonzero(near)
+        d, rho = dist[robot, body], radii[body]
+        bearing = np.arctan2(rel[robot, body, 1], rel[robot, body, 0])
+        # A disc of radius rho at distance d subtends bearing +- asin(rho / d) (from inside it,
+        # every direction); if its tangent points lie beyond R, only the rays within
+        # +- acos((d^2 + R^2 - rho^2) / (2 d R)), where the circle of radius R crosses the disc,
+        # reach it in range. A convex polygon also lies in the sector of its vertices, widened
+        # by asin(margin / distance) <= asin(margin / (d - rho + margin)).
+        r = self.range_m
+        half = np.full(len(d), math.pi)
+        outside = d > rho
+        half[outside] = np.arcsin(rho[outside] / d[outside])
+        far = outside & (d**2 - rho**2 > r**2)
+        half[far] = np.arccos((d[far] ** 2 + r**2 - rho[far] ** 2) / (2.0 * d[far] * r))
+        low, high = -half, half.copy()
+        polygon = np.flatnonzero(outside & (body < len(self._circles)))
+        polygon = polygon[~np.isnan(self._vertices[body[polygon], 0, 0])]
+        if polygon.size:
+            xy = self._vertices[body[polygon]] - poses[robot[polygon], None, :2]
+            offset = _wrap(np.arctan2(xy[..., 1], xy[..., 0]) - bearing[polygon, None])
+            widen = np.arcsin(margin / (d[polygon] - rho[polygon] + margin))
+            low[polygon] = np.maximum(low[polygon], offset.min(axis=1) - widen)
+            high[polygon] = np.minimum(high[polygon], offset.max(axis=1) + widen)
+        # Beams n = ceil(lo) .. floor(hi) of the evenly spaced pattern lie in the sector; the
+        # part of a sector past +pi (relative to the heading) wraps round to -pi.
+        m, first = self.angles_rad.size, self.angles_rad[0]
+        step = (self.angles_rad[-1] - first) / (m - 1)
+        start = _wrap(bearing + low - poses[robot, 2])
+        bounds = []
+        for shifted in (start, start - 2.0 * math.pi):
+            lo = np.clip(np.ceil((shifted - first) / step), 0, m)
+            hi = np.clip(np.floor((shifted + high - low - first) / step) + 1, 0, m)
+            bounds.append(np.c_[lo, hi][lo < hi].astype(int) + (m + 1) * robot[lo < hi, None])
+        bounds = np.concatenate(bounds)
+        opened, closed = (np.bincount(b, minlength=k * (m + 1)) for b in bounds.T)
+        inside = np.cumsum((opened - closed).reshape(k, m + 1), axis=1)[:, :m] > 0  # any body
+        return inside[:, self.live]
+
+
+def _bounds(xy: np.ndarray) -> tuple[float, float, float]:
+    """A circle (x m, y m, radius m) containing the polygon ``xy``: centred on its vertex mean."""
+    middle = xy.mean(axis=0)
+    return (*middle, float(np.hypot(*(xy - middle).T).max()))
+
+
+def _wrap(angle: np.ndarray) -> np.ndarray:
+    """Angles wrapped into [-pi, pi) (rad)."""
+    return (angle + math.pi) % (2.0 * math.pi) - math.pi

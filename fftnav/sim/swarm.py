@@ -1,22 +1,24 @@
 """PyBullet swarm of differential-drive robots with lidars: a Gymnasium-style many-robot API.
 
-``SwarmSim(world)`` builds the world file's obstacles (trunks as capsules, whose cross-section at
-lidar height is the exact circle and which Bullet ray-casts about 2x faster than its cylinder;
-rocks and walls as convex-hull prisms) and one robot per start pose. ``reset(seed=...)`` returns
-the first observation; ``step(commands)`` applies (v, w) commands for one control period.
-Only ``fftnav.sim`` imports pybullet.
+``SwarmSim(world)`` builds the world file's obstacles as one static triangle mesh of vertical
+prisms (rocks and walls over their polygons, trunks over 64-gons circumscribing their circles:
+Bullet ray-casts triangle meshes exactly and faster than convex hulls or capsules) and one robot
+per start pose (a planar sphere, or optionally a wheeled URDF). ``reset(seed=...)`` returns the
+first observation; ``step(commands)`` applies (v, w) commands for one control period. Only
+``fftnav.sim`` imports pybullet.
 """
 
 from __future__ import annotations
 
 import math
 from dataclasses import dataclass, fields
+from pathlib import Path
 
 import numpy as np
 import pybullet as p
 
 from fftnav.sim.lidar import Lidar
-from fftnav.world import Circle, World
+from fftnav.world import Circle, Polygon, World
 
 __all__ = ["SimConfig", "Observation", "SwarmSim"]
 
@@ -24,6 +26,15 @@ __all__ = ["SimConfig", "Observation", "SwarmSim"]
 # lidar iff its mask has that bit and the lidar's mask has its group (obstacles, robots).
 _RAYS, _OBSTACLE, _ROBOT, _GROUND = 1, 2, 4, 8
 _PARKED_XY = (-1000.0, -1000.0)
+#: The wheeled robot: URDF built for r0 = _URDF_R0_M (scaled to r0 when loaded), wheel joints.
+_URDF = Path(__file__).with_name("wheeled.urdf")
+_URDF_R0_M = 0.15
+_WHEELS = (0, 1)  # left, right
+#: Maximum wheel motor torque (N m) of the velocity controllers.
+_WHEEL_TORQUE_NM = 0.5
+#: Sides of the prism that models a trunk: it contains the trunk's cylinder and lies within
+#: r (1 / cos(pi / 64) - 1) = 0.36 mm of it for r = 0.3 m (128 sides: 11 % slower lidar).
+_TRUNK_SIDES = 64
 
 
 @dataclass(frozen=True)
@@ -41,22 +52,26 @@ class SimConfig:
     beams, range_m, fov_deg, blind_deg : int, float, float, float
         Lidar: M beams, maximum range R (m), field of view (deg), blind sector at the back (deg).
     lidar_height_m : float or None
-        Height of the lidar beams above the ground (m); None (default) puts them at the robot
-        sphere's equator, height r0, where every robot appears to the others as its exact disc.
+        Height of the lidar beams above the ground (m); None (default) puts them at height r0:
+        the body sphere's equator, or 5 cm below the wheeled robot's chassis top, where every
+        robot appears to the others as its exact r0 disc.
     noise_std_m : float
         Standard deviation of Gaussian range noise on returns (m), drawn from the episode seed.
     dropout : float
         Probability that a beam loses its return and reads R (no return).
-    embodiment : {"body"}
-        ``"body"``: a rigid sphere of radius r0 (centre at height r0) driven at its commanded
-        planar velocity every physics step. Its horizontal section through the centre is exactly
-        the robot's disc, it touches vertical obstacles and other robots only at that height,
-        and every contact normal passes through its centre: contacts are those of the 2D disc,
-        nothing can tip it over, and sphere contacts are Bullet's cheapest.
+    embodiment : {"body", "wheeled"}
+        ``"body"`` (default): a rigid sphere of radius r0 (centre at height r0) driven at its
+        commanded planar velocity, without gravity or ground (planar). Its horizontal section
+        through the centre is exactly the robot's disc, it touches vertical obstacles and other
+        robots only at that height, and every contact normal passes through its centre:
+        contacts are those of the 2D disc, nothing can tip it over, and sphere contacts are
+        Bullet's cheapest. ``"wheeled"``: ``wheeled.urdf`` scaled to r0 (chassis of radius r0,
+        two wheels under velocity control, frictionless casters) rolling on a ground plane
+        under gravity.
     robot_mass_kg : float
-        Robot mass (kg).
+        Mass of the body embodiment (kg); the wheeled URDF carries its own (5 kg).
     gravity_mps2 : float
-        Gravity magnitude (m/s^2), set explicitly along -z.
+        Gravity magnitude (m/s^2) along -z, for the wheeled embodiment.
     solver_iterations : int
         Bullet constraint-solver iterations per physics step.
     """
@@ -84,8 +99,9 @@ class SimConfig:
             if f.name == "lidar_height_m" and value is None:
                 continue
             if f.name == "embodiment":
-                if value != "body":
-                    raise ValueError(f"embodiment must be 'body', got embodiment={value!r}")
+                if value not in ("body", "wheeled"):
+                    raise ValueError("embodiment must be 'body' or 'wheeled', "
+                                     f"got embodiment={value!r}")
             elif isinstance(value, bool) or not isinstance(value, (int, float)) or not (
                 math.isfinite(value) and value >= 0
             ):
@@ -143,6 +159,25 @@ class Observation:
     active: np.ndarray
 
 
+def _outline(obstacle: Circle | Polygon) -> np.ndarray:
+    """Convex CCW outline ``(n, 2)`` (m) of an obstacle's cross-section: a polygon's vertices, or
+    for a trunk the regular ``_TRUNK_SIDES``-gon circumscribing its circle."""
+    if isinstance(obstacle, Polygon):
+        return np.array(obstacle.vertices, dtype=float)
+    a = np.arange(_TRUNK_SIDES) * (2.0 * math.pi / _TRUNK_SIDES)
+    radius = obstacle.radius / math.cos(math.pi / _TRUNK_SIDES)
+    return np.array(obstacle.center) + radius * np.c_[np.cos(a), np.sin(a)]
+
+
+def _prism_triangles(n: int) -> list[int]:
+    """Vertex indices of the outward-facing triangles of a prism over a convex CCW n-gon whose
+    vertex ``i`` is stored as ``2 i`` (bottom, z = 0) and ``2 i + 1`` (top)."""
+    sides = [[2 * i, 2 * j, 2 * j + 1, 2 * i, 2 * j + 1, 2 * i + 1]
+             for i, j in ((i, (i + 1) % n) for i in range(n))]
+    caps = [[0, 2 * i + 2, 2 * i, 1, 2 * i + 1, 2 * i + 3] for i in range(1, n - 1)]
+    return [v for tri in sides + caps for v in tri]
+
+
 class SwarmSim:
     """A PyBullet world with one robot per start pose of ``world``.
 
@@ -174,44 +209,76 @@ class SwarmSim:
     def _build(self) -> None:
         cfg, cid = self.config, self._client
         p.resetSimulation(physicsClientId=cid)
-        p.setGravity(0.0, 0.0, -cfg.gravity_mps2, physicsClientId=cid)
+        wheeled = cfg.embodiment == "wheeled"
+        # The body embodiment is planar (no gravity, no ground: its vertical velocity is held at
+        # 0); the wheeled robot rolls on a ground plane under gravity.
+        p.setGravity(0.0, 0.0, -cfg.gravity_mps2 if wheeled else 0.0, physicsClientId=cid)
         p.setPhysicsEngineParameter(fixedTimeStep=1.0 / cfg.physics_hz,
                                     numSolverIterations=cfg.solver_iterations,
                                     deterministicOverlappingPairs=1, physicsClientId=cid)
-        ground = p.createMultiBody(0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid),
-                                   physicsClientId=cid)
-        self._ground = ground
-        self._filter(ground, _GROUND, _ROBOT)  # invisible to rays
+        self._ground = -1
+        if wheeled:
+            self._ground = p.createMultiBody(
+                0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
+            self._filter(self._ground, _GROUND, _ROBOT)  # invisible to rays
+            p.changeDynamics(self._ground, -1, lateralFriction=1.0, physicsClientId=cid)
+        # All obstacles form ONE static triangle mesh: Bullet updates every body's bounding box
+        # every step, so one body instead of 80 makes a physics step several times cheaper.
+        verts, triangles = [], []
         for obstacle in self.world.obstacles:
-            if isinstance(obstacle, Circle):  # cylinder part of length h spans z = 0 .. h
-                shape = p.createCollisionShape(p.GEOM_CAPSULE, radius=obstacle.radius,
-                                               height=obstacle.height, physicsClientId=cid)
-                position = [*obstacle.center, obstacle.height / 2.0]
-            else:
-                verts = [[x, y, z] for x, y in obstacle.vertices for z in (0.0, obstacle.height)]
-                shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, physicsClientId=cid)
-                position = [0.0, 0.0, 0.0]
-            body = p.createMultiBody(0, shape, basePosition=position, physicsClientId=cid)
+            xy = _outline(obstacle)
+            triangles += [len(verts) + i for i in _prism_triangles(len(xy))]
+            verts += [[x, y, z] for x, y in xy.tolist() for z in (0.0, obstacle.height)]
+        if verts:
+            shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
+                                           physicsClientId=cid)
+            body = p.createMultiBody(0, shape, physicsClientId=cid)
             p.changeDynamics(body, -1, lateralFriction=0.0, physicsClientId=cid)
             self._filter(body, _OBSTACLE, _ROBOT | _RAYS)
-        robot_shape = p.createCollisionShape(p.GEOM_SPHERE, radius=cfg.r0_m, physicsClientId=cid)
-        self._robots = []
-        for x, y, yaw in self.world.starts:
-            body = p.createMultiBody(
-                cfg.robot_mass_kg, robot_shape,
-                basePosition=[x, y, cfg.r0_m],
-                baseOrientation=p.getQuaternionFromEuler([0.0, 0.0, yaw]), physicsClientId=cid)
-            p.changeDynamics(body, -1, lateralFriction=0.0, linearDamping=0.0, angularDamping=0.0,
-                             physicsClientId=cid)
-            self._filter(body, _ROBOT, _GROUND | _OBSTACLE | _ROBOT | _RAYS)
-            self._robots.append(body)
+        self._robots = [self._add_robot(x, y, yaw) for x, y, yaw in self.world.starts]
+        if wheeled and self._robots:
+            body = self._robots[0]
+            joints = [p.getJointInfo(body, j, physicsClientId=cid) for j in _WHEELS]
+            self._track_m = abs(joints[0][14][1] - joints[1][14][1])  # parent-frame y offsets
+            wheel = p.getCollisionShapeData(body, _WHEELS[0], physicsClientId=cid)[0]
+            self._wheel_radius_m = wheel[3][0]  # sphere dimensions: (radius, ...)
         self._lidar = Lidar(cid, beams=cfg.beams, range_m=cfg.range_m, fov_deg=cfg.fov_deg,
                             blind_deg=cfg.blind_deg,
                             height_m=cfg.r0_m if cfg.lidar_height_m is None else cfg.lidar_height_m,
-                            start_m=cfg.r0_m + 0.005, mask=_OBSTACLE | _ROBOT)
+                            start_m=cfg.r0_m + 0.005, mask=_OBSTACLE | _ROBOT,
+                            circles=[(*o.center, o.radius / math.cos(math.pi / _TRUNK_SIDES))
+                                     for o in self.world.obstacles if isinstance(o, Circle)],
+                            polygons=[o.vertices for o in self.world.obstacles
+                                      if isinstance(o, Polygon)],
+                            robot_radius_m=cfg.r0_m)
+
+    def _add_robot(self, x: float, y: float, yaw: float) -> int:
+        cfg, cid = self.config, self._client
+        position = [x, y, cfg.r0_m]
+        orientation = p.getQuaternionFromEuler([0.0, 0.0, yaw])
+        if cfg.embodiment == "wheeled":
+            body = p.loadURDF(str(_URDF), position, orientation,
+                              globalScaling=cfg.r0_m / _URDF_R0_M,
+                              flags=p.URDF_USE_INERTIA_FROM_FILE | p.URDF_USE_IMPLICIT_CYLINDER,
+                              physicsClientId=cid)
+            p.changeDynamics(body, -1, lateralFriction=0.0, rollingFriction=0.0,
+                             spinningFriction=0.0, physicsClientId=cid)  # chassis and casters
+            for joint in _WHEELS:
+                p.changeDynamics(body, joint, lateralFriction=1.0, physicsClientId=cid)
+        else:
+            shape = p.createCollisionShape(p.GEOM_SPHERE, radius=cfg.r0_m, physicsClientId=cid)
+            body = p.createMultiBody(cfg.robot_mass_kg, shape, basePosition=position,
+                                     baseOrientation=orientation, physicsClientId=cid)
+            p.changeDynamics(body, -1, lateralFriction=0.0, linearDamping=0.0,
+                             angularDamping=0.0, physicsClientId=cid)
+        self._filter(body, _ROBOT, _GROUND | _OBSTACLE | _ROBOT | _RAYS)
+        return body
 
     def _filter(self, body: int, group: int, mask: int) -> None:
-        p.setCollisionFilterGroupMask(body, -1, group, mask, physicsClientId=self._client)
+        """Set the collision group and mask of every link of ``body``."""
+        cid = self._client
+        for link in range(-1, p.getNumJoints(body, physicsClientId=cid)):
+            p.setCollisionFilterGroupMask(body, link, group, mask, physicsClientId=cid)
 
     def _reset_state(self, rng: np.random.Generator) -> None:
         self._build()
@@ -245,8 +312,11 @@ class SwarmSim:
         period (``physics_hz / control_hz`` physics steps), then scan.
 
         Commands are clipped to ``[-v_max, v_max]`` and ``[-w_max, w_max]``; rows of parked
-        robots are ignored. Each physics step sets every active robot's base velocity to
-        (v cos(yaw), v sin(yaw), 0) and yaw rate w, then Bullet resolves the contacts.
+        robots are ignored. Body embodiment: before each physics step every active robot's base
+        velocity is (re)set to (v cos(yaw), v sin(yaw), 0) and yaw rate w (only where it can
+        have changed: on arcs and after contacts), then Bullet resolves the contacts. Wheeled:
+        the wheel velocity controllers get (v -+ w b / 2) / r_wheel (rad/s, track b) for the
+        whole period and Bullet integrates the rolling robot.
         """
         cmd = np.asarray(commands, dtype=float)
         if cmd.shape != (self.num_robots, 2) or not np.all(np.isfinite(cmd)):
@@ -256,20 +326,36 @@ class SwarmSim:
         active = np.flatnonzero(self._active)
         v = np.clip(cmd[active, 0], -cfg.v_max, cfg.v_max)
         w = np.clip(cmd[active, 1], -cfg.w_max, cfg.w_max)
-        # Frictionless spheres feel no contact torque, so the heading during physics step k is
-        # exactly yaw0 + k w dt: the planar velocities of the whole period are known up front.
-        yaw = self._poses[active, 2] + np.outer(np.arange(cfg.substeps) / cfg.physics_hz, w)
-        linear = np.stack([v * np.cos(yaw), v * np.sin(yaw), np.zeros_like(yaw)], axis=-1).tolist()
-        angular = [(0.0, 0.0, wi) for wi in w.tolist()]
         bodies = [self._robots[i] for i in active]
+        if cfg.embodiment == "wheeled":  # wheel speeds (v -+ w b / 2) / r, held for the period
+            half_track = 0.5 * self._track_m * w
+            for body, left, right in zip(bodies, (v - half_track) / self._wheel_radius_m,
+                                         (v + half_track) / self._wheel_radius_m, strict=True):
+                p.setJointMotorControlArray(body, _WHEELS, p.VELOCITY_CONTROL,
+                                            targetVelocities=[left, right],
+                                            forces=[_WHEEL_TORQUE_NM] * 2, physicsClientId=cid)
+            linear, steered = [], set()
+        else:
+            # Frictionless spheres feel no contact torque, so the heading during physics step k
+            # is exactly yaw0 + k w dt: the planar velocities of the period are known up front.
+            yaw = self._poses[active, 2] + np.outer(np.arange(cfg.substeps) / cfg.physics_hz, w)
+            linear = np.stack([v * np.cos(yaw), v * np.sin(yaw), np.zeros_like(yaw)], axis=-1)
+            linear = linear.tolist()
+            angular = [(0.0, 0.0, wi) for wi in w.tolist()]
+            # Without gravity, damping or contact a body keeps its velocity bit for bit: after
+            # the first step only robots on an arc (v and w != 0) and those that touched
+            # something in the last step need their velocity set again.
+            steered = set(np.flatnonzero((v != 0) & (w != 0)).tolist())
+        slot = {body: j for j, body in enumerate(bodies)}
         index = {body: i for i, body in enumerate(self._robots)}
         obstacle_hit = np.zeros(self.num_robots, dtype=bool)
         robot_hit = np.zeros(self.num_robots, dtype=bool)
-        set_velocity = p.resetBaseVelocity
-        for step_linear in linear:
-            for body, lin, ang in zip(bodies, step_linear, angular, strict=True):
-                set_velocity(body, lin, ang, physicsClientId=cid)
+        touched = set(range(len(bodies)))  # every velocity is set before the first step
+        for k in range(cfg.substeps):
+            for j in touched | steered if linear else ():
+                p.resetBaseVelocity(bodies[j], linear[k][j], angular[j], physicsClientId=cid)
             p.stepSimulation(physicsClientId=cid)
+            touched = set()
             for contact in p.getContactPoints(physicsClientId=cid):
                 a, b = contact[1], contact[2]
                 if self._ground in (a, b):
@@ -277,6 +363,7 @@ class SwarmSim:
                 for this, other in ((a, b), (b, a)):
                     if this in index:
                         (robot_hit if other in index else obstacle_hit)[index[this]] = True
+                        touched.add(slot[this])
         self._time_s += cfg.substeps / cfg.physics_hz
         previous = self._poses.copy()
         self._poses[active] = self._read_poses(active)
