@@ -28,7 +28,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("figure", help="draw the paper's figures")
     figs = p.add_subparsers(dest="figure", metavar="FIGURE", parser_class=type(p))
     figs.required = True
-    f = figs.add_parser("filters", help="Fig. 3 and Fig. 5: filters, scan, safe directions, extrema")
+    f = figs.add_parser("filters", help="Fig. 3 and Fig. 5: filters, safe directions, extrema")
     f.add_argument("--out", required=True, metavar="DIR", help="output folder for the PNGs")
     f.set_defaults(func=cmd_figure_filters)
     d = figs.add_parser("depth3d", help="Fig. 4: spherical depth image and safe flight domain")
