@@ -153,10 +153,11 @@ def _convex_ccw(vertices: np.ndarray, where: str) -> np.ndarray:
 def _parse_obstacle(data: Any, where: str, size: tuple[float, float]) -> Obstacle:
     if not isinstance(data, dict) or data.get("shape") not in ("circle", "polygon"):
         raise ValueError(f"{where}: shape must be 'circle' or 'polygon', got {data!r:.80}")
-    for key in ("center", "radius") if data["shape"] == "circle" else ("vertices",):
+    required = {"circle": ("center", "radius", "height"), "polygon": ("vertices", "height")}
+    for key in required[data["shape"]]:
         if key not in data:
             raise ValueError(f"{where}: missing key {key!r}")
-    height = _number(data.get("height"), f"{where}.height", positive=True)
+    height = _number(data["height"], f"{where}.height", positive=True)
     if data["shape"] == "circle":
         center = _vector(data["center"], 2, f"{where}.center")
         radius = _number(data["radius"], f"{where}.radius", positive=True)
@@ -173,7 +174,8 @@ def _parse_obstacle(data: Any, where: str, size: tuple[float, float]) -> Obstacl
         obstacle = Polygon(tuple(map(tuple, verts.tolist())), height)
     if np.any(lo < 0) or hi[0] > size[0] or hi[1] > size[1]:
         raise ValueError(f"{where}: obstacle lies (partly) outside the world [0, {size[0]:g}] x "
-                         f"[0, {size[1]:g}]")
+                         f"[0, {size[1]:g}]: it spans [{lo[0]:g}, {hi[0]:g}] x "
+                         f"[{lo[1]:g}, {hi[1]:g}]")
     return obstacle
 
 
@@ -186,6 +188,19 @@ def _points(value: Any, n: int, where: str, size: tuple[float, float]) -> np.nda
     if outside.size:
         raise ValueError(f"{where}[{outside[0]}] lies outside the world, got {value[outside[0]]}")
     return pts
+
+
+def _check_free(where: str, points: np.ndarray, obstacles: tuple[Obstacle, ...]) -> None:
+    """Raise if a start or goal lies inside an obstacle or on its boundary (a robot would be
+    spawned inside the obstacle's mesh)."""
+    if not obstacles:
+        return
+    distance = np.array([obstacle_distance(o, points[:, :2]) for o in obstacles])  # (N, P)
+    blocked = np.flatnonzero(distance.min(axis=0) <= 0)
+    if blocked.size:
+        i = blocked[0]
+        j = int(np.argmin(distance[:, i]))
+        raise ValueError(f"{where}[{i}] lies inside obstacles[{j}], got {points[i].tolist()}")
 
 
 def _parse_world(data: Any) -> World:
@@ -211,6 +226,8 @@ def _parse_world(data: Any) -> World:
     if len(starts) != len(goals):
         raise ValueError(f"starts and goals must have the same length, got {len(starts)} starts "
                          f"and {len(goals)} goals")
+    for name, pts in (("starts", starts), ("goals", goals)):
+        _check_free(name, pts, obstacles)
     return World(data["env"], data["seed"], size, obstacles, starts, goals)  # type: ignore[arg-type]
 
 
@@ -273,7 +290,10 @@ def _make_obstacle(env: str, p: dict[str, Any], rng: np.random.Generator) -> tup
     else:  # a rock: 5 to 9 points on an ellipse, always in convex position
         sides = int(rng.integers(p["rock_sides"][0], p["rock_sides"][1] + 1))
         gaps = 1.0 + rng.random(sides)  # irregular angular gaps, none below 1/2 of the mean
-        angles = 2 * math.pi * np.cumsum(gaps) / gaps.sum()
+        angles = 2 * math.pi * (np.cumsum(gaps) - gaps[0]) / gaps.sum()
+        # Both ends of the major axis are vertices (angles 0 and pi: the vertex nearest to pi
+        # moves there, by less than half a gap), so the rock is exactly as wide as drawn.
+        angles[1 + np.argmin(np.abs(angles[1:] - math.pi))] = math.pi
         axes = rng.uniform(*p["rock_size_m"]) / 2 * np.array([1.0, rng.uniform(*p["rock_aspect"])])
         local = axes * np.c_[np.cos(angles), np.sin(angles)]
     yaw = rng.uniform(0, 2 * math.pi)

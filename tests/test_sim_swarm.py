@@ -5,6 +5,7 @@ from __future__ import annotations
 import math
 
 import numpy as np
+import pybullet as p
 import pytest
 
 from fftnav.sim.swarm import SimConfig, SwarmSim
@@ -82,19 +83,64 @@ def test_robot_robot_contact_is_recorded_for_both():
 
 
 @pytest.mark.slow
-def test_fifteen_robots_60_s_random_commands_stay_upright_on_the_ground():
+@pytest.mark.parametrize(("embodiment", "seconds", "height_m", "tilt_rad"), [
+    # The planar sphere cannot tip (its vertical velocity is held at 0): checked all the same.
+    ("body", 60, 2e-3, 1e-3),
+    # The wheeled robot can: its casters, 1 mm clear of the ground at +-0.1 m from the axle,
+    # stop the pitch at 0.01 rad, and contacts with trunks and other robots add some compliance;
+    # tipping over would take the base far beyond 0.05 rad and off its height. 30 s, not 60 s:
+    # 60 s of 15 wheeled robots took 13.7 s here (30 s: about 7 s).
+    ("wheeled", 30, 5e-3, 0.05),
+])
+def test_fifteen_robots_under_random_commands_stay_upright_on_the_ground(
+        embodiment, seconds, height_m, tilt_rad):
     world = generate_world("forest", 6)
     rng = np.random.default_rng(0)
-    with SwarmSim(world) as sim:
+    contacts = 0
+    with SwarmSim(world, config=SimConfig(embodiment=embodiment)) as sim:
         sim.reset(seed=0)
-        for tick in range(600):
+        for tick in range(10 * seconds):
             if tick % 10 == 0:  # a new random command every second
                 cmd = np.c_[rng.uniform(-0.5, 0.5, 15), rng.uniform(-1.5, 1.5, 15)]
-            sim.step(cmd)
+            obs = sim.step(cmd)
+            contacts += obs.obstacle_contact.sum() + obs.robot_contact.sum()
             state = sim.base_states()
-            assert np.all(np.abs(state[:, 2] - 0.15) < 2e-3), tick  # on the ground, at r0
+            assert np.all(np.abs(state[:, 2] - 0.15) < height_m), tick  # on the ground, at r0
             tilt = 2 * np.hypot(state[:, 3], state[:, 4])  # roll/pitch angle (small-angle)
-            assert np.all(tilt < 1e-3), tick
+            assert np.all(tilt < tilt_rad), tick
+    assert contacts > 20  # the robots did bump into trunks and each other
+
+
+@pytest.mark.parametrize("embodiment", ["body", "wheeled"])
+def test_reset_reuses_the_world_built_once_and_repeats_an_episode_bitwise(embodiment, monkeypatch):
+    world = generate_world("rocky", 2)
+    config = SimConfig(embodiment=embodiment, noise_std_m=0.01, dropout=0.05)
+    built = []  # every body Bullet creates
+    for name in ("createMultiBody", "loadURDF"):
+        create = getattr(p, name)
+        monkeypatch.setattr(p, name, lambda *a, _f=create, **k: built.append(1) or _f(*a, **k))
+
+    def episode(sim, park=()):
+        rng = np.random.default_rng(3)
+        obs = [sim.reset(seed=1)]
+        for tick in range(20):  # arcs, straight runs, turns in place, contacts after parking
+            cmd = np.c_[rng.uniform(0, 0.5, 15), rng.uniform(-1.5, 1.5, 15)]
+            cmd[rng.random((15, 2)) < 0.3] = 0.0
+            if tick == 5:
+                for i in park:
+                    sim.park(i)
+            obs.append(sim.step(cmd))
+        return np.array([o.poses for o in obs]).tobytes(), np.array([o.scans for o in obs]).tobytes()
+
+    with SwarmSim(world, config=config) as sim:
+        fresh = episode(sim)
+    with SwarmSim(world, config=config) as sim:
+        assert episode(sim, park=(3, 7)) != fresh
+        again = episode(sim)  # same sim after a different episode with parked robots
+        assert episode(sim) == again
+    assert again == fresh
+    per_build = 1 + 15 + (embodiment == "wheeled")  # obstacle mesh, robots, ground plane
+    assert len(built) == 2 * per_build  # two simulators, each built once
 
 
 def test_parked_robot_leaves_the_world():

@@ -23,6 +23,12 @@ from fftnav.world import (
 )
 
 
+def _across(polygon):
+    """Largest distance between two vertices of a polygon (m)."""
+    v = np.asarray(polygon.vertices)
+    return np.max(np.hypot(*(v[:, None] - v[None]).transpose(2, 0, 1)))
+
+
 def _extent_y(obstacle):
     if isinstance(obstacle, Circle):
         return obstacle.center[1] - obstacle.radius, obstacle.center[1] + obstacle.radius
@@ -46,6 +52,9 @@ def test_density_and_clear_strips_hold_for_50_seeds(env):
         assert np.all(np.diff(world.starts[:, 0]) > 2 * preset["robot_radius_m"])
         clearance = point_obstacle_distance(world, np.r_[world.starts[:, :2], world.goals])
         assert clearance.min() > preset["robot_radius_m"]
+        if env == "rocky":  # rocks (5- to 9-gons; walls are rectangles) are 0.3 to 1.2 m across
+            across = [_across(o) for o in world.obstacles if len(o.vertices) > 4]
+            assert 0.3 - 1e-3 <= min(across) and max(across) <= 1.2 + 1e-3, seed
 
 
 def test_generated_shapes_match_the_issue():
@@ -57,9 +66,8 @@ def test_generated_shapes_match_the_issue():
     sides = {len(o.vertices) for o in rocky.obstacles}
     assert all(isinstance(o, Polygon) for o in rocky.obstacles)
     assert sides <= {4, 5, 6, 7, 8, 9} and len(sides & {5, 6, 7, 8, 9}) >= 3
-    rocks = [np.asarray(o.vertices) for o in rocky.obstacles if len(o.vertices) > 4]
-    across = [np.max(np.hypot(*(v[:, None] - v[None]).transpose(2, 0, 1))) for v in rocks]
-    assert 0.15 <= min(across) and max(across) <= 1.2 + 1e-3
+    across = [_across(o) for o in rocky.obstacles if len(o.vertices) > 4]
+    assert 0.3 - 1e-3 <= min(across) and max(across) <= 1.2 + 1e-3
 
 
 def test_same_seed_same_world_and_json_round_trip(tmp_path):
@@ -123,7 +131,13 @@ def _with(path, value):
     (["starts"], KeyError, "world file is missing key 'starts'"),
     (["obstacles", 0, "radius"], KeyError, r"obstacles\[0\]: missing key 'radius'"),
     (["obstacles", 0, "radius"], -0.2, r"obstacles\[0\].radius must be > 0, got -0.2"),
-    (["obstacles", 0, "center"], [9.9, 5], r"obstacles\[0\]: obstacle lies \(partly\) outside"),
+    (["obstacles", 0, "center"], [9.9, 5], r"obstacles\[0\]: obstacle lies \(partly\) outside "
+     r"the world \[0, 10\] x \[0, 10\]: it spans \[9.6, 10.2\] x \[4.7, 5.3\]"),
+    (["obstacles", 0, "height"], KeyError, r"obstacles\[0\]: missing key 'height'"),
+    (["obstacles", 1, "height"], KeyError, r"obstacles\[1\]: missing key 'height'"),
+    (["starts", 0], [1.5, 1.5, 0], r"starts\[0\] lies inside obstacles\[1\], got \[1.5, 1.5, 0.0\]"),
+    (["goals", 0], [5.3, 5], r"goals\[0\] lies inside obstacles\[0\], got \[5.3, 5.0\]"),
+    (["goals", 0], [2, 1.5], r"goals\[0\] lies inside obstacles\[1\]"),
     (["obstacles", 1, "vertices"], [[1, 1], [3, 1], [2, 1.2], [3, 3], [1, 3]],
      r"obstacles\[1\].vertices: polygon is not convex"),
     (["obstacles", 1, "vertices"], [[5, 9], [6.2, 5.3], [3, 7.6], [7, 7.6], [3.8, 5.3]],

@@ -18,14 +18,12 @@ import time
 from collections.abc import Sequence
 
 import numpy as np
-import pybullet as p
 
-from fftnav.scan import beam_angles_rad
+from fftnav.scan import angle_increment_rad, beam_angles_rad
+from fftnav.sim.rays import cast_rays
 
-__all__ = ["CULL_MARGIN_M", "MAX_BATCH_RAYS", "Lidar"]
+__all__ = ["CULL_MARGIN_M", "Lidar"]
 
-#: Rays per ``rayTestBatch`` call; Bullet's limit is 16,384 (MAX_RAY_INTERSECTION_BATCH_SIZE).
-MAX_BATCH_RAYS = 16_000
 #: Widening of every body's outline when culling rays (m): far above Bullet's collision margins
 #: and floating-point error, so no ray that Bullet would report as a hit is ever culled.
 CULL_MARGIN_M = 0.02
@@ -45,7 +43,10 @@ class Lidar:
     fov_deg : float
         Field of view Theta in degrees (360 for a full circle).
     blind_deg : float
-        Width of the blind sector centred on the back (degrees); its beams read 0.
+        Width of the blind sector centred on the back (degrees): the beams whose direction lies
+        strictly inside it, ``|angle| > 180 - blind_deg / 2``, read 0 (as in ``fftnav.scene``
+        and ``fftnav.compress``); a beam on its edge stays live, so with ``blind_deg = 0``
+        every beam is live.
     height_m : float
         Height of the beams above the ground, metres.
     start_m : float
@@ -74,8 +75,12 @@ class Lidar:
         self._client = client
         self.range_m = float(range_m)
         self.angles_rad = beam_angles_rad(beams, math.radians(fov_deg))
-        #: Beams outside the blind sector (the only ones cast).
-        self.live = np.abs(self.angles_rad) < math.pi - math.radians(blind_deg) / 2.0 - 1e-12
+        #: Beams outside the blind sector (the only ones cast). The edge is compared with a
+        #: tolerance of 1e-6 beam, far below the beam spacing and far above rounding errors, so
+        #: a beam on the edge (the back beam when blind_deg = 0) is live however it rounds.
+        edge = math.pi - math.radians(blind_deg) / 2.0
+        tolerance = 1e-6 * angle_increment_rad(beams, math.radians(fov_deg))
+        self.live = np.abs(self.angles_rad) <= edge + tolerance
         self._start_m = float(start_m)
         self._height_m = float(height_m)
         self._mask = int(mask)
@@ -100,8 +105,8 @@ class Lidar:
         """Ranges ``(K, M)`` in metres for robots at ``poses`` ``(K, 3)`` (x m, y m, yaw rad).
 
         The rays that can hit something (all live beams if ``cull`` is False) of all robots go
-        in one ``rayTestBatch`` call (split only above ``MAX_BATCH_RAYS``); the other live
-        beams read R and blind-sector beams read 0.
+        in one ``rayTestBatch`` call (``fftnav.sim.rays.cast_rays``, split only above Bullet's
+        batch limit); the other live beams read R and blind-sector beams read 0.
         """
         tic = time.perf_counter()
         poses = np.asarray(poses, dtype=float)
@@ -117,12 +122,7 @@ class Lidar:
         centre = np.c_[poses[:, :2], np.full(k, self._height_m)][np.nonzero(cast)[0]]
         starts = centre + self._start_m * direction
         ends = centre + self.range_m * direction
-        hit = np.empty(len(starts))
-        for s in range(0, len(starts), MAX_BATCH_RAYS):
-            hits = p.rayTestBatch(starts[s:s + MAX_BATCH_RAYS], ends[s:s + MAX_BATCH_RAYS],
-                                  collisionFilterMask=self._mask, physicsClientId=self._client)
-            hit[s:s + len(hits)] = [h[2] for h in hits]
-        fractions[cast] = hit
+        fractions[cast] = cast_rays(self._client, starts, ends, mask=self._mask)
         out[:, self.live] = self._start_m + fractions * (self.range_m - self._start_m)
         self.rays_cast += len(starts)
         self.seconds_spent += time.perf_counter() - tic

@@ -25,6 +25,7 @@ __all__ = ["SimConfig", "Observation", "SwarmSim"]
 # Collision-filter groups. Bullet's rays belong to group 1 (_RAYS): a body is visible to the
 # lidar iff its mask has that bit and the lidar's mask has its group (obstacles, robots).
 _RAYS, _OBSTACLE, _ROBOT, _GROUND = 1, 2, 4, 8
+_ROBOT_MASK = _GROUND | _OBSTACLE | _ROBOT | _RAYS
 _PARKED_XY = (-1000.0, -1000.0)
 #: The wheeled robot: URDF built for r0 = _URDF_R0_M (scaled to r0 when loaded), wheel joints.
 _URDF = Path(__file__).with_name("wheeled.urdf")
@@ -192,23 +193,25 @@ class SwarmSim:
 
     Notes
     -----
-    Deterministic: the same world, ``reset`` seed and commands give bitwise-equal poses (the
-    whole Bullet world is rebuilt by every ``reset``). The episode seed only drives lidar
-    noise and dropout.
+    Deterministic: the same world, ``reset`` seed and commands give bitwise-equal poses. The
+    Bullet world is built once; ``reset`` restores the Bullet state saved right after building
+    (``restoreState``: poses, velocities, joint states) and re-inserts every robot, parked or
+    not, into the broadphase (dropping the last episode's contact caches), so every episode
+    starts from the same state. The episode seed only drives lidar noise and dropout.
     """
 
     def __init__(self, world: World, *, config: SimConfig | None = None, gui: bool = False) -> None:
         self.world = world
         self.config = config or SimConfig()
         self._client = p.connect(p.GUI if gui else p.DIRECT)
-        self._robots: list[int] = []
+        self._build()
+        self._built_state = p.saveState(physicsClientId=self._client)
         self._reset_state(np.random.default_rng(0))
 
     # ------------------------------------------------------------------ building
 
     def _build(self) -> None:
         cfg, cid = self.config, self._client
-        p.resetSimulation(physicsClientId=cid)
         wheeled = cfg.embodiment == "wheeled"
         # The body embodiment is planar (no gravity, no ground: its vertical velocity is held at
         # 0); the wheeled robot rolls on a ground plane under gravity.
@@ -271,7 +274,7 @@ class SwarmSim:
                                      baseOrientation=orientation, physicsClientId=cid)
             p.changeDynamics(body, -1, lateralFriction=0.0, linearDamping=0.0,
                              angularDamping=0.0, physicsClientId=cid)
-        self._filter(body, _ROBOT, _GROUND | _OBSTACLE | _ROBOT | _RAYS)
+        self._filter(body, _ROBOT, _ROBOT_MASK)
         return body
 
     def _filter(self, body: int, group: int, mask: int) -> None:
@@ -281,8 +284,15 @@ class SwarmSim:
             p.setCollisionFilterGroupMask(body, link, group, mask, physicsClientId=cid)
 
     def _reset_state(self, rng: np.random.Generator) -> None:
-        self._build()
-        k = len(self._robots)
+        cid = self._client
+        p.restoreState(self._built_state, physicsClientId=cid)
+        # Setting a body's collision filter re-inserts it into the broadphase: its bounding box
+        # is recomputed at the restored pose (rays use it) and the contact caches of the last
+        # episode are dropped, as in a freshly built world. Robots are re-inserted in index
+        # order, which keeps Bullet's (deterministic) pair order that of a fresh world.
+        for body in self._robots:
+            self._filter(body, _ROBOT, _ROBOT_MASK)
+        k = self.num_robots
         self._rng = rng
         self._active = np.ones(k, dtype=bool)
         self._time_s = 0.0
@@ -302,7 +312,8 @@ class SwarmSim:
         return self._lidar
 
     def reset(self, *, seed: int) -> Observation:
-        """Rebuild the world with every robot at its start; ``seed`` drives sensor noise/dropout."""
+        """Put every robot back at its start, active, in the state saved after building the
+        world; ``seed`` drives sensor noise and dropout."""
         self._reset_state(np.random.default_rng(seed))
         k = self.num_robots
         return self._observe(np.zeros(k, dtype=bool), np.zeros(k, dtype=bool))
@@ -389,10 +400,13 @@ class SwarmSim:
             return
         body, cid = self._robots[i], self._client
         self._active[i] = False
+        # Far away, colliding with nothing and at rest (a parked wheeled robot falls freely
+        # under gravity). Its mass is kept: toggling a multibody between static and dynamic
+        # changes Bullet's later results for the other robots, which reset() could not undo.
         self._filter(body, 0, 0)
-        p.changeDynamics(body, -1, mass=0.0, physicsClientId=cid)  # static from now on
         p.resetBasePositionAndOrientation(body, [_PARKED_XY[0] - 2.0 * i, _PARKED_XY[1], 1.0],
                                           [0, 0, 0, 1], physicsClientId=cid)
+        p.resetBaseVelocity(body, [0, 0, 0], [0, 0, 0], physicsClientId=cid)
 
     def close(self) -> None:
         """Disconnect from the physics server (idempotent)."""
