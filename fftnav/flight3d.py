@@ -2,11 +2,12 @@
 
 Each control tick the drone takes a spherical depth image, filters it with the 2D disc filter
 (:class:`fftnav.spherical.DiscFilterBank`) and flies, at constant speed, along the safe direction
-nearest to the goal direction. If no direction is safe it creeps (a quarter of the speed) towards
-the direction with the largest filtered value y1, the least obstructed disc. Directions towards
-anything closer than the protective radius r are not taken (see ``_command``). The body is
-kinematic: its position integrates the commanded 3D velocity; every integration step checks
-collisions.
+nearest to the goal direction. Directions whose swept body (a cylinder of radius r0) would pass
+a reading closer than the protective radius r are never taken (see ``swept_clear``). If no
+direction is safe it creeps (a quarter of the speed) towards the largest filtered value y1 (the
+least obstructed disc) among the directions that pass that test, the one nearest the target on
+ties; if none passes, it hovers. The body is kinematic: its position integrates the commanded 3D
+velocity, and collisions are checked along the whole path (``collides_along``).
 The simulator is reached only through :mod:`fftnav.sim.drone`.
 """
 
@@ -23,9 +24,10 @@ from fftnav.geometry import DRONE, RobotGeometry
 from fftnav.spherical import SAFE_TOL, DiscFilterBank, SphericalGrid
 
 if TYPE_CHECKING:
-    from fftnav.sim.drone import Forest3D
+    from fftnav.sim.drone import DroneSim, Forest3D
 
-__all__ = ["FlightConfig", "FlightResult", "FLIGHT_COLUMNS", "fly", "run_flights", "summarize"]
+__all__ = ["FlightConfig", "FlightResult", "FLIGHT_COLUMNS", "fly", "run_flights", "summarize",
+           "swept_clear", "collides_along"]
 
 #: Columns of the per-seed table written by ``fftnav fly3d``.
 FLIGHT_COLUMNS = ("seed", "arrived", "collided", "path_length_m", "straight_line_m", "ratio",
@@ -49,9 +51,10 @@ class FlightConfig:
     speed_mps : float
         Cruise speed, m/s (default 3).
     control_period_s : float
-        Time between depth images, s (default 0.2: the drone moves 0.6 m, well inside l_th - r0).
+        Time between depth images, s (default 0.2: the drone moves 0.6 m, well inside l_th - r0);
+        an integer multiple of ``step_s``.
     step_s : float
-        Integration and collision-check step, s (default 0.05).
+        Integration step, s (default 0.05); collisions are checked along each step.
     max_time_s : float
         Flight time limit, s (default 60).
     arrive_radius_m : float
@@ -61,7 +64,8 @@ class FlightConfig:
         Start-goal distance of the generated forest, metres (default 30).
     momentum : float
         Weight of the previous velocity direction added to the goal direction to form the
-        target direction (default 0.5); damps oscillation in front of obstacles.
+        target direction, finite and ``>= 0`` (default 0.5); damps oscillation in front of
+        obstacles.
     """
 
     rows: int = 90
@@ -86,7 +90,20 @@ class FlightConfig:
         if self.step_s > self.control_period_s:
             raise ValueError(f"step_s must be <= control_period_s={self.control_period_s}, "
                              f"got step_s={self.step_s}")
+        if not math.isclose(self.substeps, self.control_period_s / self.step_s, rel_tol=1e-9):
+            raise ValueError(
+                f"control_period_s must be an integer multiple of step_s={self.step_s}, "
+                f"got control_period_s={self.control_period_s}")
+        if not (isinstance(self.momentum, (int, float)) and math.isfinite(self.momentum)
+                and self.momentum >= 0):
+            raise ValueError(
+                f"momentum must be a finite number >= 0, got momentum={self.momentum!r}")
         self.filter_bank()  # validates the sensor grid, geometry and range
+
+    @property
+    def substeps(self) -> int:
+        """Integration steps per control period."""
+        return round(self.control_period_s / self.step_s)
 
     def filter_bank(self) -> DiscFilterBank:
         """The 2D disc filter bank of this sensor and drone."""
@@ -121,28 +138,85 @@ def _world_direction(el: float, az: float) -> np.ndarray:
     return np.array([math.cos(el) * math.cos(az), math.cos(el) * math.sin(az), math.sin(el)])
 
 
+def swept_clear(
+    dirs: np.ndarray, depth_m: np.ndarray, *, r_m: float, r0_m: float, margin_rad: float
+) -> np.ndarray:
+    """Directions whose swept body clears every reading closer than the protective radius.
+
+    Flying along the unit vector ``u``, a body of radius ``r0`` sweeps a cylinder about the ray
+    ``t u, t >= 0``. A reading at distance ``rho < r`` in direction ``p`` lies inside it iff the
+    angle between ``u`` and ``p`` is below ``asin(min(1, r0 / rho))``; such ``u`` (plus
+    ``margin_rad``, the image's angular sampling) are refused. Each reading is tested on its own,
+    so readings on opposite sides (a gap narrower than the body) block both ways. Readings
+    farther than r are the disc test's job: its cone of half-angle ``alpha / 2 = asin(r0 / r)``
+    keeps them ``>= r0`` from the ray (paper eqs. (1)-(2)).
+
+    Parameters
+    ----------
+    dirs : numpy.ndarray
+        Unit ray directions of the image pixels, shape ``(rows, cols, 3)``.
+    depth_m : numpy.ndarray
+        Depth image in metres, shape ``(rows, cols)``.
+    r_m, r0_m : float
+        Protective radius r and body radius r0, metres.
+    margin_rad : float
+        Extra angle added to each reading's blocking cone, radians.
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean ``(rows, cols)``: True where the direction is clear.
+    """
+    close = depth_m < r_m
+    clear = np.ones(depth_m.shape, bool)
+    if not close.any():
+        return clear
+    points = dirs[close]
+    half = np.arcsin(r0_m / np.maximum(depth_m[close], r0_m)) + margin_rad
+    cos_lim = np.cos(np.minimum(half, math.pi))
+    flat = dirs.reshape(-1, 3)
+    for idx in np.array_split(np.arange(len(points)), -(-len(points) // 256)):  # bounded memory
+        clear &= ~np.any(flat @ points[idx].T > cos_lim[idx], axis=1).reshape(clear.shape)
+    return clear
+
+
 def _command(bank: DiscFilterBank, dirs: np.ndarray, depth_m: np.ndarray, target: np.ndarray,
              yaw: float, speed: float) -> np.ndarray:
     """Velocity (world frame, m/s) along the safe direction nearest the ``target`` direction.
 
-    ``dirs`` are the grid's unit ray directions (sensor frame, shape (rows, cols, 3)).
-    Directions pointing towards readings inside the protective radius r are removed from the
-    safe domain: the disc test (a cone of half-angle alpha/2 = asin(r / l_th)) clears the swept
-    width r0 only for obstacles farther than r.
+    ``dirs`` are the grid's unit ray directions (sensor frame, shape (rows, cols, 3)). Only
+    directions passing :func:`swept_clear` are taken; with none safe, a quarter speed towards
+    the largest y1 among them (nearest the target on ties), and with none at all, zero (hover).
     """
     el_t = math.atan2(target[2], math.hypot(target[0], target[1]))
     az_t = math.atan2(target[1], target[0]) - yaw
+    grid, g = bank.grid, bank.geometry
     y1 = bank.filter(depth_m)
-    safe = y1 >= bank.threshold - SAFE_TOL
-    close = depth_m < bank.geometry.r_m
-    if close.any():
-        safe &= dirs @ dirs[close].sum(axis=0) <= 0.0
-    best = bank.nearest_direction(safe, el_t, az_t)
-    if best is None:  # nothing safe: creep towards the least obstructed disc
-        i, j = np.unravel_index(np.argmax(y1), y1.shape)
-        best = (bank.grid.elevations_rad()[i], bank.grid.azimuths_rad()[j])
+    clear = swept_clear(dirs, depth_m, r_m=g.r_m, r0_m=g.r0_m,
+                        margin_rad=max(grid.el_step_rad, grid.az_step_rad))
+    best = bank.nearest_direction(clear & (y1 >= bank.threshold - SAFE_TOL), el_t, az_t)
+    if best is None:  # nothing safe: creep towards the least obstructed clear disc
+        if not clear.any():
+            return np.zeros(3)
+        top = np.max(y1[clear])
+        best = bank.nearest_direction(clear & (y1 >= top - SAFE_TOL), el_t, az_t)
         speed /= 4
     return speed * _world_direction(best[0], best[1] + yaw)
+
+
+def collides_along(sim: DroneSim, start: np.ndarray, end: np.ndarray) -> bool:
+    """True if the body touches anything anywhere on the segment ``start -> end`` (metres).
+
+    Bodies are placed at most ``d = r0 / 4`` apart, each inflated by the sliver
+    ``r0 - sqrt(r0^2 - (d / 2)^2)`` (1.2 mm for r0 = 0.15 m) that the spheres leave uncovered
+    between them, so the swept capsule is covered entirely.
+    """
+    r0 = sim.r0_m
+    n = max(1, math.ceil(float(np.linalg.norm(end - start)) / (r0 / 4)))
+    d = float(np.linalg.norm(end - start)) / n
+    margin = r0 - math.sqrt(r0**2 - (d / 2) ** 2)
+    return any(sim.collides(start + (end - start) * (k / n), margin_m=margin)
+               for k in range(1, n + 1))
 
 
 def fly(
@@ -171,7 +245,6 @@ def fly(
     bank = config.filter_bank()
     grid = bank.grid
     dirs = grid.directions()
-    substeps = max(1, round(config.control_period_s / config.step_s))
     pos, yaw, t, v = forest.start.copy(), 0.0, 0.0, np.zeros(3)
     path, arrived, collided = [pos.copy()], False, False
     with DroneSim(forest, grid=grid, range_m=config.range_m, r0_m=config.geometry.r0_m) as sim:
@@ -181,11 +254,11 @@ def fly(
             v = _command(bank, dirs, sim.scan(pos, yaw), target, yaw, config.speed_mps)
             if math.hypot(v[0], v[1]) > 1e-6:
                 yaw = math.atan2(v[1], v[0])
-            for _ in range(substeps):
-                pos = pos + v * config.step_s
+            for _ in range(config.substeps):
+                start, pos = pos, pos + v * config.step_s
                 t += config.step_s
                 path.append(pos.copy())
-                collided = sim.collides(pos)
+                collided = collides_along(sim, start, pos)
                 arrived = np.linalg.norm(forest.goal - pos) <= config.arrive_radius_m
                 if arrived or collided:
                     break

@@ -9,14 +9,17 @@ bottom ``-fov_el/2`` (endpoints included); columns run in azimuth from ``-fov_az
 full circle, with step ``2 pi / cols`` and no duplicated seam) to ``+fov_az/2`` (endpoints included
 for a partial field of view). Azimuth is CCW from the heading, elevation up from the horizon.
 
-The disc footprint is the set of grid offsets ``(di, dj)`` whose great-circle angular distance from
-the centre, *measured at the equator*, is ``<= alpha / 2``. A 2D FFT is shift invariant, so the same
-footprint is used at every row. At elevation ``e`` the true disc spans ``1 / cos(e)`` times more
-columns, so the footprint tests only a part of it there (about ``cos(e)`` of its azimuthal width):
-the test is exact at the horizon and increasingly non-conservative towards the poles
-(``docs/3d.md`` quantifies it). Filtering is zero-padded in elevation (so rows closer than the disc
-radius to the top or bottom edge are never safe, as the paper's ``Tc < i < M - Tc``) and circular
-in azimuth when the azimuth covers 360 degrees (zero-padded otherwise).
+The disc of a pixel is the set of grid pixels whose direction lies within the great-circle angle
+alpha / 2 of the pixel's direction (:func:`disc_footprint`). At elevation ``e`` it spans about
+``1 / cos(e)`` times more columns than at the horizon, so one footprint cannot serve every row.
+The rows are grouped into *elevation bands* (:attr:`DiscFilterBank.bands`): rows whose
+``1 / cos(e)`` differ by at most the factor ``band_widening``, and, as one last band, the rows whose
+disc reaches a pole. Each band is filtered with the union of its rows' discs, so the test is
+conservative everywhere (it never skips a pixel of a row's own disc) and tests at most a little
+more than the disc. One forward 2D FFT is shared; each band costs one product and one inverse FFT.
+Filtering is zero-padded in elevation (so rows closer than the disc radius to the top or bottom
+edge are never safe, as the paper's ``Tc < i < M - Tc``) and circular in azimuth when the azimuth
+covers 360 degrees (zero-padded otherwise).
 
 Pure numpy / scipy.
 """
@@ -25,14 +28,15 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from functools import cached_property
+from typing import NamedTuple
 
 import numpy as np
 from scipy import fft as sfft
 
 from fftnav.geometry import DRONE, RobotGeometry
+from fftnav.scan import sanitize_ranges
 
-__all__ = ["SphericalGrid", "DiscFilterBank", "sanitize_depth"]
+__all__ = ["SphericalGrid", "Band", "DiscFilterBank", "disc_footprint", "sanitize_depth"]
 
 #: Absolute tolerance of the test ``y1 >= l_th / R`` on normalised values (FFT round-off is ~1e-15).
 SAFE_TOL = 1e-9
@@ -102,34 +106,76 @@ class SphericalGrid:
             np.cos(el) * np.cos(az), np.cos(el) * np.sin(az), np.sin(el)), axis=-1)
 
 
-def sanitize_depth(depth_m: np.ndarray, range_m: float) -> np.ndarray:
+def sanitize_depth(depth_m: np.ndarray, *, range_m: float) -> np.ndarray:
     """Normalised depth ``s = D / R`` (eq. (3D sensor data)) with the project's input rules.
 
-    ``+inf`` and readings ``>= R`` are "no return" and read 1 (open, R); NaN and negative readings
-    are invalid and read 0 (blocked). The input is not modified.
+    :func:`fftnav.scan.sanitize_ranges` divided by R: ``+inf`` and readings ``>= R`` are "no
+    return" and read 1 (open, R); NaN and negative readings are invalid and read 0 (blocked).
+    The input is not modified.
 
     Parameters
     ----------
     depth_m : numpy.ndarray
         Depth readings in metres, any shape.
     range_m : float
-        Maximum range R in metres.
+        Maximum range R in metres, finite and ``> 0``.
 
     Returns
     -------
     numpy.ndarray
         Float array in ``[0, 1]``, same shape.
     """
-    d = np.array(depth_m, dtype=float)
-    d[np.isnan(d) | (d < 0)] = 0.0
-    return np.minimum(d, range_m) / range_m
+    return sanitize_ranges(depth_m, range_m=range_m) / range_m
+
+
+def disc_footprint(grid: SphericalGrid, elevation_rad: float, *, half_angle_rad: float
+                   ) -> np.ndarray:
+    """Grid offsets within a great-circle angle of a pixel at ``elevation_rad`` (any azimuth).
+
+    Offset ``(di, dj)`` (rows down, columns CCW) belongs iff the directions at
+    ``(e, 0)`` and ``(e - di el_step, dj az_step)`` are at most ``half_angle_rad`` apart:
+    ``sin e sin e' + cos e cos e' cos(dj az_step) >= cos(half_angle)``. Columns reach at most
+    half the circle for a full azimuth (farther offsets wrap around) and ``cols - 1`` otherwise.
+
+    Parameters
+    ----------
+    grid : SphericalGrid
+        Image grid.
+    elevation_rad : float
+        Elevation of the centre pixel, radians.
+    half_angle_rad : float
+        Disc radius, radians (alpha / 2 for the safe-direction filter).
+
+    Returns
+    -------
+    numpy.ndarray
+        Boolean ``(2a + 1, 2b + 1)``, centre ``(a, b)``; ``a = floor(half_angle / el_step)`` and
+        ``b`` the largest column offset in the disc.
+    """
+    a = int(half_angle_rad // grid.el_step_rad)
+    b_max = grid.cols // 2 if grid.full_azimuth else grid.cols - 1
+    e2 = elevation_rad - np.arange(-a, a + 1)[:, None] * grid.el_step_rad
+    dj = np.arange(-b_max, b_max + 1)[None, :] * grid.az_step_rad
+    cos_d = (math.sin(elevation_rad) * np.sin(e2)
+             + math.cos(elevation_rad) * np.cos(e2) * np.cos(dj))
+    fp = cos_d >= math.cos(half_angle_rad) - 1e-12
+    b = int(np.abs(np.nonzero(fp)[1] - b_max).max())
+    return fp[:, b_max - b: b_max + b + 1]
+
+
+class Band(NamedTuple):
+    """Rows filtered together and their common footprint (see :class:`DiscFilterBank`)."""
+
+    rows: np.ndarray
+    footprint: np.ndarray
 
 
 class DiscFilterBank:
     """2D safe-direction filter h1 (a disc of angular diameter alpha) for one sensor and robot.
 
-    Designed once per (grid, robot, range); the padded spectrum of h1 is kept, so filtering an
-    image is one real 2D FFT, a product and one inverse FFT (the paper's "stored in ROM").
+    Designed once per (grid, robot, range): the rows are grouped into elevation bands and the
+    padded spectrum of each band's footprint is kept, so filtering an image is one real 2D FFT
+    and, per band, a product and one inverse FFT (the paper's "stored in ROM").
 
     Parameters
     ----------
@@ -140,60 +186,79 @@ class DiscFilterBank:
         (r0 = 0.15 m, r = 0.65 m: l_th = 2.82 m, alpha = 26.7 deg).
     range_m : float, optional
         Maximum sensor range R in metres, ``> l_th`` (default 10).
+    band_widening : float, optional
+        Rows share a band while ``1 / cos(elevation)`` varies by at most this factor inside it
+        (default 1.1): a row's test then covers its own disc and at most about 10 % more
+        columns. Rows whose disc reaches a pole form one more band.
 
     Raises
     ------
     ValueError
-        If ``range_m`` is not above l_th or the disc footprint does not fit in the grid.
+        If ``range_m`` is not above l_th, ``band_widening`` is not above 1 or the horizon's
+        disc footprint does not fit in the grid.
     """
 
     def __init__(
-        self, grid: SphericalGrid, *, geometry: RobotGeometry = DRONE, range_m: float = 10.0
+        self, grid: SphericalGrid, *, geometry: RobotGeometry = DRONE, range_m: float = 10.0,
+        band_widening: float = 1.1,
     ) -> None:
         l_th = geometry.l_th_m
         if not (isinstance(range_m, (int, float)) and math.isfinite(range_m) and range_m > l_th):
             raise ValueError(
                 f"range_m must be finite and > l_th_m={l_th:.4g}, got range_m={range_m!r}")
+        if not (isinstance(band_widening, (int, float)) and math.isfinite(band_widening)
+                and band_widening > 1):
+            raise ValueError(
+                f"band_widening must be a finite number > 1, got band_widening={band_widening!r}")
         self.grid, self.geometry, self.range_m = grid, geometry, float(range_m)
         self.threshold = l_th / self.range_m
-        fp = self.footprint
-        sizes = (grid.rows, grid.cols)
-        for name, need, have in zip(("rows", "cols"), fp.shape, sizes, strict=True):
+        half = geometry.alpha_rad / 2
+        horizon = disc_footprint(grid, 0.0, half_angle_rad=half)
+        for name, need, have in zip(("rows", "cols"), horizon.shape, (grid.rows, grid.cols),
+                                    strict=True):
             if have < need:
                 raise ValueError(
                     f"{name} must be >= the disc footprint's {need} for "
                     f"alpha={geometry.alpha_deg:.1f} deg, got {name}={have}")
-        a, b = fp.shape[0] // 2, fp.shape[1] // 2
-        # Zero padding: N >= rows + a keeps the wrapped-around kernel half in the padding.
+        self.bands = self._bands(half, band_widening)
+        a = horizon.shape[0] // 2  # every footprint spans the same rows, +-a
+        b = max(band.footprint.shape[1] for band in self.bands) // 2
+        # Zero padding: N >= rows + a (cols + b) keeps the wrapped-around kernel in the padding.
         self.fft_shape = (sfft.next_fast_len(grid.rows + a, real=True),
                           grid.cols if grid.full_azimuth
                           else sfft.next_fast_len(grid.cols + b, real=True))
+        self._spectra = [self._spectrum(band.footprint) for band in self.bands]
+
+    def _bands(self, half: float, widening: float) -> list[Band]:
+        el = self.grid.elevations_rad()
+        cos_el = np.cos(np.minimum(np.abs(el), math.pi / 2))
+        polar = np.abs(el) + half >= math.pi / 2  # the disc reaches a pole
+        with np.errstate(divide="ignore"):
+            key = np.floor(-np.log(cos_el) / math.log(widening))
+        key[polar] = np.inf
+        bands = []
+        for k in np.unique(key):
+            rows = np.flatnonzero(key == k)
+            fps = [disc_footprint(self.grid, el[i], half_angle_rad=half) for i in rows]
+            b = max(fp.shape[1] for fp in fps) // 2
+            union = np.logical_or.reduce(
+                [np.pad(fp, ((0, 0), (b - fp.shape[1] // 2,) * 2)) for fp in fps])
+            bands.append(Band(rows, union))
+        return bands
+
+    def _spectrum(self, footprint: np.ndarray) -> np.ndarray:
+        """rfft2 of the footprint's mean kernel, centred on index (0, 0): y1(i, j) is the mean of
+        s(i + di, j + dj) over the footprint's offsets (a correlation; no group delay)."""
         kernel = np.zeros(self.fft_shape)
-        ii, jj = np.nonzero(fp)
-        kernel[ii - a, jj - b] = 1.0 / ii.size  # centred on index (0, 0): no group delay
-        self.spectrum = sfft.rfft2(kernel)
-
-    @cached_property
-    def footprint(self) -> np.ndarray:
-        """Boolean disc footprint, shape ``(2a+1, 2b+1)``: offsets within alpha/2 at the equator.
-
-        Offset ``(di, dj)`` belongs iff the great-circle distance between ``(0, 0)`` and
-        ``(di * el_step, dj * az_step)`` is ``<= alpha / 2``, i.e.
-        ``cos(di el_step) cos(dj az_step) >= cos(alpha / 2)``.
-        """
-        half = self.geometry.alpha_rad / 2
-        a = int(half // self.grid.el_step_rad)
-        b = int(half // self.grid.az_step_rad)
-        di = np.arange(-a, a + 1)[:, None] * self.grid.el_step_rad
-        dj = np.arange(-b, b + 1)[None, :] * self.grid.az_step_rad
-        return np.cos(di) * np.cos(dj) >= math.cos(half) - 1e-12
+        ii, jj = np.nonzero(footprint)
+        a, b = footprint.shape[0] // 2, footprint.shape[1] // 2
+        kernel[(a - ii) % self.fft_shape[0], (b - jj) % self.fft_shape[1]] = 1.0
+        return sfft.rfft2(kernel / kernel.sum())
 
     def _check(self, depth_m: np.ndarray) -> np.ndarray:
-        try:
-            d = np.asarray(depth_m, dtype=float)
-        except (TypeError, ValueError) as exc:
-            raise ValueError(
-                f"depth_m must be an array of numbers, got {type(depth_m).__name__}") from exc
+        d = np.asarray(depth_m)
+        if d.dtype.kind not in "biuf":
+            raise ValueError(f"depth_m must be a real numeric array, got dtype={d.dtype}")
         shape = (self.grid.rows, self.grid.cols)
         if d.shape != shape:
             raise ValueError(f"depth_m must have shape (rows, cols)={shape}, got shape={d.shape}")
@@ -202,25 +267,34 @@ class DiscFilterBank:
     def filter(self, depth_m: np.ndarray) -> np.ndarray:
         """Filtered image y1: the disc mean of ``min(s, l_th / R)`` by 2D FFT (eqs. (h1), (3D)).
 
+        Each row takes the mean over its band's footprint (:attr:`bands`).
+
         Parameters
         ----------
         depth_m : numpy.ndarray
-            Depth image in metres, shape ``(rows, cols)``; input rules of :func:`sanitize_depth`.
+            Depth image in metres, shape ``(rows, cols)``, real numbers; input rules of
+            :func:`sanitize_depth`.
 
         Returns
         -------
         numpy.ndarray
             y1, normalised (dimensionless, ``<= l_th / R``), shape ``(rows, cols)``.
         """
-        s = np.minimum(sanitize_depth(self._check(depth_m), self.range_m), self.threshold)
-        y = sfft.irfft2(sfft.rfft2(s, self.fft_shape) * self.spectrum, self.fft_shape)
-        return y[: self.grid.rows, : self.grid.cols]
+        d = self._check(depth_m)
+        s = np.minimum(sanitize_depth(d, range_m=self.range_m), self.threshold)
+        spectrum = sfft.rfft2(s, self.fft_shape)
+        y = np.empty(d.shape)
+        for band, h in zip(self.bands, self._spectra, strict=True):
+            # inverse 2D FFT, the azimuth half only for the band's rows
+            rows = sfft.ifft(spectrum * h, axis=0)[band.rows]
+            y[band.rows] = sfft.irfft(rows, self.fft_shape[1], axis=1)[:, : self.grid.cols]
+        return y
 
     def safe_mask(self, depth_m: np.ndarray) -> np.ndarray:
         """Safe-direction domain: ``y1 >= l_th / R`` (eq. (y1 for safe), extended to 2D).
 
         Because ``min(s, l_th/R)`` never exceeds ``l_th/R``, a pixel is safe exactly when every
-        reading in its disc footprint reaches l_th (a sliding minimum over the footprint).
+        reading in its band's footprint reaches l_th (a sliding minimum over the footprint).
 
         Returns
         -------

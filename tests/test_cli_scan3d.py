@@ -45,6 +45,31 @@ def test_scan3d_prints_the_safe_mask_in_the_image_layout(tmp_path) -> None:
     # column 0 is azimuth -180 (back of the corridor), column 180 straight ahead
     eq = 44
     assert mask[eq, 0] == mask[eq, 180] == 1 and mask[eq, 90] == mask[eq, 270] == 0
+    assert [b["rows"] for b in out["bands"]] == [b.rows.size for b in
+                                                 DiscFilterBank(SphericalGrid(90, 360)).bands]
+
+
+def test_scan3d_layout_of_an_asymmetric_obstacle(tmp_path) -> None:
+    # open space but a wall filling azimuth +60..+120 deg and elevation +10..+40 deg
+    grid = SphericalGrid(90, 360)
+    el = np.degrees(grid.elevations_rad())[:, None]
+    az = np.degrees(grid.azimuths_rad())[None, :]
+    depth = np.where((az >= 60) & (az <= 120) & (el >= 10) & (el <= 40), 1.0, np.inf)
+    path = tmp_path / "wall.npy"
+    np.save(path, depth)
+    proc = _run("scan3d", str(path))
+    assert proc.returncode == 0, proc.stderr
+    mask = np.array(json.loads(proc.stdout)["safe_mask"], bool)
+    # row 0 is the top (+45 deg), column 0 azimuth -180: the wall is in the upper right part
+    # of the image (rows 5..35, columns 240..300), its mirror images are open
+    assert not mask[20, 270] and not mask[25, 250]
+    for row, col in ((90 - 1 - 20, 270), (20, 360 - 270), (90 - 1 - 20, 360 - 270), (60, 270)):
+        assert mask[row, col], (row, col)
+    # away from the top and bottom edges, the unsafe pixels surround the wall (within the
+    # widest band footprint: 16 columns = 16 deg, 13 rows)
+    i, j = np.nonzero(~mask & (np.abs(el) < 31))
+    assert i.size and az[0, j].min() >= 60 - 16 and az[0, j].max() <= 120 + 16
+    assert el[i, 0].min() >= 10 - 13.4
 
 
 def test_scan3d_options_change_the_filter(tmp_path) -> None:
@@ -84,6 +109,29 @@ def test_scan3d_bad_input_is_one_line_exit_2(tmp_path, content, args, match) -> 
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in proc.stderr
     assert re.search(match, lines[0]), lines[0]
+
+
+def test_scan3d_refuses_an_npz_archive(tmp_path) -> None:
+    path = tmp_path / "two.npz"
+    np.savez(path, depth=np.ones((90, 360)), other=np.zeros(3))
+    proc = _run("scan3d", str(path))
+    assert proc.returncode == 2 and proc.stdout == "" and "Traceback" not in proc.stderr
+    lines = proc.stderr.strip().splitlines()
+    assert len(lines) == 1
+    assert re.search(r"FILE='.*two\.npz' must hold one array \(\.npy\), got an archive of 2 "
+                     r"arrays \['depth', 'other'\]", lines[0]), lines[0]
+
+
+def test_depth3d_image_extent_is_the_pixel_edges() -> None:
+    from fftnav.report.depth3d import _extent_deg
+
+    for grid in (SphericalGrid(90, 360), SphericalGrid(30, 61, math.radians(60), math.pi)):
+        left, right, bottom, top = _extent_deg(grid)
+        # imshow puts pixel (i, j)'s centre at these coordinates (row 0 at the top)
+        x = left + (np.arange(grid.cols) + 0.5) * (right - left) / grid.cols
+        y = top - (np.arange(grid.rows) + 0.5) * (top - bottom) / grid.rows
+        np.testing.assert_allclose(x, np.degrees(grid.azimuths_rad()), atol=1e-9)
+        np.testing.assert_allclose(y, np.degrees(grid.elevations_rad()), atol=1e-9)
 
 
 def test_scan3d_unreadable_files(tmp_path) -> None:

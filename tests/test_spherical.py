@@ -6,23 +6,26 @@ import math
 
 import numpy as np
 import pytest
-from scipy import ndimage
 
 from fftnav.geometry import DRONE, RobotGeometry
-from fftnav.spherical import DiscFilterBank, SphericalGrid, sanitize_depth
+from fftnav.spherical import DiscFilterBank, SphericalGrid, disc_footprint, sanitize_depth
 
 
 def _sliding_min_oracle(bank: DiscFilterBank, depth: np.ndarray) -> np.ndarray:
-    """Safe iff min(D/R) over the disc footprint reaches l_th/R (wrap in a full azimuth)."""
+    """Safe iff min(D/R) over the row's band footprint reaches l_th/R: a brute-force minimum
+    over the offsets (di, dj), outside rows (and columns of a partial azimuth) reading 0."""
     s = np.minimum(np.nan_to_num(depth, nan=-1.0).clip(min=0), bank.range_m) / bank.range_m
-    a, b = (n // 2 for n in bank.footprint.shape)
-    if bank.grid.full_azimuth:
-        s = np.pad(s, ((0, 0), (b, b)), mode="wrap")
-    else:
-        s = np.pad(s, ((0, 0), (b, b)))
-    s = np.pad(s, ((a, a), (0, 0)))
-    m = ndimage.minimum_filter(s, footprint=bank.footprint, mode="constant", cval=0.0)
-    return m[a:-a, b:-b] >= bank.threshold
+    rows, cols = s.shape
+    safe = np.zeros(s.shape, bool)
+    for band in bank.bands:
+        a, b = (n // 2 for n in band.footprint.shape)
+        p = np.pad(s, ((0, 0), (b, b)), mode="wrap" if bank.grid.full_azimuth else "constant")
+        p = np.pad(p, ((a, a), (0, 0)))
+        m = np.full(s.shape, np.inf)
+        for ii, jj in zip(*np.nonzero(band.footprint), strict=True):
+            m = np.minimum(m, p[ii: ii + rows, jj: jj + cols])  # s(i + ii - a, j + jj - b)
+        safe[band.rows] = m[band.rows] >= bank.threshold
+    return safe
 
 
 def _blob_image(rng: np.random.Generator, rows: int, cols: int) -> np.ndarray:
@@ -60,35 +63,89 @@ def test_full_resolution_oracle_and_wraparound() -> None:
     assert mask[30, 100] and not mask[44, 200]
 
 
-def test_footprint_is_the_equatorial_great_circle_disc() -> None:
+def _unit(el: np.ndarray, az: np.ndarray) -> np.ndarray:
+    return np.stack(np.broadcast_arrays(np.cos(el) * np.cos(az), np.cos(el) * np.sin(az),
+                                        np.sin(el)), axis=-1)
+
+
+@pytest.mark.parametrize("el_deg", [0.0, 40.0, -70.0])
+def test_footprint_is_the_great_circle_disc(el_deg: float) -> None:
     grid = SphericalGrid(90, 360)
-    bank = DiscFilterBank(grid)
-    fp = bank.footprint
+    half = DRONE.alpha_rad / 2
+    e = math.radians(el_deg)
+    fp = disc_footprint(grid, e, half_angle_rad=half)
     a, b = fp.shape[0] // 2, fp.shape[1] // 2
-    # independent oracle: angle between unit vectors at (0, 0) and (di*del, dj*daz)
-    el = np.arange(-a, a + 1)[:, None] * grid.el_step_rad
-    az = np.arange(-b, b + 1)[None, :] * grid.az_step_rad
-    vec = np.stack(np.broadcast_arrays(np.cos(el) * np.cos(az), np.cos(el) * np.sin(az),
-                                       np.sin(el)), axis=-1)
-    angle = np.arccos(np.clip(vec[..., 0], -1, 1))
-    np.testing.assert_array_equal(fp, angle <= DRONE.alpha_rad / 2 + 1e-12)
-    assert fp.shape == (27, 27) and fp[a].sum() == 27 and fp[:, b].sum() == 27
-    assert fp.sum() == pytest.approx(math.pi * (13.34 ** 2), rel=0.05)
+    # independent oracle: angle between the unit vectors at (e, 0) and (e - di*del, dj*daz)
+    vec = _unit(e - np.arange(-a, a + 1)[:, None] * grid.el_step_rad,
+                np.arange(-b, b + 1)[None, :] * grid.az_step_rad)
+    angle = np.arccos(np.clip(vec @ _unit(np.array(e), np.array(0.0)), -1, 1))
+    np.testing.assert_array_equal(fp, angle <= half + 1e-12)
+    assert fp[:, 0].any() and fp[:, -1].any()  # cropped to the disc's columns
+    if el_deg == 0.0:
+        assert fp.shape == (27, 27) and fp[a].sum() == 27 and fp[:, b].sum() == 27
+        assert fp.sum() == pytest.approx(math.pi * (13.34 ** 2), rel=0.05)
+    else:  # wider than at the horizon by about 1 / cos(e) (the true disc's azimuth half-width)
+        assert b * grid.az_step_rad == pytest.approx(
+            math.asin(math.sin(half) / math.cos(e)), abs=grid.az_step_rad)
+
+
+def test_bands_cover_each_rows_disc_and_little_more() -> None:
+    grid = SphericalGrid(60, 120, math.pi)  # the full sphere: 3.05 x 3 deg pixels
+    bank = DiscFilterBank(grid)
+    half = DRONE.alpha_rad / 2
+    el = grid.elevations_rad()
+    assert sorted(np.concatenate([band.rows for band in bank.bands])) == list(range(60))
+    for band in bank.bands:
+        B = band.footprint.shape[1] // 2
+        widest = max(np.cos(el[band.rows])) / max(min(np.cos(el[band.rows])), 1e-12)
+        assert widest <= 1.1 or np.all(np.abs(el[band.rows]) + half >= math.pi / 2)
+        for i in band.rows:
+            own = disc_footprint(grid, el[i], half_angle_rad=half)
+            b = own.shape[1] // 2
+            assert not (own & ~band.footprint[:, B - b: B + b + 1]).any()  # conservative
+            if abs(el[i]) + half < math.pi / 2:  # away from the poles: at most 25 % more
+                assert band.footprint.sum() <= 1.25 * own.sum()
+    # one band per factor 1.1 of 1 / cos(e) up to the polar rows (|e| >= 90 deg - alpha/2), + 1
+    assert len(bank.bands) <= math.floor(-math.log(math.sin(half)) / math.log(1.1)) + 2
+    horizon = DiscFilterBank(SphericalGrid(90, 360))  # rows within 45 deg: 1 / cos <= 1.1^3.6
+    assert len(horizon.bands) == math.floor(-math.log(math.cos(math.pi / 4)) / math.log(1.1)) + 1
+
+
+def test_no_pixel_of_an_obstacles_disc_is_safe_near_the_poles() -> None:
+    grid = SphericalGrid(60, 120, math.pi)
+    bank = DiscFilterBank(grid)
+    dirs = grid.directions()
+    for i0, j0 in ((30, 0), (15, 40), (10, 100), (48, 7), (51, 60)):  # 1.5 .. 59.5 deg
+        depth = np.full((60, 120), np.inf)
+        depth[i0, j0] = 1.0
+        mask = bank.safe_mask(depth)
+        angle = np.arccos(np.clip(dirs @ dirs[i0, j0], -1, 1))
+        assert not mask[angle <= DRONE.alpha_rad / 2].any()
+        assert mask[(angle > 1.5 * DRONE.alpha_rad) & (np.abs(grid.elevations_rad())
+                                                       < math.radians(60))[:, None]].all()
+        np.testing.assert_array_equal(mask, _sliding_min_oracle(bank, depth))
 
 
 def test_edges_and_poles_are_never_safe() -> None:
     grid = SphericalGrid(90, 361, math.radians(90), math.radians(180))
     bank = DiscFilterBank(grid)
     mask = bank.safe_mask(np.full((90, 361), np.inf))
-    # zero padding: safe iff every grid sample within alpha/2 (along the row and the column)
-    # lies inside the image, i.e. a >= 13 rows / b >= 13 columns (1.01 / 0.5 deg) from each edge
-    a = math.floor(DRONE.alpha_deg / 2 / (90 / 89))
-    b = math.floor(DRONE.alpha_deg / 2 / 0.5)
-    i, j = np.arange(90), np.arange(361)
-    rows_ok = (i >= a) & (i <= 89 - a)
-    cols_ok = (j >= b) & (j <= 360 - b)
-    assert (a, b) == (13, 26)
-    np.testing.assert_array_equal(mask, rows_ok[:, None] & cols_ok[None, :])
+    # zero padding: safe iff every grid sample of the band's footprint lies inside the image:
+    # a = 13 rows (1.01 deg) from the top and bottom, b(row) columns (0.5 deg) from each side
+    half = DRONE.alpha_rad / 2
+    a = math.floor(math.degrees(half) / (90 / 89))
+    b = np.zeros(90, int)
+    for band in bank.bands:
+        b[band.rows] = band.footprint.shape[1] // 2
+    i, j = np.arange(90)[:, None], np.arange(361)[None, :]
+    np.testing.assert_array_equal(mask, (i >= a) & (i <= 89 - a) & (j >= b[:, None])
+                                  & (j <= 360 - b[:, None]))
+    # b(row) reaches at least the row's own disc: along the row, acos((cos h - sin^2 e) / cos^2 e)
+    e = grid.elevations_rad()
+    along = np.arccos((math.cos(half) - np.sin(e) ** 2) / np.cos(e) ** 2)
+    assert a == 13 and np.all(b >= np.floor(along / math.radians(0.5) + 1e-9))
+    assert b[45] <= 1.1 * 26 + 1  # the horizon band is at most 10 % (+ a pixel) wider
+    assert b[0] > 30  # 45 deg: the disc is 1 / cos(45 deg) wider than at the horizon
     el = np.degrees(grid.elevations_rad())
     assert np.abs(el[mask.any(axis=1)]).max() < 45 - DRONE.alpha_deg / 2 + 1.02
 
@@ -120,7 +177,7 @@ def test_corridor_gives_safe_directions_only_along_the_corridor() -> None:
 def test_input_rules_inf_beyond_range_nan_negative() -> None:
     raw = np.array([[np.inf, 12.0, 10.0, 5.0], [np.nan, -1.0, 0.0, 2.0]])
     before = raw.copy()
-    np.testing.assert_array_equal(sanitize_depth(raw, 10.0),
+    np.testing.assert_array_equal(sanitize_depth(raw, range_m=10.0),
                                   [[1.0, 1.0, 1.0, 0.5], [0.0, 0.0, 0.0, 0.2]])
     np.testing.assert_array_equal(raw, before)
     bank = DiscFilterBank(SphericalGrid(45, 180))
@@ -197,9 +254,17 @@ def test_bank_and_image_errors() -> None:
         (np.ones(360), r"depth_m must have shape \(rows, cols\)=\(90, 360\), got shape=\(360,\)"),
         (np.ones((360, 90)), r"got shape=\(360, 90\)"),
         (np.ones((1, 90, 360)), r"got shape=\(1, 90, 360\)"),
-        ([["a"] * 360] * 90, r"depth_m must be an array of numbers, got list"),
+        ([["a"] * 360] * 90, r"depth_m must be a real numeric array, got dtype=<U1"),
+        (np.full((90, 360), "5.0"), r"depth_m must be a real numeric array, got dtype=<U3"),
+        (np.ones((90, 360), complex), r"depth_m must be a real numeric array, got dtype=complex"),
+        (np.ones((90, 360), object), r"depth_m must be a real numeric array, got dtype=object"),
     ]:
         with pytest.raises(ValueError, match=match):
             bank.safe_mask(bad)
+    with pytest.raises(ValueError, match=r"band_widening must be a finite number > 1, got "
+                                         r"band_widening=1.0"):
+        DiscFilterBank(grid, band_widening=1.0)
+    with pytest.raises(ValueError, match=r"range_m must be a finite number > 0, got range_m=0"):
+        sanitize_depth(np.ones(3), range_m=0)
     with pytest.raises(ValueError, match=r"mask must have shape \(90, 360\), got shape=\(3,\)"):
         bank.nearest_direction(np.ones(3, bool), 0.0, 0.0)

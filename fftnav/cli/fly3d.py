@@ -14,6 +14,12 @@ def cmd_fly3d(args: argparse.Namespace) -> int:
 
     if args.seeds < 1:
         raise ValueError(f"--seeds must be an integer >= 1, got --seeds={args.seeds}")
+    if args.first < 0:
+        raise ValueError(f"--first must be an integer >= 0, got --first={args.first}")
+    seeds = range(args.first, args.first + args.seeds)
+    if args.plot and args.plot_seed not in seeds:
+        raise ValueError(f"--plot-seed must be one of the flown seeds {seeds.start}.."
+                         f"{seeds.stop - 1}, got --plot-seed={args.plot_seed}")
     config = FlightConfig(rows=args.rows, cols=args.cols)
     out = Path(args.out)
     out.parent.mkdir(parents=True, exist_ok=True)
@@ -21,15 +27,14 @@ def cmd_fly3d(args: argparse.Namespace) -> int:
     with out.open("w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=FLIGHT_COLUMNS)
         writer.writeheader()
-        for seed in range(args.first, args.first + args.seeds):
+        for seed in seeds:
             results.append(fly(seed, config))
             writer.writerow(results[-1].row())
             fh.flush()
     if args.plot:
         from fftnav.report.depth3d import draw_flight_figure
 
-        shown = next((r for r in results if r.seed == args.plot_seed), results[0])
-        draw_flight_figure(shown, Path(args.plot))
+        draw_flight_figure(results[seeds.index(args.plot_seed)], Path(args.plot))
     print(json.dumps(summarize(results)))
     return 0
 
@@ -37,10 +42,11 @@ def cmd_fly3d(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("fly3d", help="quadrotor flights through 3D forests (beyond the paper)")
     p.add_argument("--seeds", type=int, default=20, help="number of forests (default 20)")
-    p.add_argument("--first", type=int, default=0, help="first seed (default 0)")
+    p.add_argument("--first", type=int, default=0, help="first seed, >= 0 (default 0)")
     p.add_argument("--out", required=True, metavar="CSV", help="per-seed results CSV")
     p.add_argument("--plot", metavar="PNG", help="also draw one flight (top and side views)")
-    p.add_argument("--plot-seed", type=int, default=0, help="seed drawn by --plot (default 0)")
+    p.add_argument("--plot-seed", type=int, default=0,
+                   help="seed drawn by --plot, one of the flown seeds (default 0)")
     p.add_argument("--rows", type=int, default=90, help="sensor elevation rows (default 90)")
     p.add_argument("--cols", type=int, default=360, help="sensor azimuth columns (default 360)")
     p.set_defaults(func=cmd_fly3d)

@@ -21,6 +21,10 @@ def cmd_scan3d(args: argparse.Namespace) -> int:
         depth = np.load(args.file, allow_pickle=False)
     except ValueError as exc:
         raise ValueError(f"cannot read FILE={args.file!r} as a .npy array: {exc}") from exc
+    if not isinstance(depth, np.ndarray):  # a .npz archive
+        with depth:
+            raise ValueError(f"FILE={args.file!r} must hold one array (.npy), got an archive "
+                             f"of {len(depth.files)} arrays {depth.files}")
     if depth.ndim != 2:
         raise ValueError(f"FILE must hold a 2D (rows, cols) depth image, got shape={depth.shape}")
     if not np.issubdtype(depth.dtype, np.number) or np.issubdtype(depth.dtype, np.complexfloating):
@@ -35,7 +39,8 @@ def cmd_scan3d(args: argparse.Namespace) -> int:
         "cols": grid.cols,
         "l_th_m": geometry.l_th_m,
         "alpha_deg": geometry.alpha_deg,
-        "footprint": list(bank.footprint.shape),
+        "bands": [{"rows": band.rows.size, "footprint": list(band.footprint.shape)}
+                  for band in bank.bands],
         "safe_fraction": float(mask.mean()),
         "safe_mask": mask.astype(int).tolist(),
     }))

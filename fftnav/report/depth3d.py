@@ -15,8 +15,17 @@ from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
 if TYPE_CHECKING:
     from fftnav.flight3d import FlightResult
+    from fftnav.spherical import SphericalGrid
 
 __all__ = ["draw_depth3d_figure", "draw_flight_figure"]
+
+
+def _extent_deg(grid: SphericalGrid) -> tuple[float, float, float, float]:
+    """``imshow`` extent (left, right, bottom, top) in degrees: the outer pixel *edges*, half a
+    step beyond the first and last pixel centres, so every pixel is drawn centred on its angle."""
+    az, el = np.degrees(grid.azimuths_rad()), np.degrees(grid.elevations_rad())
+    da, de = math.degrees(grid.az_step_rad) / 2, math.degrees(grid.el_step_rad) / 2
+    return (az[0] - da, az[-1] + da, el[-1] - de, el[0] + de)
 
 
 def draw_depth3d_figure(out_dir: Path, *, seed: int = 0) -> list[Path]:
@@ -48,7 +57,7 @@ def draw_depth3d_figure(out_dir: Path, *, seed: int = 0) -> list[Path]:
         depth = sim.scan(forest.start, 0.0)
     mask = bank.safe_mask(depth)
     best = bank.nearest_direction(mask, 0.0, 0.0)
-    extent = (-180.0, 180.0, -45.0, 45.0)
+    extent = _extent_deg(grid)
     out_dir = Path(out_dir)
     out_dir.mkdir(parents=True, exist_ok=True)
     paths = []

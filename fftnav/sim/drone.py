@@ -1,9 +1,11 @@
 """PyBullet 3D forest, spherical depth sensor and kinematic quadrotor (paper Sec. IV-A).
 
 The paper tested its 3D extension with a depth-camera quadrotor in a Unity forest; this module is
-the project's PyBullet stand-in: a seeded forest of trunks (cylinders) and canopies (spheres) on a
-ground plane, a spherical depth sensor built on ``rayTestBatch`` and a free-flying quadrotor body
-whose position is integrated by :mod:`fftnav.flight3d` from commanded velocities.
+the project's PyBullet stand-in: a seeded forest of trunks (vertical cylinders, built as one static
+triangle mesh of 64-gon prisms like the 2D simulator's: Bullet ray-casts it several times faster
+than its cylinder primitive) and canopies (spheres) on a ground plane, a spherical depth sensor
+built on ``rayTestBatch`` and a free-flying quadrotor body whose position is integrated by
+:mod:`fftnav.flight3d` from commanded velocities.
 """
 
 from __future__ import annotations
@@ -14,7 +16,9 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from fftnav.sim.swarm import _outline, _prism_triangles
 from fftnav.spherical import SphericalGrid
+from fftnav.world import Circle
 
 __all__ = ["Forest3D", "make_forest3d", "DroneSim"]
 
@@ -67,15 +71,19 @@ def make_forest3d(
         Target density (default 20 per 100 m^2, the paper's one tree per 5 m^2); dart
         throwing may place fewer.
     min_spacing_m, clearance_m : float, optional
-        Minimum trunk spacing and start/goal clearance in metres.
+        Minimum trunk spacing and start/goal clearance in metres, finite and ``>= 0``.
 
     Returns
     -------
     Forest3D
     """
+    for name, value in (("trees_per_100m2", trees_per_100m2), ("min_spacing_m", min_spacing_m),
+                        ("clearance_m", clearance_m)):
+        if not (math.isfinite(value) and value >= 0):
+            raise ValueError(f"{name} must be a finite number >= 0, got {name}={value!r}")
     if not (math.isfinite(distance_m) and distance_m > 2 * clearance_m):
-        raise ValueError(
-            f"distance_m must be > 2 clearance_m={2 * clearance_m}, got distance_m={distance_m!r}")
+        raise ValueError(f"distance_m must be finite and > 2 * clearance_m (clearance_m="
+                         f"{clearance_m!r}), got distance_m={distance_m!r}")
     if not (math.isfinite(altitude_m) and altitude_m > 0):
         raise ValueError(f"altitude_m must be finite and > 0, got altitude_m={altitude_m!r}")
     start = np.array([0.0, 0.0, altitude_m])
@@ -112,6 +120,11 @@ class DroneSim:
         Maximum range R in metres (default 10); a ray that hits nothing reads R.
     r0_m : float, optional
         Collision radius of the quadrotor body (a sphere), metres (default 0.15, the paper's drone).
+    trunk_shape : {"mesh", "cylinder"}, optional
+        ``"mesh"`` (default): all trunks as one static triangle mesh of prisms over 64-gons
+        circumscribing their circles (readings at most 0.12 % of the radius short);
+        ``"cylinder"``: one Bullet cylinder primitive per trunk (exact, slower to ray-cast; kept
+        for the side-by-side measurement in ``experiments/3d_measurements.py``).
 
     Notes
     -----
@@ -119,17 +132,32 @@ class DroneSim:
     """
 
     def __init__(
-        self, forest: Forest3D, *, grid: SphericalGrid, range_m: float = 10.0, r0_m: float = 0.15
+        self, forest: Forest3D, *, grid: SphericalGrid, range_m: float = 10.0, r0_m: float = 0.15,
+        trunk_shape: str = "mesh",
     ) -> None:
-        if not (math.isfinite(range_m) and range_m > r0_m > 0):
+        if not (math.isfinite(r0_m) and r0_m > 0):
+            raise ValueError(f"r0_m must be finite and > 0, got r0_m={r0_m!r}")
+        if not (math.isfinite(range_m) and range_m > r0_m):
             raise ValueError(f"range_m must be finite and > r0_m={r0_m}, got range_m={range_m!r}")
+        if trunk_shape not in ("mesh", "cylinder"):
+            raise ValueError(
+                f"trunk_shape must be 'mesh' or 'cylinder', got trunk_shape={trunk_shape!r}")
         self.forest, self.grid, self.range_m, self.r0_m = forest, grid, float(range_m), float(r0_m)
         self.cid = c = p.connect(p.DIRECT)
         shape = p.createCollisionShape
         p.createMultiBody(0, shape(p.GEOM_PLANE, physicsClientId=c), physicsClientId=c)
-        for x, y, radius, height in forest.trunks:
-            col = shape(p.GEOM_CYLINDER, radius=radius, height=height, physicsClientId=c)
-            p.createMultiBody(0, col, basePosition=[x, y, height / 2], physicsClientId=c)
+        if trunk_shape == "cylinder":
+            for x, y, radius, height in forest.trunks:
+                col = shape(p.GEOM_CYLINDER, radius=radius, height=height, physicsClientId=c)
+                p.createMultiBody(0, col, basePosition=[x, y, height / 2], physicsClientId=c)
+        elif len(forest.trunks):
+            verts, triangles = [], []
+            for x, y, radius, height in forest.trunks:
+                xy = _outline(Circle((x, y), radius, height))
+                triangles += [len(verts) + i for i in _prism_triangles(len(xy))]
+                verts += [[vx, vy, z] for vx, vy in xy.tolist() for z in (0.0, height)]
+            col = shape(p.GEOM_MESH, vertices=verts, indices=triangles, physicsClientId=c)
+            p.createMultiBody(0, col, physicsClientId=c)
         for x, y, z, radius in forest.canopies:
             col = shape(p.GEOM_SPHERE, radius=radius, physicsClientId=c)
             p.createMultiBody(0, col, basePosition=[x, y, z], physicsClientId=c)
@@ -176,13 +204,16 @@ class DroneSim:
         ])
         return (r_start + frac * (self.range_m - r_start)).reshape(self.grid.rows, self.grid.cols)
 
-    def collides(self, position: np.ndarray) -> bool:
-        """Move the body to ``position``; True if it touches an obstacle or the ground."""
+    def collides(self, position: np.ndarray, *, margin_m: float = 0.0) -> bool:
+        """Move the body to ``position``; True if it comes within ``margin_m`` (metres, default 0:
+        touching) of an obstacle or the ground."""
         p.resetBasePositionAndOrientation(self.drone, list(position), [0, 0, 0, 1],
                                           physicsClientId=self.cid)
         lo, hi = p.getAABB(self.drone, physicsClientId=self.cid)
-        near = p.getOverlappingObjects(lo, hi, physicsClientId=self.cid) or []
+        near = p.getOverlappingObjects(np.subtract(lo, margin_m).tolist(),
+                                       np.add(hi, margin_m).tolist(),
+                                       physicsClientId=self.cid) or []
         return any(
-            p.getClosestPoints(self.drone, body, 0.0, physicsClientId=self.cid)
+            p.getClosestPoints(self.drone, body, margin_m, physicsClientId=self.cid)
             for body, _ in near if body != self.drone
         )
