@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from fftnav.sim.rays import cast_rays
 from fftnav.sim.swarm import _outline, _prism_triangles
 from fftnav.spherical import SphericalGrid
 from fftnav.world import Circle
@@ -165,8 +166,6 @@ class DroneSim:
         self.drone = p.createMultiBody(1.0, body, basePosition=forest.start.tolist(),
                                        physicsClientId=c)
         self._dirs = grid.directions().reshape(-1, 3)
-        n = len(self._dirs)
-        self._chunks = -(-n // (p.MAX_RAY_INTERSECTION_BATCH_SIZE - 1))
 
     def close(self) -> None:
         """Disconnect the physics client."""
@@ -183,7 +182,7 @@ class DroneSim:
         """Spherical depth image (metres) seen from ``position`` with heading ``yaw_rad``.
 
         Rays start on the body's surface (so they never hit the drone itself) and are cast with
-        ``rayTestBatch`` in chunks below ``MAX_RAY_INTERSECTION_BATCH_SIZE`` (16,384) rays; the
+        :func:`fftnav.sim.rays.cast_rays` (``rayTestBatch`` in chunks Bullet accepts); the
         reading is the distance from the body centre, ``R`` for a miss (hit fraction 1).
 
         Returns
@@ -196,12 +195,7 @@ class DroneSim:
         r_start = self.r0_m + 1e-3
         frm = np.asarray(position, dtype=float) + r_start * world
         to = np.asarray(position, dtype=float) + self.range_m * world
-        frac = np.concatenate([
-            [hit[2] for hit in p.rayTestBatch(f, t, numThreads=1,
-                                              physicsClientId=self.cid)]
-            for f, t in zip(np.array_split(frm, self._chunks), np.array_split(to, self._chunks),
-                            strict=True)
-        ])
+        frac = cast_rays(self.cid, frm, to)
         return (r_start + frac * (self.range_m - r_start)).reshape(self.grid.rows, self.grid.cols)
 
     def collides(self, position: np.ndarray, *, margin_m: float = 0.0) -> bool:
