@@ -26,6 +26,7 @@ __all__ = [
     "MessageError",
     "encode_sigma",
     "encode_batch",
+    "pack_messages",
     "decode_sigma",
     "decode_message",
 ]
@@ -35,6 +36,10 @@ _LAYOUT_OF = {v: k for k, v in LAYOUTS.items()}
 _ITEM_BYTES = {"compact": 3, "float32": 8}
 _ANGLE_LEVELS, _DIST_MAX = 4096, 2047
 _TWO_PI = 2.0 * math.pi
+#: ``[layout/version byte][count n]`` of every possible message, per layout
+_HEADS = {name: [bytes((head, n)) for n in range(256)] for name, head in LAYOUTS.items()}
+#: ... and their CRC-16 states
+_HEAD_CRCS = {name: [binascii.crc_hqx(h, 0xFFFF) for h in heads] for name, heads in _HEADS.items()}
 
 
 class MessageError(ValueError):
@@ -104,18 +109,37 @@ def encode_batch(
         raise ValueError(
             f"sigma must hold finite angles and distances in [0, range_m={range_m}], got {sig}"
         )
+    rows = slice(off[0], off[-1]) if len(off) else slice(0, 0)
+    return pack_messages(sig[rows], flags[rows], counts.tolist(), layout=layout, range_m=range_m)
+
+
+def pack_messages(
+    sigma: np.ndarray, is_min: np.ndarray, counts: list[int], *, layout: str, range_m: float
+) -> list[bytes]:
+    """:func:`encode_batch` without its input checks, for Sigmas known to be valid (finite
+    angles, distances in ``[0, R]``, as :func:`fftnav.compress.find_extrema_flat` returns them):
+    scan k's extrema are the next ``counts[k]`` rows of ``sigma``. Only the count limit is
+    checked."""
+    if max(counts, default=0) > 255:
+        raise ValueError(f"a message holds n <= 255 extrema, got n={max(counts)}")
     if layout == "float32":
-        dist = np.where(flags, -sig[:, 1], sig[:, 1])
-        payload = np.column_stack([sig[:, 0], dist]).astype("<f4").tobytes()
+        dist = np.where(is_min, -sigma[:, 1], sigma[:, 1])
+        payload = np.column_stack([sigma[:, 0], dist]).astype("<f4").tobytes()
     else:
-        q = np.rint(sig * (_ANGLE_LEVELS / _TWO_PI, _DIST_MAX / range_m)).astype(np.int64)
-        word = (q[:, 0] % _ANGLE_LEVELS) << 12 | flags.astype(np.int64) << 11 | q[:, 1]
+        q = np.rint(sigma * (_ANGLE_LEVELS / _TWO_PI, _DIST_MAX / range_m)).astype(np.int64)
+        word = q[:, 0] << 12
+        word &= 0xFFF000  # the angle modulo 4096 (two's complement), in bits 23..12
+        word |= q[:, 1]
+        word |= is_min << 11  # the minimum bit
         payload = word.astype(">u4").view(np.uint8).reshape(-1, 4)[:, 1:].tobytes()
-    size, head = _ITEM_BYTES[layout], LAYOUTS[layout]
-    out = []
-    for a, n in zip((off[:-1] * size).tolist(), counts.tolist(), strict=True):
-        body = bytes((head, n)) + payload[a : a + n * size]
-        out.append(body + _crc(body))
+    size, heads, head_crcs = _ITEM_BYTES[layout], _HEADS[layout], _HEAD_CRCS[layout]
+    out, a = [], 0
+    for n in counts:
+        z = a + n * size
+        part = payload[a:z]
+        a = z
+        # the CRC runs on from the header's: crc(header + part) without building that body
+        out.append(heads[n] + part + binascii.crc_hqx(part, head_crcs[n]).to_bytes(2, "big"))
     return out
 
 

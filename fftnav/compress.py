@@ -44,33 +44,49 @@ def find_extrema_flat(
         Scan k owns rows ``offsets[k]:offsets[k + 1]``.
     """
     k, m = y2.shape
-    y = np.concatenate([y2[:, -1:], y2, y2[:, :1]], axis=1) if circular else y2
-    d = y[:, 1:] - y[:, :-1]
-    width = d.shape[1]
-    sgn = (d > EXTREMUM_EPS).view(np.int8) - (d < -EXTREMUM_EPS).view(np.int8)
-    if sgn.all():  # no flat slope (the usual case): extrema where the slope changes sign
-        rows, col = np.nonzero(sgn[:, :-1] * sgn[:, 1:] < 0)
-        centre = col + 1
-        minima = sgn[rows, col] < 0
+    # one contiguous (K, W) array: the scans, with a wrapped beam at each end if circular
+    y = np.concatenate([y2[:, -1:], y2, y2[:, :1]], axis=1) if circular else y2.copy()
+    width = y.shape[1]
+    valid = np.zeros(width, bool)  # columns that may hold an extremum: not the ends, not blind
+    inner = angles_rad if circular else angles_rad[1:-1]
+    np.less_equal(np.abs(inner), math.pi - blind_rad / 2.0, out=valid[1:-1])
+    run = y.reshape(-1)  # all rows end to end
+    slope = run[1:] - run[:-1]  # y[i + 1] - y[i], also across the junctions between rows
+    if slope.size and np.minimum.reduce(np.abs(slope), axis=None) > EXTREMUM_EPS:
+        # no flat slope (the usual case; a flat junction only sends the batch to the general
+        # path below): an extremum wherever the slope changes sign
+        down = slope < 0.0
+        turn = np.zeros(run.size, bool)
+        np.not_equal(down[1:], down[:-1], out=turn[1:-1])
+        rows_turn = turn.reshape(k, width)
+        rows_turn &= valid  # also drops the junctions, which fall on end columns
+        at = np.flatnonzero(turn)
+        rows, col = np.divmod(at, width)
+        minima = down[at - 1]
+        values = run[at]
     else:  # consecutive non-flat slopes of opposite sign in one row enclose one extremum:
         # the beams after the first slope up to the second one form its plateau
+        d = y[:, 1:] - y[:, :-1]
+        nslopes = width - 1
+        sgn = (d > EXTREMUM_EPS).view(np.int8) - (d < -EXTREMUM_EPS).view(np.int8)
         nz = np.flatnonzero(sgn)
         sign = sgn.ravel()[nz]
-        row = nz // width
+        row = nz // nslopes
         turn = (sign[:-1] != sign[1:]) & (row[:-1] == row[1:])
         rows = row[:-1][turn]
-        start = nz[:-1][turn] - rows * width + 1  # first plateau beam (index in y)
-        centre = (start + nz[1:][turn] - rows * width) // 2
-        minima = sign[:-1][turn] < 0
-    beam = (centre - 1) % m if circular else centre
-    keep = np.abs(angles_rad[beam]) <= math.pi - blind_rad / 2.0
-    rows, beam, minima = rows[keep], beam[keep], minima[keep]
-    if circular:  # wrapped indices may break the per-row beam order
-        order = np.lexsort((beam, rows))
-        rows, beam, minima = rows[order], beam[order], minima[order]
-    dist = np.clip(y2[rows, beam], 0.0, 1.0) * range_m  # Gibbs ringing may leave [0, 1]
-    offsets = np.searchsorted(rows, np.arange(k + 1))
-    return np.column_stack([angles_rad[beam], dist]), minima, offsets
+        start = nz[:-1][turn] - rows * nslopes + 1  # first plateau column
+        col = (start + nz[1:][turn] - rows * nslopes) // 2
+        ok = valid[col]
+        rows, col, minima = rows[ok], col[ok], sign[:-1][turn][ok] < 0
+        values = y[rows, col]
+    beam = col - 1 if circular else col
+    sigma = np.empty((len(beam), 2))
+    sigma[:, 0] = angles_rad[beam]
+    dist = sigma[:, 1]
+    np.multiply(values, range_m, out=dist)
+    np.maximum(dist, 0.0, out=dist)  # Gibbs ringing may leave [0, R]
+    np.minimum(dist, range_m, out=dist)
+    return sigma, minima, np.searchsorted(rows, np.arange(k + 1))
 
 
 def find_extrema(
@@ -185,7 +201,10 @@ def quadrant_areas_batch(
     h, q = alpha_rad / 2.0, math.pi / 2.0
     bounds = np.array([-q, -h, 0.0, h, q])
     bkey = (bounds + span * np.arange(k)[:, None]).ravel()
-    bd = np.interp(bkey, knots[order], np.concatenate([lo_d, d, hi_d])[order])
+    if len(knots):
+        bd = np.interp(bkey, knots[order], np.concatenate([lo_d, d, hi_d])[order])
+    else:  # no scan has an extremum
+        bd = np.zeros(len(bkey))
     bd[np.repeat(~full, 5)] = 0.0  # an empty Sigma reconstructs to 0
     inside = (phi > -q) & (phi < q)
     vkey = np.concatenate([bkey, key[inside]])
@@ -196,6 +215,8 @@ def quadrant_areas_batch(
     same = vrow[:-1] == vrow[1:]
     tri = 0.5 * vd[:-1] * vd[1:] * np.sin(np.diff(vkey))
     mid = 0.5 * (vkey[:-1] + vkey[1:]) - span * vrow[:-1]
-    quadrant = np.searchsorted(bounds, mid) - 1  # 0: III, 1: IV, 2: I, 3: II
+    # 0: III, 1: IV, 2: I, 3: II (a degenerate edge at a bound, from an extremum within
+    # rounding of +-pi/2, falls in the neighbouring quadrant with its zero area)
+    quadrant = np.searchsorted(bounds[1:-1], mid)
     x = np.bincount((4 * vrow[:-1] + quadrant)[same], weights=tri[same], minlength=4 * k)
     return x.reshape(k, 4)[:, [2, 3, 0, 1]]

@@ -3,7 +3,7 @@
 A :class:`FilterBank` is designed once per (robot geometry, beams M, field of view, max range
 R) and keeps the spectra H1 and H2 ("stored in ROM"): filtering K scans is one real FFT of the
 stacked ``(2K, M)`` batch (clipped scans for h1, raw scans for h2) zero-padded to ``fft_size``,
-one product and one inverse FFT. Pure numpy / scipy.
+one product and one inverse FFT (``numpy.fft``). Pure numpy / scipy.
 """
 
 from __future__ import annotations
@@ -22,6 +22,8 @@ MODES = ("linear", "circular")
 #: Blind sector at the back of the paper's simulated 360 degree lidar (Sec. IV-B).
 DEFAULT_BLIND_RAD = math.radians(15.0)
 _MINUS_3DB = 10.0 ** (-3.0 / 20.0)
+#: How many batch sizes K keep their repeated ``(2K, fft_size // 2 + 1)`` spectra.
+_KEEP_BATCH_SIZES = 8
 
 
 def _cutoff_3db(h: np.ndarray) -> float:
@@ -160,6 +162,7 @@ class FilterBank:
             folded = np.zeros((2, beams))
             np.add.at(folded, (slice(None), k % beams), kernels)
             self._spectra = scipy.fft.rfft(folded, beams, axis=1)
+        self._repeated: dict[int, np.ndarray] = {}
         self.H1, self.H2 = scipy.fft.rfft(kernels, self.n0, axis=1)
 
     def __repr__(self) -> str:
@@ -185,19 +188,62 @@ class FilterBank:
             left side, ``y2`` the weighted mean depth of Sec. III-D.
         """
         k = s.shape[0]
-        stacked = np.concatenate([np.minimum(s, self.threshold), s])
-        spec = scipy.fft.rfft(stacked, self.fft_size, axis=1, workers=1)
-        spec[:k] *= self._spectra[0]
-        spec[k:] *= self._spectra[1]
-        out = self._inverse(spec)
-        return out[:k], out[k:]
+        stacked = np.empty((2 * k, s.shape[1]))
+        stacked[k:] = s
+        np.minimum(s, self.threshold, out=stacked[:k])
+        return self._run(stacked)
+
+    def filter_ranges(self, ranges_m: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`filter` of raw ranges in metres, sanitised and normalised on the way.
+
+        ``ranges_m`` is a float ``(K, M)`` array (see :func:`fftnav.scan.as_scan_batch`);
+        ``+inf`` and readings ``>= R`` read as R, NaN and negative readings as 0 (as
+        :func:`fftnav.scan.sanitize_ranges`), then ``s = d / R`` (eq. "sensor data"). The result
+        equals ``filter(sanitize_ranges(ranges_m, range_m=R) / R)`` exactly, in fewer passes
+        over the data (they write straight into the FFT input).
+        """
+        k = ranges_m.shape[0]
+        stacked = np.empty((2 * k, ranges_m.shape[1]))
+        raw = stacked[k:]
+        np.minimum(ranges_m, self.range_m, out=raw)  # +inf -> R, NaN stays NaN
+        np.fmax(raw, 0.0, out=raw)  # NaN and negative -> 0 (blocked)
+        np.divide(raw, self.range_m, out=raw)
+        np.minimum(raw, self.threshold, out=stacked[:k])
+        return self._run(stacked)
 
     def filter_h1(self, s: np.ndarray) -> np.ndarray:
         """Only ``y1 = h1 * clip(s, 0, l_th/R)``, shape (K, M) (half the FFT work of
         :meth:`filter`)."""
-        spec = scipy.fft.rfft(np.minimum(s, self.threshold), self.fft_size, axis=1, workers=1)
-        return self._inverse(spec * self._spectra[0])
+        spec = _rfft(np.minimum(s, self.threshold), self.fft_size)
+        spec *= self._spectra[0]
+        return self._inverse(spec)
+
+    def _run(self, stacked: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Filter ``(2K, M)`` rows, ``clip(s)`` for h1 then ``s`` for h2: one real FFT
+        zero-padded to ``fft_size``, one product with the stored spectra (kept repeated to 2K
+        rows for a few batch sizes), one inverse FFT."""
+        k = stacked.shape[0] // 2
+        spec = _rfft(stacked, self.fft_size)
+        spectra = self._repeated.get(k)
+        if spectra is None:  # H1 for the first K rows, H2 for the last K (a few batch sizes kept)
+            if len(self._repeated) >= _KEEP_BATCH_SIZES:
+                self._repeated.clear()
+            spectra = self._repeated[k] = np.repeat(self._spectra, k, axis=0)
+        spec *= spectra
+        out = self._inverse(spec)
+        return out[:k], out[k:]
 
     def _inverse(self, spec: np.ndarray) -> np.ndarray:
-        out = scipy.fft.irfft(spec, self.fft_size, axis=1, workers=1, overwrite_x=True)
+        out = np.fft.irfft(spec, self.fft_size, axis=1)
         return out[:, self.tau : self.tau + self.beams] if self.mode == "linear" else out
+
+
+def _rfft(x: np.ndarray, n: int) -> np.ndarray:
+    """Real FFT of each row, zero-padded to ``n`` (``numpy.fft``: single-threaded, and on
+    this project's batches faster than ``scipy.fft``, whose padding and dispatch cost more;
+    both run pocketfft, with bit-identical results here)."""
+    if x.shape[1] == n:
+        return np.fft.rfft(x, axis=1)
+    padded = np.zeros((x.shape[0], n))
+    padded[:, : x.shape[1]] = x
+    return np.fft.rfft(padded, axis=1)

@@ -12,10 +12,11 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
+from functools import cached_property
 
 import numpy as np
 
-from fftnav.codec import LAYOUTS, encode_batch
+from fftnav.codec import LAYOUTS, pack_messages
 from fftnav.compress import find_extrema_flat, quadrant_areas_batch
 from fftnav.filters import FilterBank
 from fftnav.fusion import own_probability
@@ -36,26 +37,47 @@ class PipelineResult:
         Safe beams, eq. (y1 for safe), in input beam order.
     y1, y2 : ndarray, shape (K, M)
         Filter outputs, normalised units (``/ R``).
-    sigma : list of ndarray (n_k, 2)
-        Extrema of y2: angle (rad, CCW from heading), distance (m).
-    is_min : list of ndarray of bool (n_k,)
-        Which extrema are minima.
+    sigma_flat : ndarray, shape (N, 2)
+        Extrema of y2 of all scans, scan by scan (:func:`fftnav.compress.find_extrema_flat`):
+        angle (rad, CCW from heading), distance (m).
+    is_min_flat : ndarray of bool, shape (N,)
+        Which of them are minima.
+    offsets : ndarray of int, shape (K + 1,)
+        Scan k owns rows ``offsets[k]:offsets[k + 1]`` of the flat arrays.
     messages : list of bytes
         Compact messages (:func:`fftnav.codec.encode_sigma`), one per scan.
     x0 : ndarray, shape (K, 4)
         Normalised quadrant areas [I, II, III, IV], eq. (x_i).
     p_s : ndarray, shape (K,)
         Own probability of turning left, eq. (P_s).
+    sigma : list of ndarray (n_k, 2)
+        Per-scan views of ``sigma_flat`` (made on first access).
+    is_min : list of ndarray of bool (n_k,)
+        Per-scan views of ``is_min_flat`` (made on first access).
     """
 
     safe_mask: np.ndarray
     y1: np.ndarray
     y2: np.ndarray
-    sigma: list[np.ndarray]
-    is_min: list[np.ndarray]
+    sigma_flat: np.ndarray
+    is_min_flat: np.ndarray
+    offsets: np.ndarray
     messages: list[bytes]
     x0: np.ndarray
     p_s: np.ndarray
+
+    @cached_property
+    def sigma(self) -> list[np.ndarray]:
+        return [self.sigma_flat[a:z] for a, z in self._spans]
+
+    @cached_property
+    def is_min(self) -> list[np.ndarray]:
+        return [self.is_min_flat[a:z] for a, z in self._spans]
+
+    @property
+    def _spans(self) -> list[tuple[int, int]]:
+        bounds = self.offsets.tolist()
+        return list(zip(bounds[:-1], bounds[1:], strict=True))
 
 
 class Pipeline:
@@ -110,8 +132,7 @@ class Pipeline:
         the input is not modified. ``with_p_s=False`` skips the quadrant areas and P_s (NaN).
         """
         b = self.bank
-        s = self.normalise(ranges)
-        y1, y2 = b.filter(s)
+        y1, y2 = b.filter_ranges(as_scan_batch(ranges, beams=b.beams)[0])
         flat, flat_min, off = find_extrema_flat(
             y2,
             angles_rad=self.angles_rad,
@@ -119,10 +140,9 @@ class Pipeline:
             blind_rad=b.blind_rad,
             circular=b.mode == "circular",
         )
-        msgs = encode_batch(flat, flat_min, off, layout=self.layout, range_m=b.range_m)
-        bounds = list(zip(off[:-1].tolist(), off[1:].tolist(), strict=True))
-        sig = [flat[a:z] for a, z in bounds]
-        mins = [flat_min[a:z] for a, z in bounds]
+        msgs = pack_messages(
+            flat, flat_min, np.diff(off).tolist(), layout=self.layout, range_m=b.range_m
+        )
         if with_p_s:
             x0 = quadrant_areas_batch(
                 flat,
@@ -133,13 +153,15 @@ class Pipeline:
             )
             p_s = own_probability(x0)
         else:
-            x0, p_s = np.full((len(sig), 4), np.nan), np.full(len(sig), np.nan)
+            nan = np.full((len(msgs), 5), np.nan)
+            x0, p_s = nan[:, :4], nan[:, 4]
         return PipelineResult(
             safe_mask=safe_mask(y1, threshold=b.threshold),
             y1=y1,
             y2=y2,
-            sigma=sig,
-            is_min=mins,
+            sigma_flat=flat,
+            is_min_flat=flat_min,
+            offsets=off,
             messages=msgs,
             x0=x0,
             p_s=p_s,

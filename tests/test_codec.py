@@ -99,3 +99,21 @@ def test_bad_encoder_input(sigma, kwargs, match):
     kwargs = {"range_m": 3.0, **kwargs}
     with pytest.raises(ValueError, match=match):
         encode_sigma(sigma, **kwargs)
+
+
+@pytest.mark.parametrize("layout", ["compact", "float32"])
+def test_pack_messages_equals_encode_batch_and_checks_the_count(layout):
+    from fftnav.codec import encode_batch, pack_messages
+
+    rng = np.random.default_rng(7)
+    counts = [0, 3, 8, 0, 1, 12]
+    sigma, mins = random_sigma(rng, sum(counts))
+    offsets = np.cumsum([0] + counts)
+    packed = pack_messages(sigma, mins, counts, layout=layout, range_m=3.0)
+    assert packed == encode_batch(sigma, mins, offsets, layout=layout, range_m=3.0)
+    for k, msg in enumerate(packed):
+        got, got_min = decode_message(msg, range_m=3.0)
+        np.testing.assert_array_equal(got_min, mins[offsets[k] : offsets[k + 1]])
+        assert len(got) == counts[k]
+    with pytest.raises(ValueError, match="a message holds n <= 255 extrema, got n=256"):
+        pack_messages(np.zeros((256, 2)), np.zeros(256, bool), [256], layout=layout, range_m=3.0)

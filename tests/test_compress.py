@@ -150,3 +150,31 @@ def test_batched_quadrant_areas_equal_per_scan_loops(full_circle):
     for k, sig in enumerate(sigmas):
         expected = loop_quadrant_areas(sig, alpha=1.0, range_m=3.0, full_circle=full_circle)
         np.testing.assert_allclose(x[k], expected, atol=1e-12)
+
+
+def test_circular_sign_change_path_matches_scipy_with_wrap():
+    rng = np.random.default_rng(8)
+    y = np.cumsum(rng.normal(size=(3, 360)), axis=1)  # no plateau, a jump at the wrap
+    sig, mins = find_extrema(y, angles_rad=ANGLES, range_m=1.0, circular=True)
+    for k in range(3):
+        hi = argrelextrema(y[k], np.greater, mode="wrap")[0]
+        lo = argrelextrema(y[k], np.less, mode="wrap")[0]
+        idx = np.sort(np.concatenate([hi, lo]))
+        np.testing.assert_array_equal(sig[k][:, 0], ANGLES[idx])
+        np.testing.assert_array_equal(mins[k], np.isin(idx, lo))
+
+
+def test_quadrant_areas_with_an_extremum_within_rounding_of_the_side_bound():
+    """An extremum one ulp inside -pi/2 (beam 25 of a 100-beam circle) makes a zero-length
+    edge at the bound: the areas must stay continuous (this used to raise)."""
+    a = SIM_ROBOT.alpha_rad
+    phi = np.array([-2.4, -math.pi + 25 * (2 * math.pi / 100), -1.0, -0.4, 0.2, 0.8, 1.9])
+    assert phi[1] > -math.pi / 2
+    sigma = np.column_stack([phi, np.linspace(0.5, 2.5, len(phi))])
+    outside = sigma.copy()
+    outside[1, 0] = np.nextafter(-math.pi / 2, -4.0)  # just outside quadrant III
+    got = quadrant_areas(sigma, alpha_rad=a, range_m=3.0, full_circle=True)
+    ref = quadrant_areas(outside, alpha_rad=a, range_m=3.0, full_circle=True)
+    np.testing.assert_allclose(got, ref, atol=1e-12)
+    expected = loop_quadrant_areas(sigma, alpha=a, range_m=3.0, full_circle=True)
+    np.testing.assert_allclose(got, expected, atol=1e-12)

@@ -109,3 +109,37 @@ def test_filter_h1_alone_equals_the_stacked_filter(mode):
     b = FilterBank(SIM_ROBOT, mode=mode)
     s = np.random.default_rng(4).uniform(0, 1, (4, 360))
     np.testing.assert_allclose(b.filter_h1(s), b.filter(s)[0], atol=1e-13)
+
+
+@pytest.mark.parametrize("mode", ["linear", "circular"])
+def test_filter_ranges_equals_filtering_the_sanitised_normalised_scans(mode):
+    from fftnav.scan import sanitize_ranges
+
+    rng = np.random.default_rng(5)
+    b = FilterBank(SIM_ROBOT, mode=mode, range_m=3.0)
+    d = rng.uniform(-1.0, 4.0, (6, 360))
+    d[rng.random(d.shape) < 0.05] = np.nan
+    d[rng.random(d.shape) < 0.05] = np.inf
+    d[0, :5] = -np.inf
+    keep = d.copy()
+    got = b.filter_ranges(d)
+    expected = b.filter(sanitize_ranges(d, range_m=3.0) / 3.0)
+    np.testing.assert_array_equal(d, keep)  # input untouched
+    for g, e in zip(got, expected, strict=True):
+        np.testing.assert_array_equal(g, e)  # bit for bit: the same arithmetic
+
+
+def test_results_do_not_depend_on_the_batch_sizes_seen_before():
+    """The bank keeps repeated spectra for a few batch sizes: any call order, any K, gives
+    the direct convolution."""
+    rng = np.random.default_rng(6)
+    b = FilterBank(SIM_ROBOT, beams=100)
+    for k in (1, 3, 1, 2, 4, 5, 6, 7, 8, 9, 10, 3, 1):  # more sizes than the bank keeps
+        s = rng.uniform(0, 1, (k, 100))
+        y1, y2 = b.filter(s)
+        assert y1.shape == y2.shape == (k, 100)
+        for row in range(k):
+            full = np.convolve(s[row], b.h2)
+            np.testing.assert_allclose(y2[row], full[b.tau : b.tau + 100], atol=1e-12)
+            full = np.convolve(np.minimum(s[row], b.threshold), b.h1)
+            np.testing.assert_allclose(y1[row], full[b.tau : b.tau + 100], atol=1e-12)

@@ -81,3 +81,27 @@ def test_bad_scans(ranges, match):
 def test_bad_layout():
     with pytest.raises(ValueError, match="layout must be one of .* got layout='json'"):
         Pipeline(SIM_ROBOT, layout="json")
+
+
+def test_flat_outputs_and_per_scan_views_agree(scans):
+    from fftnav.codec import encode_sigma
+
+    res = Pipeline(SIM_ROBOT).process(scans)
+    assert res.offsets[0] == 0 and res.offsets[-1] == len(res.sigma_flat) == len(res.is_min_flat)
+    for k, (sig, mins) in enumerate(zip(res.sigma, res.is_min, strict=True)):
+        a, z = res.offsets[k], res.offsets[k + 1]
+        np.testing.assert_array_equal(sig, res.sigma_flat[a:z])
+        np.testing.assert_array_equal(mins, res.is_min_flat[a:z])
+        assert res.messages[k] == encode_sigma(sig, is_min=mins, range_m=3.0)
+    assert res.sigma is res.sigma  # made once
+
+
+@pytest.mark.parametrize("mode", ["linear", "circular"])
+def test_scans_without_any_extremum_give_empty_sigma_and_even_odds(mode):
+    """Blocked (all zero) scans: no extremum in any scan of the batch, so every quadrant area
+    is 0 and P_s = sigmoid(0) = 1/2 (this used to fail inside the interpolation)."""
+    res = Pipeline(SIM_ROBOT, mode=mode).process(np.zeros((3, 360)))
+    assert [len(s) for s in res.sigma] == [0, 0, 0] and not res.safe_mask.any()
+    np.testing.assert_array_equal(res.x0, np.zeros((3, 4)))
+    np.testing.assert_array_equal(res.p_s, [0.5, 0.5, 0.5])
+    assert all(decode_message(m, range_m=3.0)[0].shape == (0, 2) for m in res.messages)
