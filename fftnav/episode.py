@@ -7,6 +7,7 @@ Ties the stages together: PyBullet swarm (``fftnav.sim``) -> FFT pipeline (``fft
 
 from __future__ import annotations
 
+import collections
 import dataclasses
 import functools
 from dataclasses import dataclass, field
@@ -31,6 +32,8 @@ EPISODE_COLUMNS: tuple[str, ...] = (
     "messages_sent",
     "decisions_left",
     "decisions_right",
+    "decisions_with_neighbours",
+    "decisions_flipped_by_neighbours",
     "robot_contacts",
 )
 
@@ -178,6 +181,10 @@ class _Decider:
         self.poses: np.ndarray = np.zeros((0, 3))
         self.beta: np.ndarray = np.zeros(0)
         self.sigma: dict[int, np.ndarray] = {}
+        #: Per robot: fused decisions that used at least one neighbour, and those among them
+        #: whose side differs from the robot's own (P_s) side.
+        self.with_neighbours: dict[int, int] = collections.Counter()
+        self.flipped: dict[int, int] = collections.Counter()
 
     def _own_sigma(self, i: int) -> np.ndarray:
         from fftnav.fusion import rotate_sigma
@@ -212,6 +219,9 @@ class _Decider:
             target_rad=0.0, geometry=self.geometry, range_m=self.cfg.range_m,
             max_range_m=self.cfg.comm_range_m, full_circle=self.full_circle,
         )
+        if (decision.sides != 0).any():
+            self.with_neighbours[i] += 1
+            self.flipped[i] += decision.turn_left != (decision.p_s > 0.5)
         return decision.p
 
 
@@ -365,6 +375,8 @@ def run_episode(
             "messages_sent": int(channel.messages_sent[i]),
             "decisions_left": int(planner.decisions[i, 0]),
             "decisions_right": int(planner.decisions[i, 1]),
+            "decisions_with_neighbours": decider.with_neighbours[i],
+            "decisions_flipped_by_neighbours": decider.flipped[i],
             "robot_contacts": int(robot_contacts[i]),
         })
     return EpisodeResult(rows=rows, trajectories=trajectories)

@@ -113,12 +113,17 @@ def test_same_seed_same_rows_and_trajectories():
 
 
 def test_fusion_robots_send_bytes_and_baselines_send_none():
-    world = _world([WALL], [[3.5, 1, UP], [4.5, 1, UP]], [[3.5, 9], [4.5, 9]])
+    world = _world([WALL], [[3.5, 2.0, UP], [4.5, 1.0, UP]], [[3.5, 9], [4.5, 9]])  # 0 ahead of 1
     fusion = run_episode(world, "fusion", seed=0, config=CFG)
     left = run_episode(world, "bug-left", seed=0, config=CFG)
     assert sum(r["bytes_sent"] for r in fusion.rows) > 0
     assert all(r["messages_sent"] * 4 <= r["bytes_sent"] for r in fusion.rows)
     assert all(r["bytes_sent"] == 0 for r in left.rows)
+    for r in fusion.rows:
+        decisions = r["decisions_left"] + r["decisions_right"]
+        assert r["decisions_flipped_by_neighbours"] <= r["decisions_with_neighbours"] <= decisions
+    assert sum(r["decisions_with_neighbours"] for r in fusion.rows) >= 1
+    assert all(r["decisions_with_neighbours"] == 0 for r in left.rows)
 
 
 def test_bad_episode_parameters_are_named():

@@ -44,7 +44,10 @@ def test_bootstrap_one_map_has_no_interval_and_bad_options_are_refused():
 def episodes(rows):
     cols = ["env", "map_seed", "policy", "robot", "arrived", "collided", "path_length_m",
             "optimal_length_m", "spl", "bytes_sent", "messages_sent"]
-    return pd.DataFrame(rows, columns=cols).assign(geodesic_length_m=8.5)
+    frame = pd.DataFrame(rows, columns=cols)
+    return frame.assign(geodesic_length_m=8.5, decisions_left=1, decisions_right=1,
+                        decisions_with_neighbours=1,
+                        decisions_flipped_by_neighbours=[1] + [0] * (len(frame) - 1))
 
 
 def test_summary_metrics_hand_computed():
@@ -62,6 +65,8 @@ def test_summary_metrics_hand_computed():
     assert f.spl == pytest.approx((0.9 + 0 + 0.75 + 9 / 14) / 4)
     assert f.spl_geodesic == pytest.approx((8.5 / 10 + 0 + 8.5 / 12 + 8.5 / 14) / 4)
     assert f.collision_rate == pytest.approx(0.25)
+    assert f.decisions_per_robot == 2 and f.share_with_neighbours == pytest.approx(0.5)
+    assert f.share_flipped_by_neighbours == pytest.approx(0.25)
     assert f.bytes_per_robot == pytest.approx(100) and f.messages_per_robot == pytest.approx(1.5)
     # maps: SPL 0.45 and (0.75 + 9/14)/2 -> the interval spans exactly these two (two maps)
     assert (f.spl_ci_low, f.spl_ci_high) == pytest.approx((0.45, (0.75 + 9 / 14) / 2))

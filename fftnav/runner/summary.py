@@ -25,6 +25,7 @@ SUMMARY_COLUMNS: tuple[str, ...] = (
     "apl_m", "apl_ci_low", "apl_ci_high",
     "spl", "spl_ci_low", "spl_ci_high", "spl_geodesic",
     "collision_rate", "bytes_per_robot", "messages_per_robot",
+    "decisions_per_robot", "share_with_neighbours", "share_flipped_by_neighbours",
 )
 PAIRED_COLUMNS: tuple[str, ...] = (
     "env", "reference", "policy", "maps", "spl_reference", "spl_policy", "median_diff",
@@ -83,6 +84,10 @@ def bootstrap_ratio_ci(
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
+def _share(part: float, whole: float) -> float:
+    return float(part / whole) if whole else float("nan")
+
+
 def summarize(episodes: pd.DataFrame, *, n_resamples: int = 2000, seed: int = 0) -> pd.DataFrame:
     """One row per (env, policy): counts, AR, APL, SPL with 95% bootstrap intervals over maps.
 
@@ -99,6 +104,9 @@ def summarize(episodes: pd.DataFrame, *, n_resamples: int = 2000, seed: int = 0)
     DataFrame
         Columns ``SUMMARY_COLUMNS``; sorted by env, policy. Point estimates come from the
         measures registry (:data:`fftnav.metrics.MEASURES`); APL is NaN where no robot arrived.
+        ``share_with_neighbours``: the fraction of side decisions that fused at least one
+        neighbour; ``share_flipped_by_neighbours``: among those, the fraction whose side differs
+        from the robot's own (P_s) side (NaN when undefined).
     """
     df = episodes.assign(arrived=episodes["arrived"].astype(bool), n=1)
     df["arrived_path_m"] = df["path_length_m"].where(df["arrived"], 0.0)
@@ -109,6 +117,8 @@ def summarize(episodes: pd.DataFrame, *, n_resamples: int = 2000, seed: int = 0)
         ci = {name: bootstrap_ratio_ci(num, den, n_resamples=n_resamples, seed=seed)
               for name, num, den in (("ar", arrived, n), ("apl", maps["arrived_path_m"], arrived),
                                      ("spl", maps["spl"], n))}
+        decisions = g["decisions_left"] + g["decisions_right"]
+        with_neighbours = g["decisions_with_neighbours"]
         m = evaluate(g, ("arrival_rate", "apl_m", "spl", "spl_geodesic", "collision_rate",
                          "bytes_sent"))
         rows.append((
@@ -117,6 +127,8 @@ def summarize(episodes: pd.DataFrame, *, n_resamples: int = 2000, seed: int = 0)
             m["apl_m"], *ci["apl"],
             m["spl"], *ci["spl"], m["spl_geodesic"],
             m["collision_rate"], m["bytes_sent"], g["messages_sent"].mean(),
+            decisions.sum() / len(g), _share(with_neighbours.sum(), decisions.sum()),
+            _share(g["decisions_flipped_by_neighbours"].sum(), with_neighbours.sum()),
         ))
     return pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
 
