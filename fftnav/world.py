@@ -310,7 +310,9 @@ def _translate(obstacle: Obstacle, xy: np.ndarray) -> Obstacle:
     return Polygon(tuple(map(tuple, verts.tolist())), obstacle.height)
 
 
-def _place(env: str, seed: int, p: dict[str, Any], rng: np.random.Generator) -> World:
+def _place(env: str, seed: int, p: dict[str, Any], rng: np.random.Generator) -> World | None:
+    """One draw of a world from ``rng``; None if an obstacle found no free spot in
+    ``placement_tries`` tries (the caller then draws again with the next attempt's seed)."""
     w, h = (float(v) for v in p["size_m"])
     clear = p["strip_half_width_m"]
     band = (p["start_y_m"] + clear, p["goal_y_m"] - clear)  # obstacles live between the strips
@@ -325,8 +327,7 @@ def _place(env: str, seed: int, p: dict[str, Any], rng: np.random.Generator) -> 
             if np.all(np.hypot(*(centers - xy).T) >= radii + rad + p["min_gap_m"]):
                 break
         else:
-            raise ValueError(f"could not place {count} obstacles (density_per_m2="
-                             f"{p['density_per_m2']}, min_gap_m={p['min_gap_m']}); lower either")
+            return None
         placed.append(_translate(shape, xy))
         centers = np.vstack([centers, xy])
         radii = np.append(radii, rad)
@@ -395,8 +396,9 @@ def generate_world(env: str, seed: int, *, preset: dict[str, Any] | None = None,
         and the goal strip, which stay clear. Robot i starts at
         ``((i + 0.5) w / N, start_y_m)`` facing +y and drives to ``((i + 0.5) w / N, goal_y_m)``.
         Every goal is reachable from its start for a disc of radius ``robot_radius_m``
-        (4-connected free space of the occupancy grid inflated by that radius); if not, the
-        world is redrawn from the generator seeded ``[seed, attempt]``.
+        (4-connected free space of the occupancy grid inflated by that radius); if not, or if an
+        obstacle finds no free spot in ``placement_tries`` tries, the world is redrawn from the
+        generator seeded ``[seed, attempt]`` for the next attempt, up to ``max_attempts``.
     """
     if isinstance(seed, bool) or not isinstance(seed, (int, np.integer)) or seed < 0:
         raise ValueError(f"seed must be an integer >= 0, got seed={seed!r}")
@@ -405,11 +407,14 @@ def generate_world(env: str, seed: int, *, preset: dict[str, Any] | None = None,
 
     for attempt in range(params["max_attempts"]):
         world = _place(env, int(seed), params, np.random.default_rng([int(seed), attempt]))
-        if not unreachable_robots(world, radius_m=params["robot_radius_m"],
-                                  resolution_m=params["reachability_resolution_m"]):
+        if world is not None and not unreachable_robots(
+            world, radius_m=params["robot_radius_m"],
+            resolution_m=params["reachability_resolution_m"],
+        ):
             return world
-    raise ValueError(f"no world with every goal reachable after max_attempts="
-                     f"{params['max_attempts']} (seed={seed}); lower density_per_m2")
+    raise ValueError(f"no world with every obstacle placed and every goal reachable after "
+                     f"max_attempts={params['max_attempts']} (seed={seed}); lower density_per_m2="
+                     f"{params['density_per_m2']} or min_gap_m={params['min_gap_m']}")
 
 
 # ----------------------------------------------------------------------------- analytic geometry

@@ -201,3 +201,17 @@ def test_raycast_simple_cases_and_errors():
         raycast_world(world, [0.0, 0.0], [[0.0]], 3.0)
     with pytest.raises(ValueError, match="range_m must be a finite number > 0, got range_m=0"):
         raycast_world(world, [[0.0, 0.0]], [[0.0]], 0)
+
+
+def test_a_draw_whose_obstacles_do_not_fit_is_redrawn_not_refused():
+    # rocky seed 1015: the first draw cannot place its 80th obstacle; the next attempt can
+    world = generate_world("rocky", 1015)
+    assert len(world.obstacles) == 80
+    assert world.to_json() == generate_world("rocky", 1015).to_json()
+
+
+def test_impossible_density_names_the_parameters():
+    with pytest.raises(ValueError, match=r"no world with every obstacle placed and every goal "
+                                         r"reachable after max_attempts=2 \(seed=0\); lower "
+                                         r"density_per_m2=1\.0 or min_gap_m=0\.1"):
+        generate_world("rocky", 0, density_per_m2=1.0, max_attempts=2, placement_tries=50)
