@@ -92,7 +92,8 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
         "",
         "## Paired tests (per-map SPL, Wilcoxon signed-rank, two-sided)",
         "",
-        *(_markdown(paired.round(4)) if len(paired) else ["(no `fusion` rows to compare)"]),
+        *(_markdown(paired.round(4).assign(p_value=paired["p_value"].map(lambda v: f"{v:.2g}")))
+          if len(paired) else ["(no `fusion` rows to compare)"]),
         "",
         "## Figures",
         "",

@@ -130,7 +130,7 @@ def run_experiment(
     write_atomic(out / "summary.csv", summarize(episodes).to_csv(index=False,
                                                                   float_format=FLOAT_FORMAT))
     write_atomic(out / "paired_tests.csv", paired_tests(episodes).to_csv(
-        index=False, float_format=FLOAT_FORMAT))
+        index=False, float_format="%.6g"))  # p-values can be far below 1e-6
     outcome.wall_time_s = time.perf_counter() - start
     info = run_info(outcome, workers=workers, executor=executor, scheduler=scheduler)
     previous = out / "run_info.json"
