@@ -1,5 +1,5 @@
 """Test-suite settings: property tests draw the same examples on every run and machine, so a
-CI failure always reproduces (explore new examples with ``pytest --hypothesis-seed=N``)."""
+CI failure always reproduces (draw fresh examples with ``pytest --hypothesis-profile=default``)."""
 
 from hypothesis import settings
 
