@@ -6,34 +6,30 @@ import argparse
 import json
 
 
-def _emit(result: dict, args: argparse.Namespace, table: str) -> None:
-    if args.json:
-        print(json.dumps(result))
-    else:
-        print(table)
+def _report(result: dict, args: argparse.Namespace, table: str) -> int:
+    """Record ``result`` in ``--csv`` if asked, then print it as JSON or as a table."""
+    if args.csv:
+        from fftnav.bench import record_csv
+
+        record_csv(result, args.csv, append=args.append)
+    print(json.dumps(result) if args.json else table)
+    return 0
 
 
 def cmd_bench_pipeline(args: argparse.Namespace) -> int:
     """Time the observation pipeline per scan (single and batch of 15) and its alternatives."""
-    from fftnav.bench import bench_pipeline, format_pipeline, record_csv
+    from fftnav.bench import bench_pipeline, format_pipeline
 
     result = bench_pipeline(repeats=args.repeats)
-    if args.csv:
-        record_csv(result, args.csv, append=args.append)
-    _emit(result, args, format_pipeline(result))
-    return 0
+    return _report(result, args, format_pipeline(result))
 
 
 def cmd_bench_sim(args: argparse.Namespace) -> int:
     """Real-time factor of the 15-robot swarm and lidar cost per tick."""
-    from fftnav.bench import record_csv
     from fftnav.sim.bench import bench_sim, format_sim
 
     result = bench_sim(env=args.env, seconds=args.seconds, seed=args.seed)
-    if args.csv:
-        record_csv(result, args.csv, append=args.append)
-    _emit(result, args, format_sim(result))
-    return 0
+    return _report(result, args, format_sim(result))
 
 
 def cmd_bench_planning(args: argparse.Namespace) -> int:
@@ -41,12 +37,7 @@ def cmd_bench_planning(args: argparse.Namespace) -> int:
     from fftnav.planning.bench import bench_optimal_paths, format_optimal_paths
 
     result = bench_optimal_paths(env=args.env, seed=args.seed, r0_m=args.r0)
-    if args.csv:
-        from fftnav.bench import record_csv
-
-        record_csv(result, args.csv, append=args.append)
-    _emit(result, args, format_optimal_paths(result))
-    return 0
+    return _report(result, args, format_optimal_paths(result))
 
 
 def register(sub: argparse._SubParsersAction) -> None:
