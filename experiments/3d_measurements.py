@@ -14,9 +14,9 @@ import time
 import numpy as np
 from scipy import ndimage
 
-from fftnav.geometry import DRONE
+from fftnav.observe.geometry import DRONE
+from fftnav.observe.spherical import DiscFilterBank, SphericalGrid, disc_footprint
 from fftnav.sim.drone import DroneSim, make_forest3d
-from fftnav.spherical import DiscFilterBank, SphericalGrid, disc_footprint
 
 
 def _median_s(fns: dict, repeats: int) -> dict[str, float]:

@@ -20,7 +20,13 @@ import pybullet as p
 
 import fftnav.sim.lidar as lidar_module
 from fftnav.sim.swarm import SimConfig, SwarmSim, _outline
-from fftnav.world import Polygon, World, generate_world, point_obstacle_distance, raycast_world
+from fftnav.world.model import (
+    Polygon,
+    World,
+    generate_world,
+    point_obstacle_distance,
+    raycast_world,
+)
 
 
 def lidar_errors(env: str, *, prisms: bool = False, seed: int = 4,

@@ -6,12 +6,12 @@ Data flow, one module per stage::
          -> planner -> simulator -> metrics -> runner -> report
 """
 
-from fftnav.codec import MessageError, decode_message, decode_sigma, encode_sigma
-from fftnav.filters import FilterBank
-from fftnav.fusion import decide_turn
-from fftnav.geometry import DRONE, REAL_ROBOT, SIM_ROBOT, RobotGeometry
-from fftnav.pipeline import Pipeline, PipelineResult
-from fftnav.safe import is_safe_direction, nearest_safe_headings
+from fftnav.observe.codec import MessageError, decode_message, decode_sigma, encode_sigma
+from fftnav.observe.filters import FilterBank
+from fftnav.observe.fusion import decide_turn
+from fftnav.observe.geometry import DRONE, REAL_ROBOT, SIM_ROBOT, RobotGeometry
+from fftnav.observe.pipeline import Pipeline, PipelineResult
+from fftnav.observe.safe import is_safe_direction, nearest_safe_headings
 
 __version__ = "0.1.0"
 

@@ -11,8 +11,8 @@ optimal (shortest-path) length from its start to its goal. Distances in metres, 
 ``docs/metrics.md`` states every definition and the l = 0 guard.
 
 :data:`MEASURES` maps a measure name to a function of an episode's per-robot table (a mapping or
-``pandas.DataFrame`` with the columns of :data:`fftnav.episode.EPISODE_COLUMNS`), in the manner of
-habitat-lab's measure registry, so reports look measures up by name.
+``pandas.DataFrame`` with the columns of :data:`fftnav.episode.loop.EPISODE_COLUMNS`), in the
+manner of habitat-lab's measure registry, so reports look measures up by name.
 """
 
 from __future__ import annotations

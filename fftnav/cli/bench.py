@@ -9,7 +9,7 @@ import json
 def _report(result: dict, args: argparse.Namespace, table: str) -> int:
     """Record ``result`` in ``--csv`` if asked, then print it as JSON or as a table."""
     if args.csv:
-        from fftnav.bench import record_csv
+        from fftnav.bench.pipeline import record_csv
 
         record_csv(result, args.csv, append=args.append)
     print(json.dumps(result) if args.json else table)
@@ -18,7 +18,7 @@ def _report(result: dict, args: argparse.Namespace, table: str) -> int:
 
 def cmd_bench_pipeline(args: argparse.Namespace) -> int:
     """Time the observation pipeline per scan (single and batch of 15) and its alternatives."""
-    from fftnav.bench import bench_pipeline, format_pipeline
+    from fftnav.bench.pipeline import bench_pipeline, format_pipeline
 
     result = bench_pipeline(repeats=args.repeats)
     return _report(result, args, format_pipeline(result))
@@ -26,7 +26,7 @@ def cmd_bench_pipeline(args: argparse.Namespace) -> int:
 
 def cmd_bench_sim(args: argparse.Namespace) -> int:
     """Real-time factor of the 15-robot swarm and lidar cost per tick."""
-    from fftnav.sim.bench import bench_sim, format_sim
+    from fftnav.bench.sim import bench_sim, format_sim
 
     result = bench_sim(env=args.env, seconds=args.seconds, seed=args.seed)
     return _report(result, args, format_sim(result))
@@ -34,7 +34,7 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
 
 def cmd_bench_planning(args: argparse.Namespace) -> int:
     """Time the optimal-path reference (heapq A* vs batched Dijkstra) on a generated world."""
-    from fftnav.planning.bench import bench_optimal_paths, format_optimal_paths
+    from fftnav.bench.planning import bench_optimal_paths, format_optimal_paths
 
     result = bench_optimal_paths(env=args.env, seed=args.seed, r0_m=args.r0)
     return _report(result, args, format_optimal_paths(result))

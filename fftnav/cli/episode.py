@@ -12,7 +12,7 @@ from fftnav.cli import CliError
 
 def _overrides(pairs: list[str]) -> dict[str, object]:
     """Parse ``--set key=value`` pairs against the EpisodeConfig fields and their types."""
-    from fftnav.episode import EpisodeConfig
+    from fftnav.episode.loop import EpisodeConfig
 
     fields = {f.name: f.type for f in dataclasses.fields(EpisodeConfig) if f.init}
     out: dict[str, object] = {}
@@ -32,8 +32,8 @@ def cmd_episode(args: argparse.Namespace) -> int:
     """Run the episode, write the per-robot CSV (stdout without --out), trajectories, plot."""
     import numpy as np
 
-    from fftnav.episode import EpisodeConfig, episode_csv, run_episode
-    from fftnav.world import load_world
+    from fftnav.episode.loop import EpisodeConfig, episode_csv, run_episode
+    from fftnav.world.model import load_world
 
     world = load_world(args.world)
     config = EpisodeConfig(**_overrides(args.set or []))

@@ -10,7 +10,7 @@ from pathlib import Path
 
 def cmd_fly3d(args: argparse.Namespace) -> int:
     """Fly seeds ``first .. first + seeds - 1``; write per-seed rows and print a JSON summary."""
-    from fftnav.flight3d import FLIGHT_COLUMNS, FlightConfig, fly, summarize
+    from fftnav.episode.flight3d import FLIGHT_COLUMNS, FlightConfig, fly, summarize
 
     if args.seeds < 1:
         raise ValueError(f"--seeds must be an integer >= 1, got --seeds={args.seeds}")

@@ -17,10 +17,10 @@ SIM_RANGE_M = 3.0
 
 def cmd_scan(args: argparse.Namespace) -> int:
     """Process every scan of ``args.file`` in one batch and print one JSON object per scan."""
-    from fftnav.geometry import REAL_ROBOT, SIM_ROBOT, RobotGeometry
-    from fftnav.pipeline import Pipeline
-    from fftnav.safe import safe_sectors_rad
-    from fftnav.scanio import read_scans
+    from fftnav.observe.geometry import REAL_ROBOT, SIM_ROBOT, RobotGeometry
+    from fftnav.observe.pipeline import Pipeline
+    from fftnav.observe.safe import safe_sectors_rad
+    from fftnav.observe.scanio import read_scans
 
     data = read_scans(args.file, format=args.format)
     carmen = data.format == "carmen"

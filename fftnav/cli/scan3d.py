@@ -11,8 +11,8 @@ import numpy as np
 
 def cmd_scan3d(args: argparse.Namespace) -> int:
     """Load a (rows, cols) depth image in metres and print its safe mask and summary."""
-    from fftnav.geometry import RobotGeometry
-    from fftnav.spherical import DiscFilterBank, SphericalGrid
+    from fftnav.observe.geometry import RobotGeometry
+    from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
 
     for flag, value, top in (("--fov-el", args.fov_el, 180.0), ("--fov-az", args.fov_az, 360.0)):
         if not 0 < value <= top:

@@ -11,7 +11,7 @@ import numpy as np
 
 def cmd_generate(args: argparse.Namespace) -> int:
     """Generate a seeded world and write its JSON file."""
-    from fftnav.world import generate_world, load_preset, save_world
+    from fftnav.world.model import generate_world, load_preset, save_world
 
     overrides = {}
     if args.size is not None:  # goals stay as far from the top edge as starts from the bottom
@@ -31,7 +31,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 def cmd_render(args: argparse.Namespace) -> int:
     """Draw a world file top-down into an image."""
     from fftnav.report.world_plot import render_world
-    from fftnav.world import load_world
+    from fftnav.world.model import load_world
 
     render_world(load_world(args.world), args.out)
     print(args.out)
@@ -40,8 +40,8 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def cmd_grid(args: argparse.Namespace) -> int:
     """Rasterise a world file into an occupancy grid (.npy, optionally a ROS map pair)."""
-    from fftnav.grid import occupancy_grid, write_ros_map
-    from fftnav.world import load_world
+    from fftnav.world.grid import occupancy_grid, write_ros_map
+    from fftnav.world.model import load_world
 
     og = occupancy_grid(load_world(args.world), resolution_m=args.resolution,
                         inflate_m=args.inflate)
@@ -57,7 +57,7 @@ def cmd_grid(args: argparse.Namespace) -> int:
 def cmd_scan(args: argparse.Namespace) -> int:
     """Print the PyBullet lidar scan of a robot at a pose as JSON."""
     from fftnav.sim.swarm import SimConfig, SwarmSim
-    from fftnav.world import World, load_world
+    from fftnav.world.model import World, load_world
 
     world = load_world(args.world)
     x, y, yaw_deg = args.pose

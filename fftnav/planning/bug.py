@@ -1,8 +1,8 @@
 """Bug planner driven by the FFT pipeline's safe directions (paper Sec. IV-B).
 
 The planner never looks at raw ranges to decide where it may go: its input is the safe mask of
-:mod:`fftnav.safe` (a beam is safe when the whole safety sector of width alpha around it is free
-up to l_th). The state machine, with its leave rule, loop detection, stall recovery and the
+:mod:`fftnav.observe.safe` (a beam is safe when the whole safety sector of width alpha around it is
+free up to l_th). The state machine, with its leave rule, loop detection, stall recovery and the
 no-safe-direction fallback, is documented in ``docs/planner.md``.
 
 Commands are either straight motion ``(v_max, 0)`` or rotation in place ``(0, w)`` (the paper's
@@ -18,8 +18,8 @@ from enum import IntEnum
 
 import numpy as np
 
-from fftnav.safe import beam_index, nearest_safe_headings
-from fftnav.scan import beam_angles_rad, wrap_angle
+from fftnav.observe.safe import beam_index, nearest_safe_headings
+from fftnav.observe.scan import beam_angles_rad, wrap_angle
 
 __all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
 

@@ -14,8 +14,8 @@ import numpy as np  # noqa: E402
 from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
 if TYPE_CHECKING:
-    from fftnav.flight3d import FlightResult
-    from fftnav.spherical import SphericalGrid
+    from fftnav.episode.flight3d import FlightResult
+    from fftnav.observe.spherical import SphericalGrid
 
 __all__ = ["draw_depth3d_figure", "draw_flight_figure"]
 
@@ -47,8 +47,8 @@ def draw_depth3d_figure(out_dir: Path, *, seed: int = 0) -> list[Path]:
     list of pathlib.Path
         ``fig4_depth.png`` and ``fig4_safe.png`` in ``out_dir``.
     """
+    from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
     from fftnav.sim.drone import DroneSim, make_forest3d
-    from fftnav.spherical import DiscFilterBank, SphericalGrid
 
     grid = SphericalGrid(90, 360)
     bank = DiscFilterBank(grid)
@@ -92,7 +92,7 @@ def draw_flight_figure(result: FlightResult, path: Path) -> Path:
     Parameters
     ----------
     result : FlightResult
-        A flight from :func:`fftnav.flight3d.fly` (trajectory and forest in metres).
+        A flight from :func:`fftnav.episode.flight3d.fly` (trajectory and forest in metres).
     path : pathlib.Path
         Output PNG.
 

@@ -1,7 +1,7 @@
 """The paper's Fig. 3 (safe directions) and Fig. 5 (dimension reduction) for an analytic scene.
 
-The scene is a robot among circular trunks (:mod:`fftnav.scene`), seen by the paper's simulated
-lidar (M = 360, R = 3 m, 15 degree blind sector reading 0) with the simulated robot
+The scene is a robot among circular trunks (:mod:`fftnav.world.scenes`), seen by the paper's
+simulated lidar (M = 360, R = 3 m, 15 degree blind sector reading 0) with the simulated robot
 (l_th = 0.6 m, alpha = 60 deg).
 """
 
@@ -16,11 +16,11 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from fftnav.compress import reconstruct  # noqa: E402
-from fftnav.geometry import SIM_ROBOT  # noqa: E402
-from fftnav.pipeline import Pipeline  # noqa: E402
-from fftnav.safe import nearest_safe_headings  # noqa: E402
-from fftnav.scene import random_trunks, ray_cast_circles  # noqa: E402
+from fftnav.observe.compress import reconstruct  # noqa: E402
+from fftnav.observe.geometry import SIM_ROBOT  # noqa: E402
+from fftnav.observe.pipeline import Pipeline  # noqa: E402
+from fftnav.observe.safe import nearest_safe_headings  # noqa: E402
+from fftnav.world.scenes import random_trunks, ray_cast_circles  # noqa: E402
 
 __all__ = ["draw_filter_figures", "SCENE_SEED", "TARGET_RAD"]
 

@@ -13,7 +13,7 @@ import numpy as np  # noqa: E402
 from matplotlib.patches import Circle as CirclePatch  # noqa: E402
 from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
 
-from fftnav.world import Circle, World  # noqa: E402
+from fftnav.world.model import Circle, World  # noqa: E402
 
 __all__ = ["draw_world", "render_world"]
 

@@ -1,10 +1,10 @@
 """Experiment configurations: a TOML file -> a validated :class:`ExperimentConfig`.
 
 The file has an ``[experiment]`` table (what to run), an optional ``[world]`` table of overrides
-for :func:`fftnav.world.generate_world` (with optional per-env sub-tables such as
+for :func:`fftnav.world.model.generate_world` (with optional per-env sub-tables such as
 ``[world.forest]``), and the episode sections ``[robot]``, ``[sensor]``, ``[comms]``,
-``[episode]`` of :class:`fftnav.episode.EpisodeConfig`. Every unknown key or invalid value raises
-``ValueError`` naming the key, e.g. ``experiment.maps must be an integer >= 1, got 0``.
+``[episode]`` of :class:`fftnav.episode.loop.EpisodeConfig`. Every unknown key or invalid value
+raises ``ValueError`` naming the key, e.g. ``experiment.maps must be an integer >= 1, got 0``.
 See ``docs/experiments.md`` for the reference of every key.
 """
 
@@ -17,9 +17,9 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from fftnav.episode import EpisodeConfig
+from fftnav.episode.loop import EpisodeConfig
 from fftnav.planning.policies import POLICIES
-from fftnav.world import ENVS, load_preset, world_parameters
+from fftnav.world.model import ENVS, load_preset, world_parameters
 
 if sys.version_info >= (3, 11):
     import tomllib

@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from fftnav.episode import EPISODE_COLUMNS, episode_csv
+from fftnav.episode.loop import EPISODE_COLUMNS, episode_csv
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
 from fftnav.runner.summary import paired_tests, summarize

@@ -39,7 +39,8 @@ class Task:
 
 @dataclass
 class TaskResult:
-    """Per-robot rows (``fftnav.episode.EPISODE_COLUMNS``) and, if kept, trajectories (T_i, 3)."""
+    """Per-robot rows (``fftnav.episode.loop.EPISODE_COLUMNS``) and, if kept, trajectories (T_i,
+    3)."""
 
     rows: list[dict[str, Any]]
     trajectories: list[np.ndarray] | None
@@ -86,7 +87,7 @@ def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
     -------
     TaskResult
     """
-    from fftnav.episode import run_episode
+    from fftnav.episode.loop import run_episode
 
     world = task_world(config, task.env, task.map_seed)
     result = run_episode(world, task.policy, seed=task.episode_seed, config=config.episode)
@@ -102,6 +103,6 @@ def task_world(config: ExperimentConfig, env: str, map_seed: int) -> Any:
 @lru_cache(maxsize=8)
 def _cached_world(env: str, map_seed: int, robots: int, overrides_json: str) -> Any:
     """Per-process cache of generated worlds (the policies of a map share its world)."""
-    from fftnav.world import generate_world
+    from fftnav.world.model import generate_world
 
     return generate_world(env, map_seed, robots=robots, **json.loads(overrides_json))

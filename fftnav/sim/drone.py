@@ -5,7 +5,7 @@ the project's PyBullet stand-in: a seeded forest of trunks (vertical cylinders, 
 triangle mesh of 64-gon prisms like the 2D simulator's: Bullet ray-casts it several times faster
 than its cylinder primitive) and canopies (spheres) on a ground plane, a spherical depth sensor
 built on ``rayTestBatch`` and a free-flying quadrotor body whose position is integrated by
-:mod:`fftnav.flight3d` from commanded velocities.
+:mod:`fftnav.episode.flight3d` from commanded velocities.
 """
 
 from __future__ import annotations
@@ -16,10 +16,10 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from fftnav.observe.spherical import SphericalGrid
 from fftnav.sim.rays import cast_rays
 from fftnav.sim.swarm import _outline, _prism_triangles
-from fftnav.spherical import SphericalGrid
-from fftnav.world import Circle
+from fftnav.world.model import Circle
 
 __all__ = ["Forest3D", "make_forest3d", "DroneSim"]
 
@@ -188,7 +188,8 @@ class DroneSim:
         Returns
         -------
         numpy.ndarray
-            Shape ``(grid.rows, grid.cols)``, layout of :class:`~fftnav.spherical.SphericalGrid`.
+            Shape ``(grid.rows, grid.cols)``, layout of
+            :class:`~fftnav.observe.spherical.SphericalGrid`.
         """
         c, s = math.cos(yaw_rad), math.sin(yaw_rad)
         world = self._dirs @ np.array([[c, s, 0.0], [-s, c, 0.0], [0.0, 0.0, 1.0]])

@@ -1,7 +1,7 @@
 """Simulated 2D lidar for a whole swarm: one batched PyBullet ray test per tick.
 
 Beams lie in the robot's yaw-only frame at the lidar height, ordered from -Theta/2 to +Theta/2
-relative to the heading (``fftnav.scan.beam_angles_rad``, paper Sec. IV-B: M = 360, R = 3 m,
+relative to the heading (``fftnav.observe.scan.beam_angles_rad``, paper Sec. IV-B: M = 360, R = 3 m,
 Theta = 360 deg, a 15 deg blind sector at the back reading 0).
 
 Only rays that can hit something are cast: a ray whose direction lies outside the angular
@@ -19,7 +19,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from fftnav.scan import angle_increment_rad, beam_angles_rad
+from fftnav.observe.scan import angle_increment_rad, beam_angles_rad
 from fftnav.sim.rays import cast_rays
 
 __all__ = ["CULL_MARGIN_M", "Lidar"]
@@ -44,8 +44,8 @@ class Lidar:
         Field of view Theta in degrees (360 for a full circle).
     blind_deg : float
         Width of the blind sector centred on the back (degrees): the beams whose direction lies
-        strictly inside it, ``|angle| > 180 - blind_deg / 2``, read 0 (as in ``fftnav.scene``
-        and ``fftnav.compress``); a beam on its edge stays live, so with ``blind_deg = 0``
+        strictly inside it, ``|angle| > 180 - blind_deg / 2``, read 0 (as in ``fftnav.world.scenes``
+        and ``fftnav.observe.compress``); a beam on its edge stays live, so with ``blind_deg = 0``
         every beam is live.
     height_m : float
         Height of the beams above the ground, metres.

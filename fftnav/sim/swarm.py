@@ -18,7 +18,7 @@ import numpy as np
 import pybullet as p
 
 from fftnav.sim.lidar import Lidar
-from fftnav.world import Circle, Polygon, World
+from fftnav.world.model import Circle, Polygon, World
 
 __all__ = ["SimConfig", "Observation", "SwarmSim"]
 
@@ -185,7 +185,7 @@ class SwarmSim:
     Parameters
     ----------
     world : World
-        Obstacles and start poses (``fftnav.world``).
+        Obstacles and start poses (``fftnav.world.model``).
     config : SimConfig, optional
         Simulation parameters; default ``SimConfig()``.
     gui : bool, optional

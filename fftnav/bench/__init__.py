@@ -1,0 +1,1 @@
+"""Benchmarks: pipeline latency, simulation speed, optimal-path timing."""

@@ -1,0 +1,186 @@
+"""Latency benchmarks of the observation pipeline, and a generic CSV recorder.
+
+Timings run on one thread and, where the OS allows it, one CPU: the process is pinned to a
+single core with ``os.sched_setaffinity`` for the duration of the run; numpy's FFT (the 2D
+pipeline), ``numpy.convolve``, ``scipy.ndimage`` and ``scipy.fft`` (the 3D image, default one
+worker) are single-threaded (no BLAS call is involved). Alternatives are timed round-robin in
+the same loop, so a busy machine slows them alike; each timed call directly follows an untimed
+call of the same function (warm caches: the steady state of a robot running the pipeline on
+every scan); each figure is the median over the repeats.
+"""
+
+from __future__ import annotations
+
+import csv
+import datetime
+import os
+import platform
+import socket
+import time
+from collections.abc import Callable
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+
+from fftnav.observe.geometry import SIM_ROBOT
+from fftnav.observe.pipeline import Pipeline
+from fftnav.observe.safe import safe_mask, sliding_min_safe_mask
+from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
+from fftnav.world.scenes import trunk_scans
+
+__all__ = ["bench_pipeline", "format_pipeline", "record_csv"]
+
+BATCH = 15
+
+
+@contextmanager
+def _one_cpu():
+    """Pin this process to one CPU while timing (no-op where unsupported)."""
+    if not hasattr(os, "sched_setaffinity"):
+        yield None
+        return
+    before = os.sched_getaffinity(0)
+    cpu = max(before)
+    os.sched_setaffinity(0, {cpu})
+    try:
+        yield cpu
+    finally:
+        os.sched_setaffinity(0, before)
+
+
+def _median_us(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str, float]:
+    """Median time (us) of each function; round-robin, each timed call right after an untimed
+    one of the same function, so every figure is the warm (steady-state) latency rather than
+    the cost of reloading caches emptied by the previous alternative."""
+    times = {name: np.empty(repeats) for name in fns}
+    for r in range(repeats):
+        for name, fn in fns.items():
+            fn()
+            t0 = time.perf_counter_ns()
+            fn()
+            times[name][r] = time.perf_counter_ns() - t0
+    return {name: float(np.median(t)) / 1e3 for name, t in times.items()}
+
+
+def bench_pipeline(*, repeats: int = 2000, seed: int = 0) -> dict:
+    """Time the pipeline per scan, single and in a batch of 15, beside other mask methods.
+
+    The scans are 15 analytic trunk scenes (:func:`fftnav.world.scenes.trunk_scans`) with the
+    paper's simulated robot and lidar (M = 360, R = 3 m, 15 degree blind sector).
+
+    Parameters
+    ----------
+    repeats : int
+        Timed repetitions of each alternative, ``>= 1``.
+    seed : int
+        Seed of the scenes.
+
+    Returns
+    -------
+    dict
+        ``single_us`` (one scan: safe mask, extrema, compact message), ``batch15_us_per_scan``
+        (same, batch of 15), ``batch15_with_p_s_us_per_scan`` (plus quadrant areas and P_s),
+        the safe mask alone per scan in a batch of 15 by FFT (``mask_fft_us_per_scan``), by
+        ``numpy.convolve`` (``mask_convolve_us_per_scan``) and by a sliding-window minimum
+        (``mask_sliding_min_us_per_scan``), ``masks_agree``, ``repeats``, ``cpu``.
+    """
+    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
+        raise ValueError(f"repeats must be an integer >= 1, got repeats={repeats!r}")
+    pipe = Pipeline(SIM_ROBOT)
+    bank = pipe.bank
+    scans = trunk_scans(np.random.default_rng(seed), BATCH)
+    box = bank.h1[bank.h1 > 0]  # the centred window of h1
+
+    def mask_convolve() -> np.ndarray:
+        s = np.minimum(pipe.normalise(scans), bank.threshold)
+        y1 = np.array([np.convolve(row, box, mode="same") for row in s])
+        return safe_mask(y1, threshold=bank.threshold)
+
+    def mask_sliding_min() -> np.ndarray:
+        return sliding_min_safe_mask(
+            pipe.normalise(scans), window_beams=bank.window_beams, threshold=bank.threshold
+        )
+
+    masks = [pipe.safe_mask(scans), mask_convolve(), mask_sliding_min()]
+    bank3d = DiscFilterBank(SphericalGrid(90, 360))  # the paper's drone, 90 x 360 deg, R = 10 m
+    depth3d = np.random.default_rng(seed).uniform(0.5, 12.0, (90, 360))
+    fns = {
+        "single": lambda: pipe.process(scans[0], with_p_s=False),
+        "batch": lambda: pipe.process(scans, with_p_s=False),
+        "batch_p_s": lambda: pipe.process(scans),
+        "mask_fft": lambda: pipe.safe_mask(scans),
+        "mask_convolve": mask_convolve,
+        "mask_sliding_min": mask_sliding_min,
+    }
+    with _one_cpu() as cpu:
+        us = _median_us(fns, repeats)
+        # not an alternative to the above: timed on its own, so that its megabytes of FFT
+        # work do not evict the 2D pipeline's working set between two of its calls
+        us |= _median_us({"depth90x360": lambda: bank3d.safe_mask(depth3d)}, repeats)
+    return {
+        "single_us": round(us["single"], 2),
+        "batch15_us_per_scan": round(us["batch"] / BATCH, 2),
+        "batch15_with_p_s_us_per_scan": round(us["batch_p_s"] / BATCH, 2),
+        "mask_fft_us_per_scan": round(us["mask_fft"] / BATCH, 2),
+        "mask_convolve_us_per_scan": round(us["mask_convolve"] / BATCH, 2),
+        "mask_sliding_min_us_per_scan": round(us["mask_sliding_min"] / BATCH, 2),
+        "depth90x360_us": round(us["depth90x360"], 2),
+        "masks_agree": all(np.array_equal(masks[0], m) for m in masks[1:]),
+        "repeats": repeats,
+        "cpu": cpu,
+    }
+
+
+def format_pipeline(result: dict) -> str:
+    """Human-readable table of :func:`bench_pipeline`'s result (microseconds)."""
+    rows = [
+        ("pipeline, 1 scan (mask + extrema + message)", result["single_us"], "us"),
+        ("pipeline, batch of 15", result["batch15_us_per_scan"], "us/scan"),
+        ("pipeline + P_s, batch of 15", result["batch15_with_p_s_us_per_scan"], "us/scan"),
+        ("safe mask by FFT, batch of 15", result["mask_fft_us_per_scan"], "us/scan"),
+        (
+            "safe mask by numpy.convolve, batch of 15",
+            result["mask_convolve_us_per_scan"],
+            "us/scan",
+        ),
+        (
+            "safe mask by sliding minimum, batch of 15",
+            result["mask_sliding_min_us_per_scan"],
+            "us/scan",
+        ),
+        ("3D safe mask, one 90 x 360 image (2D FFT)", result["depth90x360_us"], "us"),
+    ]
+    lines = [f"{name:<46} {value:>9.2f} {unit}" for name, value, unit in rows]
+    lines.append(
+        f"masks agree: {result['masks_agree']}; median of {result['repeats']} repeats, "
+        f"pinned to CPU {result['cpu']}"
+    )
+    return "\n".join(lines)
+
+
+def record_csv(result: dict, path: str | Path, *, append: bool = False) -> None:
+    """Write one row: the result's keys as columns plus ``timestamp``, ``host``, ``python``,
+    ``numpy``. With ``append`` the row is added to an existing file, whose header must match."""
+    row = {
+        **result,
+        "timestamp": datetime.datetime.now(datetime.timezone.utc).isoformat(timespec="seconds"),
+        "host": socket.gethostname(),
+        "python": platform.python_version(),
+        "numpy": np.__version__,
+    }
+    path = Path(path)
+    exists = append and path.exists() and path.stat().st_size > 0
+    if exists:
+        with path.open(newline="") as fh:
+            header = next(csv.reader(fh), [])
+        if header != list(row):
+            raise ValueError(
+                f"cannot append to {str(path)!r}: its columns {header} differ from {list(row)}"
+            )
+    path.parent.mkdir(parents=True, exist_ok=True)
+    with path.open("a" if exists else "w", newline="") as fh:
+        writer = csv.DictWriter(fh, fieldnames=list(row))
+        if not exists:
+            writer.writeheader()
+        writer.writerow(row)

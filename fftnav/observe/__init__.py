@@ -1,0 +1,1 @@
+"""Observation: the paper's FFT pipeline on one or many scans (pure numpy/scipy)."""

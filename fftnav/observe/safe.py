@@ -1,0 +1,138 @@
+"""Safe directions from the filtered scan (paper Sec. III-C, eqs. (y1 for safe) and (h1)).
+
+Beam i is safe iff ``y1(i) >= l_th / R``. Because the clipped scan never exceeds ``l_th / R``,
+this is equivalent to: every beam in the centred window of ``window_beams`` beams reads at least
+``l_th`` (a sliding-window minimum, :func:`sliding_min_safe_mask`). Pure numpy / scipy.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fftnav.observe.scan import angle_increment_rad, beam_angles_rad, is_full_circle
+
+__all__ = [
+    "SAFE_TOL",
+    "safe_mask",
+    "sliding_min_safe_mask",
+    "safe_sectors_rad",
+    "beam_index",
+    "is_safe_direction",
+    "nearest_safe_headings",
+]
+
+#: Absolute tolerance (normalised units) of the test ``y1 >= l_th/R - SAFE_TOL``. FFT round-off
+#: is ~1e-16; the smallest real deficit of a scan quantised to 1 mm is ~1e-3 / R / window
+#: (5e-6 for R = 3 m and a 61-beam window), so 1e-9 separates the two by orders of magnitude.
+SAFE_TOL = 1e-9
+
+
+def safe_mask(y1: np.ndarray, *, threshold: float) -> np.ndarray:
+    """Safe beams ``y1 >= threshold - SAFE_TOL`` (eq. (y1 for safe)), boolean, same shape."""
+    return np.asarray(y1) >= threshold - SAFE_TOL
+
+
+def sliding_min_safe_mask(
+    s: np.ndarray, *, window_beams: int, threshold: float, circular: bool = False
+) -> np.ndarray:
+    """Same mask as the FFT test, by a sliding-window minimum (eq. (necessary and sufficient ...)).
+
+    Parameters
+    ----------
+    s : ndarray, shape (K, M)
+        Normalised sanitised scans ``d / R``.
+    window_beams : int
+        Odd window width (beams), centred on each beam.
+    threshold : float
+        ``l_th / R``.
+    circular : bool
+        Wrap around (full circle) instead of zero padding.
+    """
+    from scipy.ndimage import minimum_filter1d  # only this oracle / benchmark path needs it
+
+    mode = "wrap" if circular else "constant"
+    low = minimum_filter1d(s, window_beams, axis=-1, mode=mode, cval=0.0)
+    return low >= threshold
+
+
+def _beam_params(mask: np.ndarray, fov_rad: float) -> tuple[int, float, bool]:
+    beams = mask.shape[-1]
+    return beams, angle_increment_rad(beams, fov_rad), is_full_circle(fov_rad)
+
+
+def safe_sectors_rad(mask: np.ndarray, *, fov_rad: float) -> list[tuple[float, float]]:
+    """Merge one scan's safe beams into sectors ``(start, end)`` of beam angles (rad).
+
+    Each sector runs counter-clockwise from ``start`` to ``end`` (both safe beams). For a full
+    circle a sector crossing the back is merged across the wrap and then has ``start > end``;
+    if every beam is safe the single sector is ``(angles[0], angles[-1])``.
+    """
+    m = np.asarray(mask, dtype=bool)
+    if m.ndim != 1:
+        raise ValueError(f"mask must be 1-D (one scan), got shape={m.shape}")
+    beams, _, full = _beam_params(m, fov_rad)
+    angles = beam_angles_rad(beams, fov_rad)
+    edges = np.diff(np.concatenate([[False], m, [False]]).astype(np.int8))
+    starts, ends = np.flatnonzero(edges == 1), np.flatnonzero(edges == -1) - 1
+    if full and len(starts) > 1 and m[0] and m[-1]:  # merge the run through the back
+        starts, ends = starts[1:], np.concatenate([ends[1:-1], ends[:1]])
+    return [(float(angles[a]), float(angles[b])) for a, b in zip(starts, ends, strict=True)]
+
+
+def beam_index(angle_rad: np.ndarray | float, *, beams: int, fov_rad: float) -> np.ndarray:
+    """Index of the beam nearest to each angle (rad); clipped to the field of view."""
+    inc = angle_increment_rad(beams, fov_rad)
+    a = np.asarray(angle_rad, dtype=np.float64)
+    if is_full_circle(fov_rad):
+        return np.rint((a + math.pi) / inc).astype(np.int64) % beams
+    return np.clip(np.rint((a + fov_rad / 2.0) / inc).astype(np.int64), 0, beams - 1)
+
+
+def is_safe_direction(
+    mask: np.ndarray, angle_rad: np.ndarray | float, *, fov_rad: float
+) -> np.ndarray:
+    """Whether the beam nearest to ``angle_rad`` is safe.
+
+    ``mask`` is ``(M,)`` with a scalar angle, or ``(K, M)`` with ``K`` angles (one per robot);
+    returns a bool (array of shape ``(K,)``).
+    """
+    m = np.asarray(mask, dtype=bool)
+    idx = beam_index(angle_rad, beams=m.shape[-1], fov_rad=fov_rad)
+    if m.ndim == 1:
+        return m[idx]
+    return m[np.arange(m.shape[0]), np.broadcast_to(idx, m.shape[:1])]
+
+
+def nearest_safe_headings(
+    mask: np.ndarray, target_rad: np.ndarray | float, *, fov_rad: float
+) -> tuple[np.ndarray, np.ndarray]:
+    """Nearest safe heading on the left (CCW) and on the right (CW) of a target angle.
+
+    Starting from the beam nearest to the target (included), the left heading is the first safe
+    beam met turning counter-clockwise, the right one turning clockwise (wrapping through the
+    back for a full circle). Batched: ``mask`` ``(K, M)`` with ``K`` targets.
+
+    Returns
+    -------
+    left_rad, right_rad : ndarray
+        Beam angles in radians; NaN where no safe beam exists on that side.
+    """
+    m = np.asarray(mask, dtype=bool)
+    single = m.ndim == 1
+    m2 = np.atleast_2d(m)
+    beams, _, full = _beam_params(m2, fov_rad)
+    j = np.broadcast_to(beam_index(target_rad, beams=beams, fov_rad=fov_rad), m2.shape[:1])
+    off = np.arange(beams) - j[:, None]  # (K, M) signed beam offsets
+    angles = beam_angles_rad(beams, fov_rad)
+    out = []
+    for o in (off, -off):  # CCW offsets, CW offsets
+        if full:
+            o = o % beams
+        o = np.where(m2 & (o >= 0), o, beams + 1)
+        best = np.argmin(o, axis=1)
+        found = o[np.arange(len(best)), best] <= beams
+        out.append(np.where(found, angles[best], np.nan))
+    left, right = out
+    return (left[0], right[0]) if single else (left, right)

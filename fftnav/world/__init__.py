@@ -1,0 +1,1 @@
+"""Worlds: the world model, seeded generation, analytic geometry, occupancy grids, scenes."""

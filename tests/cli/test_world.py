@@ -1,0 +1,85 @@
+"""``fftnav world ...`` run as subprocesses (``fftnav bench sim``: tests/test_sim_bench.py)."""
+
+from __future__ import annotations
+
+import json
+import math
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from fftnav.world.model import load_world
+from tests.sim.lidar_oracle import assert_ranges_match_analytic
+
+
+def _run(*args, cwd=None):
+    return subprocess.run([sys.executable, "-m", "fftnav", *args], capture_output=True, text=True,
+                          cwd=cwd, timeout=120)
+
+
+@pytest.fixture(scope="module")
+def world_file(tmp_path_factory):
+    path = tmp_path_factory.mktemp("w") / "forest.json"
+    res = _run("world", "generate", "--env", "forest", "--seed", "3", "--size", "12", "14",
+               "--density", "0.1", "--robots", "6", "--out", str(path))
+    assert res.returncode == 0, res.stderr
+    return path
+
+
+def test_generate_writes_the_documented_json(world_file):
+    data = json.loads(world_file.read_text())
+    assert set(data) == {"env", "seed", "size", "obstacles", "starts", "goals"}
+    assert data["size"] == [12.0, 14.0] and len(data["obstacles"]) == round(0.1 * 12 * 14)
+    assert len(data["starts"]) == len(data["goals"]) == 6
+    assert {o["shape"] for o in data["obstacles"]} == {"circle"}
+
+
+def test_render_grid_and_ros_map(world_file, tmp_path):
+    res = _run("world", "render", str(world_file), "--out", str(tmp_path / "w.png"))
+    assert res.returncode == 0, res.stderr
+    assert (tmp_path / "w.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    res = _run("world", "grid", str(world_file), "--resolution", "0.1", "--inflate", "0.15",
+               "--out", str(tmp_path / "g.npy"), "--ros-map", str(tmp_path / "map"))
+    assert res.returncode == 0, res.stderr
+    grid = np.load(tmp_path / "g.npy")
+    assert grid.shape == (140, 120) and grid.dtype == bool and 0 < grid.mean() < 0.5
+    assert (tmp_path / "map.yaml").exists() and (tmp_path / "map.pgm").exists()
+
+
+def test_scan_prints_the_pybullet_lidar(world_file):
+    res = _run("world", "scan", str(world_file), "--pose", "6", "7", "90", "--beams", "180")
+    assert res.returncode == 0, res.stderr
+    out = json.loads(res.stdout)
+    angles, ranges = np.array(out["angles_deg"]), np.array(out["ranges"])
+    assert angles.shape == ranges.shape == (180,) and angles[90] == 0.0
+    live = np.abs(angles) <= 180 - 7.5  # beams strictly inside the 15 deg blind sector read 0
+    assert np.all(ranges[~live] == 0) and np.all(ranges[live] > 0)
+    expected = assert_ranges_match_analytic(load_world(world_file), [[6.0, 7.0]],
+                                            [math.pi / 2 + np.radians(angles[live])],
+                                            ranges[None, live])
+    assert (expected < 3.0).sum() > 10  # the comparison saw returns
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["world", "scan", "{w}", "--pose", "60", "7", "0"], "pose must lie in the world"),
+    (["world", "scan", "{w}", "--pose", "6", "7", "0", "--beams", "1"], "beams must be an integer"),
+    (["world", "grid", "{w}", "--resolution", "0", "--out", "{d}/g.npy"], "resolution_m must be"),
+    (["world", "render", "{d}/missing.json", "--out", "{d}/x.png"], "No such file"),
+    (["world", "render", "{d}/bad.json", "--out", "{d}/x.png"], "polygon is not convex"),
+    (["world", "generate", "--env", "rocky", "--seed", "-2", "--out", "{d}/x.json"],
+     "seed must be an integer >= 0"),
+    (["world", "generate", "--env", "lava", "--seed", "1", "--out", "{d}/x.json"],
+     "invalid choice"),
+])
+def test_bad_input_exits_2_with_one_stderr_line(world_file, tmp_path, args, message):
+    bad = json.loads(world_file.read_text())
+    bad["obstacles"].append({"shape": "polygon", "vertices": [[1, 1], [3, 1], [2, 1.5], [2, 3]],
+                             "height": 1.0})
+    (tmp_path / "bad.json").write_text(json.dumps(bad))
+    res = _run(*[a.format(w=world_file, d=tmp_path) for a in args])
+    assert res.returncode == 2
+    lines = res.stderr.strip().splitlines()
+    assert len(lines) == 1 and message in lines[0] and "Traceback" not in res.stderr
+

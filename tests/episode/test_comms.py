@@ -1,0 +1,67 @@
+import numpy as np
+import pytest
+
+from fftnav.episode.comms import Channel
+
+
+def _poses(*xy):
+    return np.array([[x, y, 0.0] for x, y in xy])
+
+
+def test_range_delay_and_byte_count():
+    ch = Channel(3, range_m=5.0, delay_ticks=2, rng=np.random.default_rng(0))
+    poses = _poses((0, 0), (4, 0), (6, 0))
+    active = np.ones(3, bool)
+    ch.broadcast(0, b"abcd", tick=10, poses=poses, active=active)
+    ch.deliver(12)
+    assert ch.inbox(1, tick=12, max_age_ticks=10) == []  # due at tick 10 + 1 + 2
+    ch.deliver(13)
+    got = ch.inbox(1, tick=13, max_age_ticks=10)
+    assert [p.payload for p in got] == [b"abcd"] and got[0].sender_pose == (0.0, 0.0, 0.0)
+    assert ch.inbox(2, tick=13, max_age_ticks=10) == []  # 6 m away: out of range
+    assert ch.inbox(0, tick=13, max_age_ticks=10) == []  # no echo to the sender
+    assert ch.bytes_sent.tolist() == [4, 0, 0] and ch.messages_sent.tolist() == [1, 0, 0]
+
+
+def test_newest_packet_per_sender_and_age_limit():
+    ch = Channel(2, range_m=5.0, rng=np.random.default_rng(0))
+    poses, active = _poses((0, 0), (1, 0)), np.ones(2, bool)
+    ch.broadcast(0, b"old", tick=0, poses=poses, active=active)
+    ch.broadcast(0, b"new", tick=3, poses=poses, active=active)
+    ch.deliver(4)
+    assert [p.payload for p in ch.inbox(1, tick=4, max_age_ticks=10)] == [b"new"]
+    assert ch.inbox(1, tick=20, max_age_ticks=10) == []
+
+
+def test_inactive_robots_receive_nothing():
+    ch = Channel(2, range_m=5.0, rng=np.random.default_rng(0))
+    ch.broadcast(0, b"x", tick=0, poses=_poses((0, 0), (1, 0)), active=np.array([True, False]))
+    ch.deliver(1)
+    assert ch.inbox(1, tick=1, max_age_ticks=10) == []
+
+
+def test_packet_loss_rate_is_seeded_and_close_to_nominal():
+    def received(seed):
+        ch = Channel(2, range_m=5.0, loss=0.3, rng=np.random.default_rng(seed))
+        n = 0
+        for t in range(4000):
+            ch.broadcast(0, b"x", tick=t, poses=_poses((0, 0), (1, 0)), active=np.ones(2, bool))
+            ch.deliver(t + 1)
+            n += len(ch.inbox(1, tick=t + 1, max_age_ticks=1))
+        return n
+
+    assert received(1) == received(1)
+    assert abs(received(1) / 4000 - 0.7) < 0.03
+
+
+@pytest.mark.parametrize(
+    ("kwargs", "match"),
+    [
+        ({"range_m": 0.0}, r"range_m must be finite and > 0, got range_m=0.0"),
+        ({"range_m": 1.0, "loss": 1.0}, r"loss must be in \[0, 1\), got loss=1.0"),
+        ({"range_m": 1.0, "delay_ticks": -1}, r"delay_ticks must be an integer >= 0, got delay_ticks=-1"),
+    ],
+)
+def test_bad_parameters(kwargs, match):
+    with pytest.raises(ValueError, match=match):
+        Channel(2, rng=np.random.default_rng(0), **kwargs)

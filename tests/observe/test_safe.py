@@ -1,0 +1,125 @@
+import math
+
+import numpy as np
+import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
+
+from fftnav.observe.geometry import SIM_ROBOT, RobotGeometry
+from fftnav.observe.pipeline import Pipeline
+from fftnav.observe.safe import is_safe_direction, nearest_safe_headings, safe_sectors_rad
+from fftnav.observe.scan import beam_angles_rad
+
+
+def oracle_mask(d, *, l_th, range_m, window, circular):
+    """Every reading in the centred window >= l_th, computed in metres on raw readings."""
+    d = np.where(np.isnan(d) | (d < 0), 0.0, np.minimum(d, range_m))
+    h = window // 2
+    padded = np.pad(d, [(0, 0), (h, h)], mode="wrap" if circular else "constant")
+    windows = np.lib.stride_tricks.sliding_window_view(padded, window, axis=1)
+    return windows.min(axis=-1) >= l_th
+
+
+def piecewise_scan(rng, beams, range_m):
+    """Millimetre readings: runs of open space and of obstacles, with sensor oddities."""
+    cuts = np.sort(rng.integers(0, beams, rng.integers(1, 12)))
+    values = np.round(rng.uniform(0.0, 1.2 * range_m, len(cuts) + 1), 3)
+    values[rng.random(len(values)) < 0.5] = np.inf
+    d = np.repeat(values, np.diff(np.concatenate([[0], cuts, [beams]])))
+    d = d + np.round(rng.normal(0, 0.01, beams), 3) * (rng.random(beams) < 0.3)
+    d[rng.random(beams) < 0.01] = np.nan
+    d[rng.random(beams) < 0.01] = -1.0
+    return d
+
+
+@settings(max_examples=120, deadline=None)
+@given(
+    seed=st.integers(0, 2**32 - 1),
+    r0=st.floats(0.05, 0.5),
+    ratio=st.floats(1.05, 3.0),
+    beams=st.integers(20, 400),
+    fov_frac=st.one_of(st.just(1.0), st.floats(0.2, 0.95)),
+    circular=st.booleans(),
+    k=st.integers(1, 4),
+)
+def test_fft_mask_equals_sliding_window_minimum(seed, r0, ratio, beams, fov_frac, circular, k):
+    geom = RobotGeometry(r0_m=r0, r_m=r0 * ratio)
+    fov = 2 * math.pi * fov_frac
+    circular = circular and fov_frac == 1.0
+    rng = np.random.default_rng(seed)
+    range_m = geom.l_th_m * rng.uniform(1.0, 3.0)
+    inc = fov / beams if fov_frac == 1.0 else fov / (beams - 1)
+    assume(beams >= math.ceil(geom.alpha_rad / inc - 1e-9))
+    d = np.vstack([piecewise_scan(rng, beams, range_m) for _ in range(k)])
+    gap = np.abs(d - geom.l_th_m)
+    assume(not np.any((gap > 0) & (gap < 1e-6)))
+    pipe = Pipeline(
+        geom, beams=beams, fov_rad=fov, range_m=range_m, mode="circular" if circular else "linear"
+    )
+    expected = oracle_mask(
+        d, l_th=geom.l_th_m, range_m=range_m, window=pipe.bank.window_beams, circular=circular
+    )
+    np.testing.assert_array_equal(pipe.safe_mask(d), expected)
+
+
+def test_window_running_past_the_ends_is_unsafe_only_in_linear_mode():
+    d = np.full((1, 360), 3.0)
+    lin = Pipeline(SIM_ROBOT, blind_rad=0.0).safe_mask(d)[0]
+    circ = Pipeline(SIM_ROBOT, mode="circular").safe_mask(d)[0]
+    assert circ.all()
+    assert not lin[:30].any() and not lin[-30:].any() and lin[30:330].all()
+
+
+def test_safe_sectors_merge_through_the_back():
+    m = np.zeros(360, bool)
+    m[350:] = m[:5] = True
+    m[170:190] = True
+    sectors = safe_sectors_rad(m, fov_rad=2 * math.pi)
+    a = beam_angles_rad(360, 2 * math.pi)
+    assert sectors == [(a[170], a[189]), (a[350], a[4])]
+    assert safe_sectors_rad(np.ones(360, bool), fov_rad=2 * math.pi) == [(a[0], a[-1])]
+    assert safe_sectors_rad(m, fov_rad=math.pi)[0] == pytest.approx(
+        (-math.pi / 2, -math.pi / 2 + 4 * math.pi / 359)
+    )
+
+
+def brute_nearest(mask, j, full):
+    m = len(mask)
+    out = []
+    for step in (1, -1):
+        found = math.nan
+        for o in range(m):
+            i = j + step * o
+            if full:
+                i %= m
+            elif not 0 <= i < m:
+                break
+            if mask[i]:
+                found = i
+                break
+        out.append(found)
+    return out
+
+
+@pytest.mark.parametrize("fov", [2 * math.pi, math.radians(200)])
+def test_nearest_safe_headings_match_a_brute_force_walk(fov):
+    rng = np.random.default_rng(3)
+    masks = rng.random((40, 72)) < 0.1
+    masks[0] = False
+    a = beam_angles_rad(72, fov)
+    j = rng.integers(0, 72, 40)
+    left, right = nearest_safe_headings(masks, a[j], fov_rad=fov)
+    for k in range(40):
+        lj, rj = brute_nearest(masks[k], j[k], fov > 6)
+        assert (math.isnan(left[k]) and math.isnan(lj)) or left[k] == a[lj]
+        assert (math.isnan(right[k]) and math.isnan(rj)) or right[k] == a[rj]
+    np.testing.assert_array_equal(
+        is_safe_direction(masks, a[j], fov_rad=fov), masks[np.arange(40), j]
+    )
+    single = nearest_safe_headings(masks[1], a[j[1]], fov_rad=fov)
+    np.testing.assert_array_equal(single, (left[1], right[1]))
+
+
+def test_safe_sectors_error():
+    with pytest.raises(ValueError, match=r"mask must be 1-D \(one scan\), got shape=\(2, 3\)"):
+        safe_sectors_rad(np.ones((2, 3), bool), fov_rad=math.pi)

@@ -1,0 +1,154 @@
+"""Runner logic with fake task functions: resume, interruption, crash isolation, determinism."""
+
+from __future__ import annotations
+
+import time
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fftnav.episode.loop import EPISODE_COLUMNS
+from fftnav.runner import CSV_COLUMNS, TaskResult, execute, parse_config, run_experiment
+
+CONFIG = parse_config({
+    "experiment": {"name": "fake", "envs": ["forest", "rocky"], "maps": 3, "map_seed": 5,
+                   "robots": 3, "policies": ["bug-left", "fusion", "random"]},
+}, source="# fake\n")
+N_TASKS = 2 * 3 * 3
+
+
+def fake_task(config, task):
+    """Deterministic rows from the task's seeds; later tasks finish first (shuffled order)."""
+    time.sleep(0.002 * (task.map_seed % 3))
+    rng = np.random.default_rng([task.episode_seed, len(task.policy)])
+    rows = [{**{c: rng.uniform(0, 20) for c in EPISODE_COLUMNS}, "robot": r,
+             "policy": task.policy, "arrived": bool(rng.random() < 0.8), "collided": False,
+             "bytes_sent": int(rng.integers(0, 500))}
+            for r in range(config.robots)]
+    trajectories = [rng.random((4, 3)) for _ in rows] if task.keep_trajectories else None
+    return TaskResult(rows, trajectories)
+
+
+def failing_task(config, task):
+    if task.policy == "fusion" and task.map_seed == 6:
+        raise RuntimeError(f"boom in {task.task_id}")
+    return fake_task(config, task)
+
+
+class Interrupt:
+    """Runs ``fake_task`` but raises KeyboardInterrupt at the ``n``-th call (in-process only)."""
+
+    def __init__(self, n):
+        self.calls, self.n = 0, n
+
+    def __call__(self, config, task):
+        self.calls += 1
+        if self.calls == self.n:
+            raise KeyboardInterrupt
+        return fake_task(config, task)
+
+
+def files(out):
+    return {p.relative_to(out).as_posix(): p.read_bytes()
+            for name in ("episodes.csv", "summary.csv", "paired_tests.csv")
+            for p in [out / name]}
+
+
+def test_episodes_csv_has_one_row_per_robot_per_task(tmp_path):
+    outcome = run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
+    assert (outcome.total, outcome.completed, outcome.skipped, outcome.failed) == (18, 18, 0, [])
+    df = pd.read_csv(tmp_path / "episodes.csv")
+    assert tuple(df.columns) == CSV_COLUMNS and len(df) == N_TASKS * 3
+    assert not df.duplicated(["env", "map_seed", "policy", "robot"]).any()
+    assert df.equals(df.sort_values(["env", "map_seed", "policy", "robot"]).reset_index(drop=True))
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    assert len(summary) == 6 and (summary.episodes == 3).all() and (summary.robots == 9).all()
+    assert len(list((tmp_path / "trajectories").glob("*.npz"))) == 2 * 3  # first map of each env
+    assert (tmp_path / "config.toml").read_text() == "# fake\n"
+    assert not list(tmp_path.rglob("*.tmp"))
+
+
+def test_results_identical_whatever_the_worker_count(tmp_path):
+    run_experiment(CONFIG, tmp_path / "one", workers=1, task_fn=fake_task, progress=False)
+    run_experiment(CONFIG, tmp_path / "two", workers=2, task_fn=fake_task, progress=False)
+    assert files(tmp_path / "one") == files(tmp_path / "two")
+
+
+def test_interrupted_run_resumes_to_exactly_the_uninterrupted_rows(tmp_path):
+    run_experiment(CONFIG, tmp_path / "full", workers=1, task_fn=fake_task, progress=False)
+    out = tmp_path / "resumed"
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(CONFIG, out, workers=1, task_fn=Interrupt(8), progress=False)
+    partial = pd.read_csv(out / "episodes.csv")  # a complete CSV of the 7 finished tasks
+    assert len(partial) == 7 * 3
+    (out / ".episodes.csv.999.tmp").write_text("half a row,")  # a writer killed mid-write
+    (out / "episodes" / "forest-5-bug-left.csv").unlink()  # a lost result is redone
+    outcome = run_experiment(CONFIG, out, workers=2, task_fn=fake_task, progress=False)
+    assert (outcome.skipped, outcome.completed) == (6, N_TASKS - 6)
+    assert files(out) == files(tmp_path / "full")
+    again = run_experiment(CONFIG, out, workers=1, task_fn=failing_task, progress=False)
+    assert (again.skipped, again.completed, again.failed) == (N_TASKS, 0, [])
+    assert files(out) == files(tmp_path / "full")
+
+
+def test_a_task_that_raises_is_recorded_and_the_others_complete(tmp_path):
+    outcome = run_experiment(CONFIG, tmp_path, workers=2, task_fn=failing_task, progress=False)
+    assert sorted(t.task_id for t, _ in outcome.failed) == ["forest-6-fusion", "rocky-6-fusion"]
+    assert outcome.completed == N_TASKS - 2
+    errors = pd.read_csv(tmp_path / "errors.csv")
+    assert list(errors.error_type) == ["RuntimeError"] * 2
+    assert list(errors.message) == ["boom in forest-6-fusion", "boom in rocky-6-fusion"]
+    assert errors.traceback.str.contains("failing_task").all()
+    df = pd.read_csv(tmp_path / "episodes.csv")
+    assert len(df) == (N_TASKS - 2) * 3
+    assert df[(df.map_seed == 6) & (df.policy == "fusion")].empty
+    retry = run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
+    assert (retry.completed, retry.failed) == (2, []) and not (tmp_path / "errors.csv").exists()
+
+
+def test_rows_missing_columns_are_a_task_error(tmp_path):
+    def no_spl(config, task):
+        result = fake_task(config, task)
+        for row in result.rows:
+            del row["spl"]
+        return result
+
+    outcome = run_experiment(CONFIG, tmp_path, workers=1, task_fn=no_spl, progress=False)
+    assert len(outcome.failed) == N_TASKS
+    assert "rows without the columns ['spl']" in outcome.failed[0][1].message
+    assert len(pd.read_csv(tmp_path / "episodes.csv")) == 0
+
+
+def test_folder_of_another_experiment_is_refused(tmp_path):
+    run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
+    other = parse_config({"experiment": {"name": "fake", "envs": ["forest"], "maps": 3,
+                                         "map_seed": 5, "robots": 3, "policies": ["fusion"]}})
+    with pytest.raises(ValueError, match=r"holds results of a different experiment config"):
+        run_experiment(other, tmp_path, workers=1, task_fn=fake_task, progress=False)
+
+
+@pytest.mark.parametrize("options, match", [
+    ({"executor": "spark"}, r"executor must be one of \['local', 'dask'\], got executor='spark'"),
+    ({"workers": 0}, r"workers must be an integer >= 1, got workers=0"),
+    ({"scheduler": "tcp://x:8786"}, r"scheduler needs executor='dask', got executor='local'"),
+])
+def test_executor_options_are_validated(options, match):
+    with pytest.raises(ValueError, match=match):
+        next(execute(fake_task, CONFIG, [], **options))
+
+
+def test_fresh_reruns_and_replaces_every_task(tmp_path):
+    def stale(config, task):
+        result = fake_task(config, task)
+        for row in result.rows:
+            row["spl"] = 0.0
+        return result
+
+    run_experiment(CONFIG, tmp_path / "full", workers=1, task_fn=fake_task, progress=False)
+    out = tmp_path / "fresh"
+    run_experiment(CONFIG, out, workers=1, task_fn=stale, progress=False)
+    outcome = run_experiment(CONFIG, out, workers=1, task_fn=fake_task, progress=False,
+                             fresh=True)
+    assert (outcome.skipped, outcome.completed) == (0, N_TASKS)
+    assert files(out) == files(tmp_path / "full")

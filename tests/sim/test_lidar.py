@@ -1,0 +1,114 @@
+"""The PyBullet lidar against exact analytic ray casts (fftnav.sim.lidar via SwarmSim)."""
+
+from __future__ import annotations
+
+import math
+from fractions import Fraction
+
+import numpy as np
+import pytest
+
+from fftnav.sim.swarm import SimConfig, SwarmSim
+from fftnav.world.model import World, generate_world, point_obstacle_distance
+from tests.sim.lidar_oracle import assert_ranges_match_analytic
+
+
+def _free_poses(world, rng, n, clearance):
+    """n random poses at least ``clearance`` from obstacles and 2 * R from each other."""
+    poses = []
+    while len(poses) < n:
+        x, y = rng.uniform([1.0, 1.0], np.subtract(world.size_m, 1.0))
+        if point_obstacle_distance(world, [[x, y]])[0] < clearance:
+            continue
+        if all(math.hypot(x - a, y - b) > 6.5 for a, b, _ in poses):
+            poses.append((x, y, rng.uniform(-math.pi, math.pi)))
+    return np.array(poses)
+
+
+@pytest.mark.parametrize("env", ["forest", "rocky"])
+def test_ranges_equal_analytic_intersections_within_1cm(env):
+    world = generate_world(env, 4)
+    rng = np.random.default_rng(1)
+    poses = _free_poses(world, rng, 5, clearance=0.16)  # robots far apart: only obstacles seen
+    probe = World(env, 4, world.size_m, world.obstacles, poses, poses[:, :2])
+    with SwarmSim(probe) as sim:
+        obs = sim.reset(seed=0)
+        live = sim.lidar.live
+        angles = poses[:, 2:3] + sim.lidar.angles_rad[live]
+    assert obs.scans.shape == (5, 360)
+    assert np.all(obs.scans[:, ~live] == 0.0)
+    expected = assert_ranges_match_analytic(world, poses[:, :2], angles, obs.scans[:, live])
+    assert 0.05 < (expected < 3.0).mean() < 0.95  # the comparison saw hits and misses
+
+
+@pytest.mark.parametrize("env", ["forest", "rocky"])
+def test_culled_scan_is_bitwise_equal_to_casting_every_ray(env):
+    world = generate_world(env, 7)
+    rng = np.random.default_rng(2)
+    for _ in range(3):  # 15 robots anywhere (near obstacles and each other), any heading
+        poses = np.c_[rng.uniform(0.0, 20.0, (15, 2)), rng.uniform(-math.pi, math.pi, 15)]
+        probe = World(env, 7, world.size_m, world.obstacles, poses, poses[:, :2])
+        with SwarmSim(probe) as sim:
+            obs = sim.reset(seed=0)
+            lidar = sim.lidar
+            cast = lidar.rays_cast
+            lidar.cull = False
+            full = lidar.scan(obs.poses)
+        culled = obs.scans
+        assert culled.tobytes() == full.tobytes()
+        assert lidar.rays_cast - cast == 15 * lidar.live.sum() > 1.4 * cast  # culling culls
+        assert (culled[:, lidar.live] < 3.0).sum() > 500  # with many returns
+
+
+def test_blind_sector_beam_order_and_robots_see_each_other():
+    # two robots facing each other 1 m apart, no obstacles: each sees the other dead ahead
+    starts = np.array([[2.0, 2.0, 0.0], [3.0, 2.0, math.pi]])
+    world = World("x", 0, (5.0, 4.0), (), starts, starts[:, :2])
+    with SwarmSim(world) as sim:
+        obs = sim.reset(seed=0)
+        angles = np.degrees(sim.lidar.angles_rad)
+    assert angles[0] == -180 and angles[180] == 0 and angles[-1] == 179
+    blind = np.abs(angles) >= 180 - 7.5
+    assert blind.sum() == 15
+    np.testing.assert_array_equal(obs.scans[:, blind], 0.0)
+    np.testing.assert_allclose(obs.scans[:, 180], 1.0 - 0.15, atol=1e-3)  # sphere of radius r0
+    # a beam at +/- 5 deg grazes the other robot's disc at the analytic distance
+    half_chord = math.sqrt(0.15**2 - math.sin(math.radians(5)) ** 2)
+    np.testing.assert_allclose(obs.scans[:, [175, 185]], math.cos(math.radians(5)) - half_chord,
+                               atol=1e-3)
+    np.testing.assert_array_equal(obs.scans[:, 90], 3.0)  # a miss reads R
+
+
+@pytest.mark.parametrize(("beams", "blind_deg"), [(360, 0.0), (360, 15.0), (360, 14.0),
+                                                 (720, 15.0), (180, 15.0)])
+def test_blind_sector_holds_the_beams_strictly_inside_it(beams, blind_deg):
+    # robot 1 stands 1 m straight behind robot 0: the back beam sees it unless it is blind
+    starts = np.array([[2.0, 2.0, 0.0], [1.0, 2.0, 0.0]])
+    world = World("x", 0, (5.0, 4.0), (), starts, starts[:, :2])
+    with SwarmSim(world, config=SimConfig(beams=beams, blind_deg=blind_deg)) as sim:
+        scan = sim.reset(seed=0).scans[0]
+        live = sim.lidar.live
+    # exact oracle: beam n at -180 + 360 n / M deg is blind iff |angle| > 180 - blind / 2
+    angles = [Fraction(-180) + Fraction(360 * n, beams) for n in range(beams)]
+    blind = np.array([abs(a) > 180 - Fraction(blind_deg) / 2 for a in angles])
+    np.testing.assert_array_equal(live, ~blind)
+    np.testing.assert_array_equal(scan[blind], 0.0)
+    assert np.all(scan[~blind] > 0)
+    assert scan[0] == (0.0 if blind_deg else pytest.approx(1.0 - 0.15, abs=1e-3))
+
+
+def test_noise_and_dropout_follow_the_episode_seed():
+    world = generate_world("forest", 0)
+    config = SimConfig(noise_std_m=0.02, dropout=0.1)
+    with SwarmSim(world, config=config) as sim:
+        a, b, c = (sim.reset(seed=s).scans for s in (5, 5, 6))
+    with SwarmSim(world) as clean_sim:
+        clean = clean_sim.reset(seed=5).scans
+    np.testing.assert_array_equal(a, b)
+    assert not np.array_equal(a, c)
+    hits = (clean > 0) & (clean < 3.0)
+    dropped = hits & (a == 3.0)
+    assert hits.sum() > 100 and 0.05 < dropped.sum() / hits.sum() < 0.15
+    np.testing.assert_array_equal(a[clean == 0], 0.0)  # blind beams stay 0
+    returns = hits & ~dropped
+    assert 0.01 < np.std(a[returns] - clean[returns]) < 0.03
