@@ -20,11 +20,10 @@ import pybullet as p
 
 import fftnav.sim.lidar as lidar_module
 from fftnav.sim.swarm import SimConfig, SwarmSim, _outline
-from fftnav.world.model import (
+from fftnav.world import (
     Polygon,
     World,
     generate_world,
-    point_obstacle_distance,
     raycast_world,
 )
 
@@ -44,7 +43,7 @@ def lidar_errors(env: str, *, prisms: bool = False, seed: int = 4,
         chosen: list[tuple[float, float, float]] = []
         while len(chosen) < 5:
             x, y = rng.uniform(1.0, 19.0, 2)
-            if point_obstacle_distance(world, [[x, y]])[0] > 0.16 and all(
+            if world.obstacle_distance([[x, y]])[0] > 0.16 and all(
                     math.hypot(x - a, y - b) > 6.5 for a, b, _ in chosen):
                 chosen.append((x, y, rng.uniform(-math.pi, math.pi)))
         poses = np.array(chosen)

@@ -14,8 +14,8 @@ import numpy as np
 from fftnav.planning.astar import astar
 from fftnav.planning.gridgraph import shortest_paths
 from fftnav.planning.reference import robot_cells
+from fftnav.world import generate_world
 from fftnav.world.grid import occupancy_grid
-from fftnav.world.model import generate_world
 
 __all__ = ["bench_optimal_paths", "format_optimal_paths"]
 

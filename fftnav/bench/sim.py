@@ -9,7 +9,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.sim.swarm import SimConfig, SwarmSim
-from fftnav.world.model import generate_world
+from fftnav.world import generate_world
 
 __all__ = ["bench_sim", "format_sim"]
 

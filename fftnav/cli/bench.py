@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 import json
 
+from fftnav.world.kinds import world_kinds
+
 
 def _report(result: dict, args: argparse.Namespace, table: str) -> int:
     """Record ``result`` in ``--csv`` if asked, then print it as JSON or as a table."""
@@ -50,13 +52,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     b.set_defaults(func=cmd_bench_pipeline)
 
     s = benches.add_parser("sim", help="real-time factor of the PyBullet swarm")
-    s.add_argument("--env", choices=("forest", "rocky"), default="forest")
+    s.add_argument("--env", choices=world_kinds(), default="forest")
     s.add_argument("--seconds", type=float, default=20.0, help="simulated seconds (default 20)")
     s.add_argument("--seed", type=int, default=0)
     s.set_defaults(func=cmd_bench_sim)
 
     g = benches.add_parser("planning", help="time of the optimal-path reference (A*, geodesic)")
-    g.add_argument("--env", choices=("forest", "rocky"), default="forest")
+    g.add_argument("--env", choices=world_kinds(), default="forest")
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--r0", type=float, default=0.15, help="inflation radius r0, m (default 0.15)")
     g.set_defaults(func=cmd_bench_planning)

@@ -33,7 +33,7 @@ def cmd_episode(args: argparse.Namespace) -> int:
     import numpy as np
 
     from fftnav.episode.loop import EpisodeConfig, episode_csv, run_episode
-    from fftnav.world.model import load_world
+    from fftnav.world import load_world
 
     world = load_world(args.world)
     config = EpisodeConfig(**_overrides(args.set or []))

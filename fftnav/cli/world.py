@@ -8,10 +8,12 @@ import math
 
 import numpy as np
 
+from fftnav.world.kinds import world_kinds
+
 
 def cmd_generate(args: argparse.Namespace) -> int:
     """Generate a seeded world and write its JSON file."""
-    from fftnav.world.model import generate_world, load_preset, save_world
+    from fftnav.world import generate_world, load_preset, save_world
 
     overrides = {}
     if args.size is not None:  # goals stay as far from the top edge as starts from the bottom
@@ -31,7 +33,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
 def cmd_render(args: argparse.Namespace) -> int:
     """Draw a world file top-down into an image."""
     from fftnav.report.world_plot import render_world
-    from fftnav.world.model import load_world
+    from fftnav.world import load_world
 
     render_world(load_world(args.world), args.out)
     print(args.out)
@@ -40,8 +42,8 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def cmd_grid(args: argparse.Namespace) -> int:
     """Rasterise a world file into an occupancy grid (.npy, optionally a ROS map pair)."""
+    from fftnav.world import load_world
     from fftnav.world.grid import occupancy_grid, write_ros_map
-    from fftnav.world.model import load_world
 
     og = occupancy_grid(load_world(args.world), resolution_m=args.resolution,
                         inflate_m=args.inflate)
@@ -57,7 +59,7 @@ def cmd_grid(args: argparse.Namespace) -> int:
 def cmd_scan(args: argparse.Namespace) -> int:
     """Print the PyBullet lidar scan of a robot at a pose as JSON."""
     from fftnav.sim.swarm import SimConfig, SwarmSim
-    from fftnav.world.model import World, load_world
+    from fftnav.world import World, load_world
 
     world = load_world(args.world)
     x, y, yaw_deg = args.pose
@@ -81,7 +83,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     cmds.required = True
 
     g = cmds.add_parser("generate", help="write a seeded forest or rocky world file")
-    g.add_argument("--env", choices=("forest", "rocky"), required=True)
+    g.add_argument("--env", choices=world_kinds(), required=True)
     g.add_argument("--seed", type=int, required=True)
     g.add_argument("--size", type=float, nargs=2, metavar=("W", "H"),
                    help="metres; goals then lie on y = H - start_y_m")

@@ -231,7 +231,7 @@ def _reference_lengths(world_json: str, r0_m: float) -> tuple[np.ndarray, np.nda
     """Grid A* and geodesic lengths of a world's robots, cached: every policy run on the same map
     in this process reuses them (they take about a second or two per 20 m x 20 m map)."""
     from fftnav.planning.reference import optimal_lengths
-    from fftnav.world.model import World
+    from fftnav.world import World
 
     return optimal_lengths(World.from_json(world_json), r0_m=r0_m)
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 import numpy as np
 
 from fftnav.planning.geodesic import geodesic_lengths
+from fftnav.world import World
 from fftnav.world.grid import OccupancyGrid, occupancy_grid
-from fftnav.world.model import World
 
 __all__ = ["optimal_lengths", "robot_cells"]
 

@@ -10,10 +10,9 @@ import matplotlib
 matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
-from matplotlib.patches import Circle as CirclePatch  # noqa: E402
 from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
 
-from fftnav.world.model import Circle, World  # noqa: E402
+from fftnav.world import World  # noqa: E402
 
 __all__ = ["draw_world", "render_world"]
 
@@ -23,8 +22,7 @@ def draw_world(world: World, ax: Any) -> None:
     along the start yaw), goals (green stars), the world border and a 1 m scale bar.
     Axes are in metres, equal aspect, x right and y up."""
     for obstacle in world.obstacles:
-        patch = (CirclePatch(obstacle.center, obstacle.radius) if isinstance(obstacle, Circle)
-                 else PolygonPatch(obstacle.vertices, closed=True))
+        patch = PolygonPatch(obstacle.outline(), closed=True)  # trunks: their 64-gon
         patch.set(facecolor="0.45", edgecolor="0.2", linewidth=0.5)
         ax.add_patch(patch)
     w, h = world.size_m

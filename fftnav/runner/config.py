@@ -19,7 +19,7 @@ from typing import Any
 
 from fftnav.episode.loop import EpisodeConfig
 from fftnav.planning.policies import POLICIES
-from fftnav.world.model import ENVS, load_preset, world_parameters
+from fftnav.world import load_preset, world_kinds, world_parameters
 
 if sys.version_info >= (3, 11):
     import tomllib
@@ -147,7 +147,7 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
     if not (isinstance(name, str) and _NAME.match(name)):
         raise ValueError(f"experiment.name must be a non-empty string of letters, digits, "
                          f"'_', '.', '-', got {name!r}")
-    envs = _names("experiment.envs", exp["envs"], ENVS)
+    envs = _names("experiment.envs", exp["envs"], world_kinds())
     maps = _integer("experiment.maps", exp["maps"], 1)
     trajectory_maps = _integer("experiment.trajectory_maps", exp.get("trajectory_maps", 1), 0)
     if trajectory_maps > maps:

@@ -103,6 +103,6 @@ def task_world(config: ExperimentConfig, env: str, map_seed: int) -> Any:
 @lru_cache(maxsize=8)
 def _cached_world(env: str, map_seed: int, robots: int, overrides_json: str) -> Any:
     """Per-process cache of generated worlds (the policies of a map share its world)."""
-    from fftnav.world.model import generate_world
+    from fftnav.world import generate_world
 
     return generate_world(env, map_seed, robots=robots, **json.loads(overrides_json))

@@ -18,8 +18,7 @@ import pybullet as p
 
 from fftnav.observe.spherical import SphericalGrid
 from fftnav.sim.rays import cast_rays
-from fftnav.sim.swarm import _outline, _prism_triangles
-from fftnav.world.model import Circle
+from fftnav.world.obstacles import Circle, combined_mesh
 
 __all__ = ["Forest3D", "make_forest3d", "DroneSim"]
 
@@ -152,11 +151,8 @@ class DroneSim:
                 col = shape(p.GEOM_CYLINDER, radius=radius, height=height, physicsClientId=c)
                 p.createMultiBody(0, col, basePosition=[x, y, height / 2], physicsClientId=c)
         elif len(forest.trunks):
-            verts, triangles = [], []
-            for x, y, radius, height in forest.trunks:
-                xy = _outline(Circle((x, y), radius, height))
-                triangles += [len(verts) + i for i in _prism_triangles(len(xy))]
-                verts += [[vx, vy, z] for vx, vy in xy.tolist() for z in (0.0, height)]
+            verts, triangles = combined_mesh(
+                [Circle((x, y), radius, height) for x, y, radius, height in forest.trunks])
             col = shape(p.GEOM_MESH, vertices=verts, indices=triangles, physicsClientId=c)
             p.createMultiBody(0, col, physicsClientId=c)
         for x, y, z, radius in forest.canopies:

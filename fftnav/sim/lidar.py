@@ -55,11 +55,11 @@ class Lidar:
         ``start + hitFraction * (R - start)``.
     mask : int
         Bullet collision-filter mask of the rays (which body groups they can hit).
-    circles : numpy.ndarray, (N, 3), optional
-        Static bodies the rays can hit that lie inside a vertical cylinder: (x m, y m, radius m).
-    polygons : sequence of numpy.ndarray, optional
-        Static bodies the rays can hit that lie inside a vertical prism: its convex outline
-        ``(n, 2)`` (m), one array per body.
+    bodies : sequence of (circle, vertices), optional
+        Static bodies the rays can hit: a circle ``(x m, y m, radius m)`` whose vertical
+        cylinder contains the body, and optionally points ``(n, 2)`` (m) whose angular span,
+        seen from outside, covers it (a convex body's outline), or None (the obstacles'
+        ``bounding_circle()`` and ``cull_vertices()``).
     robot_radius_m : float, optional
         Radius of a vertical cylinder about each robot's centre that contains every part of the
         robot the rays can hit (m).
@@ -70,7 +70,7 @@ class Lidar:
 
     def __init__(self, client: int, *, beams: int, range_m: float, fov_deg: float,
                  blind_deg: float, height_m: float, start_m: float, mask: int,
-                 circles: np.ndarray | None = None, polygons: Sequence[np.ndarray] = (),
+                 bodies: Sequence[tuple[tuple[float, float, float], np.ndarray | None]] = (),
                  robot_radius_m: float = 0.0, cull: bool = True) -> None:
         self._client = client
         self.range_m = float(range_m)
@@ -84,16 +84,15 @@ class Lidar:
         self._start_m = float(start_m)
         self._height_m = float(height_m)
         self._mask = int(mask)
-        # Static bodies as bounding circles (centre, radius), polygons also by their vertices
-        # (padded by repeating the first one; NaN rows for circles).
-        circles = np.reshape(np.zeros((0, 3)) if circles is None else circles, (-1, 3))
-        outlines = [np.asarray(xy, dtype=float) for xy in polygons]
-        self._circles = np.concatenate([circles, np.reshape([_bounds(xy) for xy in outlines],
-                                                            (-1, 3))])
-        size = max((len(xy) for xy in outlines), default=1)
+        # Static bodies as bounding circles (centre, radius), some also by vertices (padded by
+        # repeating the first one; NaN rows for bodies without).
+        self._circles = np.reshape(np.array([c for c, _ in bodies], dtype=float), (-1, 3))
+        outlines = [None if xy is None else np.asarray(xy, dtype=float) for _, xy in bodies]
+        size = max((len(xy) for xy in outlines if xy is not None), default=1)
         self._vertices = np.full((len(self._circles), size, 2), np.nan)
-        for i, xy in enumerate(outlines, start=len(circles)):
-            self._vertices[i] = np.concatenate([xy, np.repeat(xy[:1], size - len(xy), axis=0)])
+        for i, xy in enumerate(outlines):
+            if xy is not None:
+                self._vertices[i] = np.concatenate([xy, np.repeat(xy[:1], size - len(xy), axis=0)])
         self._robot_radius_m = float(robot_radius_m)
         self.cull = bool(cull)
         #: Wall-clock seconds spent in ``scan`` so far (read by the speed bench).
@@ -175,12 +174,6 @@ class Lidar:
         opened, closed = (np.bincount(b, minlength=k * (m + 1)) for b in bounds.T)
         inside = np.cumsum((opened - closed).reshape(k, m + 1), axis=1)[:, :m] > 0  # any body
         return inside[:, self.live]
-
-
-def _bounds(xy: np.ndarray) -> tuple[float, float, float]:
-    """A circle (x m, y m, radius m) containing the polygon ``xy``: centred on its vertex mean."""
-    middle = xy.mean(axis=0)
-    return (*middle, float(np.hypot(*(xy - middle).T).max()))
 
 
 def _wrap(angle: np.ndarray) -> np.ndarray:

@@ -18,7 +18,8 @@ import numpy as np
 import pybullet as p
 
 from fftnav.sim.lidar import Lidar
-from fftnav.world.model import Circle, Polygon, World
+from fftnav.world import World
+from fftnav.world.obstacles import combined_mesh
 
 __all__ = ["SimConfig", "Observation", "SwarmSim"]
 
@@ -33,9 +34,6 @@ _URDF_R0_M = 0.15
 _WHEELS = (0, 1)  # left, right
 #: Maximum wheel motor torque (N m) of the velocity controllers.
 _WHEEL_TORQUE_NM = 0.5
-#: Sides of the prism that models a trunk: it contains the trunk's cylinder and lies within
-#: r (1 / cos(pi / 64) - 1) = 0.36 mm of it for r = 0.3 m (128 sides: 11 % slower lidar).
-_TRUNK_SIDES = 64
 
 
 @dataclass(frozen=True)
@@ -160,25 +158,6 @@ class Observation:
     active: np.ndarray
 
 
-def _outline(obstacle: Circle | Polygon) -> np.ndarray:
-    """Convex CCW outline ``(n, 2)`` (m) of an obstacle's cross-section: a polygon's vertices, or
-    for a trunk the regular ``_TRUNK_SIDES``-gon circumscribing its circle."""
-    if isinstance(obstacle, Polygon):
-        return np.array(obstacle.vertices, dtype=float)
-    a = np.arange(_TRUNK_SIDES) * (2.0 * math.pi / _TRUNK_SIDES)
-    radius = obstacle.radius / math.cos(math.pi / _TRUNK_SIDES)
-    return np.array(obstacle.center) + radius * np.c_[np.cos(a), np.sin(a)]
-
-
-def _prism_triangles(n: int) -> list[int]:
-    """Vertex indices of the outward-facing triangles of a prism over a convex CCW n-gon whose
-    vertex ``i`` is stored as ``2 i`` (bottom, z = 0) and ``2 i + 1`` (top)."""
-    sides = [[2 * i, 2 * j, 2 * j + 1, 2 * i, 2 * j + 1, 2 * i + 1]
-             for i, j in ((i, (i + 1) % n) for i in range(n))]
-    caps = [[0, 2 * i + 2, 2 * i, 1, 2 * i + 1, 2 * i + 3] for i in range(1, n - 1)]
-    return [v for tri in sides + caps for v in tri]
-
-
 class SwarmSim:
     """A PyBullet world with one robot per start pose of ``world``.
 
@@ -227,11 +206,7 @@ class SwarmSim:
             p.changeDynamics(self._ground, -1, lateralFriction=1.0, physicsClientId=cid)
         # All obstacles form ONE static triangle mesh: Bullet updates every body's bounding box
         # every step, so one body instead of 80 makes a physics step several times cheaper.
-        verts, triangles = [], []
-        for obstacle in self.world.obstacles:
-            xy = _outline(obstacle)
-            triangles += [len(verts) + i for i in _prism_triangles(len(xy))]
-            verts += [[x, y, z] for x, y in xy.tolist() for z in (0.0, obstacle.height)]
+        verts, triangles = combined_mesh(self.world.obstacles)
         if verts:
             shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
                                            physicsClientId=cid)
@@ -249,10 +224,8 @@ class SwarmSim:
                             blind_deg=cfg.blind_deg,
                             height_m=cfg.r0_m if cfg.lidar_height_m is None else cfg.lidar_height_m,
                             start_m=cfg.r0_m + 0.005, mask=_OBSTACLE | _ROBOT,
-                            circles=[(*o.center, o.radius / math.cos(math.pi / _TRUNK_SIDES))
-                                     for o in self.world.obstacles if isinstance(o, Circle)],
-                            polygons=[o.vertices for o in self.world.obstacles
-                                      if isinstance(o, Polygon)],
+                            bodies=[(o.bounding_circle(), o.cull_vertices())
+                                    for o in self.world.obstacles],
                             robot_radius_m=cfg.r0_m)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:

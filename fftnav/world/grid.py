@@ -15,7 +15,8 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
-from fftnav.world.model import Circle, World, obstacle_distance
+from fftnav.validate import check_number
+from fftnav.world.model import World
 
 __all__ = ["OccupancyGrid", "occupancy_grid", "unreachable_robots", "write_ros_map"]
 
@@ -64,20 +65,13 @@ def occupancy_grid(world: World, *, resolution_m: float = 0.05,
     OccupancyGrid
         ``ceil(h / res)`` rows by ``ceil(w / res)`` columns.
     """
-    if not (math.isfinite(resolution_m) and resolution_m > 0):
-        raise ValueError(f"resolution_m must be a finite number > 0, got "
-                         f"resolution_m={resolution_m!r}")
-    if not (math.isfinite(inflate_m) and inflate_m >= 0):
-        raise ValueError(f"inflate_m must be a finite number >= 0, got inflate_m={inflate_m!r}")
+    check_number("resolution_m", resolution_m, low=0, low_open=True)
+    check_number("inflate_m", inflate_m, low=0)
     w, h = world.size_m
     shape = (math.ceil(h / resolution_m - 1e-9), math.ceil(w / resolution_m - 1e-9))
     grid = np.zeros(shape, dtype=bool)
     for obstacle in world.obstacles:
-        if isinstance(obstacle, Circle):
-            lo = np.subtract(obstacle.center, obstacle.radius)
-            hi = np.add(obstacle.center, obstacle.radius)
-        else:
-            lo, hi = np.min(obstacle.vertices, axis=0), np.max(obstacle.vertices, axis=0)
+        lo, hi = obstacle.bounds()
         c0, r0 = np.maximum(np.floor((lo - inflate_m) / resolution_m).astype(int), 0)
         c1, r1 = np.minimum(np.ceil((hi + inflate_m) / resolution_m).astype(int) + 1,
                             [shape[1], shape[0]])
@@ -85,7 +79,7 @@ def occupancy_grid(world: World, *, resolution_m: float = 0.05,
             continue
         rows, cols = np.mgrid[r0:r1, c0:c1]
         centres = (np.c_[cols.ravel(), rows.ravel()] + 0.5) * resolution_m
-        near = obstacle_distance(obstacle, centres) <= inflate_m  # 0 inside the obstacle
+        near = obstacle.distance(centres) <= inflate_m  # 0 inside the obstacle
         grid[r0:r1, c0:c1] |= near.reshape(rows.shape)
     return OccupancyGrid(grid, float(resolution_m), (0.0, 0.0))
 

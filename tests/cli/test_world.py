@@ -10,7 +10,7 @@ import sys
 import numpy as np
 import pytest
 
-from fftnav.world.model import load_world
+from fftnav.world import load_world
 from tests.sim.lidar_oracle import assert_ranges_match_analytic
 
 

@@ -13,7 +13,7 @@ from fftnav.observe.codec import decode_message
 from fftnav.observe.fusion import decide_turn
 from fftnav.observe.geometry import SIM_ROBOT
 from fftnav.observe.pipeline import Pipeline
-from fftnav.world.model import Circle, Polygon, World, raycast_world
+from fftnav.world import Circle, Polygon, World, raycast_world
 
 UP = math.pi / 2
 

@@ -12,7 +12,7 @@ import pytest
 
 from fftnav.planning.astar import UnreachableGoalError
 from fftnav.planning.reference import optimal_lengths
-from fftnav.world.model import Circle, Polygon, World, generate_world
+from fftnav.world import Circle, Polygon, World, generate_world
 
 
 def make_world(obstacles, starts, goals, size=(4.0, 4.0)) -> World:

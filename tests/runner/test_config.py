@@ -61,7 +61,7 @@ def test_valid_config_maps_sections_to_episode_config():
     ("sensor.dropout", 1.5, r"dropout must be in \[0, 1\), got dropout=1\.5"),
     ("world.robots", 4, r"world\.robots cannot be overridden; it is set by the experiment"),
     ("world.density_per_m2", -1.0,
-     r"\[world\] for env 'forest': density_per_m2 must be in \[0, 1\], got density_per_m2=-1\.0"),
+     r"\[world\] for env 'forest': density_per_m2 must be a finite number in \[0, 1\], got density_per_m2=-1\.0"),
     ("world.size_m", "big",
      r"\[world\] for env 'forest': size_m must be a list of 2 numbers, got size_m='big'"),
     ("world.density", 0.1, r"unknown key world\.density; expected one of"),

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from fftnav.world.model import World, raycast_world
+from fftnav.world import World, raycast_world
 
 
 def assert_ranges_match_analytic(world: World, origins: np.ndarray, angles: np.ndarray,

@@ -9,7 +9,7 @@ import numpy as np
 import pytest
 
 from fftnav.sim.swarm import SimConfig, SwarmSim
-from fftnav.world.model import World, generate_world, point_obstacle_distance
+from fftnav.world import World, generate_world
 from tests.sim.lidar_oracle import assert_ranges_match_analytic
 
 
@@ -18,7 +18,7 @@ def _free_poses(world, rng, n, clearance):
     poses = []
     while len(poses) < n:
         x, y = rng.uniform([1.0, 1.0], np.subtract(world.size_m, 1.0))
-        if point_obstacle_distance(world, [[x, y]])[0] < clearance:
+        if world.obstacle_distance([[x, y]])[0] < clearance:
             continue
         if all(math.hypot(x - a, y - b) > 6.5 for a, b, _ in poses):
             poses.append((x, y, rng.uniform(-math.pi, math.pi)))

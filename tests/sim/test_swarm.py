@@ -9,7 +9,7 @@ import pybullet as p
 import pytest
 
 from fftnav.sim.swarm import SimConfig, SwarmSim
-from fftnav.world.model import Circle, World, generate_world, point_obstacle_distance
+from fftnav.world import Circle, World, generate_world
 
 
 def _open_world(starts, obstacles=()):
@@ -62,7 +62,7 @@ def test_robot_driven_into_a_tree_collides_and_does_not_pass_through():
         for _ in range(100):  # 10 s at full speed: would travel 5 m
             obs = sim.step([[0.5, 0.0], [0.5, 0.0]])
             contact.append(obs.obstacle_contact.copy())
-            gap = point_obstacle_distance(world, obs.poses[:1, :2])[0]
+            gap = world.obstacle_distance(obs.poses[:1, :2])[0]
             assert gap > 0.15 - 0.005  # never deeper than 5 mm into the trunk
     contact = np.array(contact)
     assert contact[:, 0].any() and not contact[:, 1].any()

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from fftnav.sim.swarm import SimConfig, SwarmSim
-from fftnav.world.model import Circle, World, point_obstacle_distance
+from fftnav.world import Circle, World
 
 WHEELED = SimConfig(embodiment="wheeled")
 
@@ -62,7 +62,7 @@ def test_lidar_sees_the_chassis_disc_and_contacts_work():
             obs = sim.step([[0.5, 0.0], [0.0, 0.0]])
             contact.append(obs.obstacle_contact[0])
         assert any(contact) and not obs.robot_contact.any()
-        assert point_obstacle_distance(world, obs.poses[:1, :2])[0] > 0.15 - 0.01
+        assert world.obstacle_distance(obs.poses[:1, :2])[0] > 0.15 - 0.01
 
 
 def test_wheeled_robots_see_each_other_as_r0_discs_are_deterministic_and_park():

@@ -5,8 +5,8 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
+from fftnav.world import Circle, Polygon, World, generate_world
 from fftnav.world.grid import occupancy_grid, write_ros_map
-from fftnav.world.model import Circle, Polygon, World, generate_world, point_obstacle_distance
 
 
 def _world(*obstacles):
@@ -32,7 +32,7 @@ def test_cells_match_exact_distances(inflate):
     world = generate_world("rocky", 2)
     og = occupancy_grid(world, resolution_m=0.1, inflate_m=inflate)
     rows, cols = np.indices(og.grid.shape)
-    dist = point_obstacle_distance(world, og.cell_to_world(rows.ravel(), cols.ravel()))
+    dist = world.obstacle_distance(og.cell_to_world(rows.ravel(), cols.ravel()))
     np.testing.assert_array_equal(og.grid.ravel(), dist <= inflate)
     disc = occupancy_grid(_world(Circle((2.0, 1.0), 0.5, 1.0)), resolution_m=0.01)
     assert disc.grid.sum() * 1e-4 == pytest.approx(np.pi * 0.25, rel=0.01)

@@ -8,19 +8,17 @@ import math
 import numpy as np
 import pytest
 
-from fftnav.world.grid import unreachable_robots
-from fftnav.world.model import (
+from fftnav.world import (
     Circle,
     Polygon,
     World,
     generate_world,
     load_preset,
     load_world,
-    obstacle_distance,
-    point_obstacle_distance,
     raycast_world,
     save_world,
 )
+from fftnav.world.grid import unreachable_robots
 
 
 def _across(polygon):
@@ -50,7 +48,7 @@ def test_density_and_clear_strips_hold_for_50_seeds(env):
             assert low <= y0 and y1 <= high
         # every robot fits: starts at least 2 r0 apart, clear of obstacles by r0
         assert np.all(np.diff(world.starts[:, 0]) > 2 * preset["robot_radius_m"])
-        clearance = point_obstacle_distance(world, np.r_[world.starts[:, :2], world.goals])
+        clearance = world.obstacle_distance(np.r_[world.starts[:, :2], world.goals])
         assert clearance.min() > preset["robot_radius_m"]
         if env == "rocky":  # rocks (5- to 9-gons; walls are rectangles) are 0.3 to 1.2 m across
             across = [_across(o) for o in world.obstacles if len(o.vertices) > 4]
@@ -84,7 +82,7 @@ def test_overrides_change_size_density_and_robots():
     assert len(world.obstacles) == 90 and len(world.starts) == 10
     with pytest.raises(ValueError, match=r"unknown world parameter\(s\) \['colour'\]"):
         generate_world("forest", 0, colour="red")
-    with pytest.raises(ValueError, match=r"env_or_path must be one of \[.forest., .rocky.\]"):
+    with pytest.raises(ValueError, match=r"env must be one of \[.forest., .rocky.\], got env=.desert."):
         generate_world("desert", 0)
     with pytest.raises(ValueError, match="seed must be an integer >= 0, got seed=-1"):
         generate_world("forest", -1)
@@ -130,7 +128,7 @@ def _with(path, value):
 @pytest.mark.parametrize(("path", "value", "message"), [
     (["starts"], KeyError, "world file is missing key 'starts'"),
     (["obstacles", 0, "radius"], KeyError, r"obstacles\[0\]: missing key 'radius'"),
-    (["obstacles", 0, "radius"], -0.2, r"obstacles\[0\].radius must be > 0, got -0.2"),
+    (["obstacles", 0, "radius"], -0.2, r"obstacles\[0\].radius must be a finite number > 0, got obstacles\[0\].radius=-0.2"),
     (["obstacles", 0, "center"], [9.9, 5], r"obstacles\[0\]: obstacle lies \(partly\) outside "
      r"the world \[0, 10\] x \[0, 10\]: it spans \[9.6, 10.2\] x \[4.7, 5.3\]"),
     (["obstacles", 0, "height"], KeyError, r"obstacles\[0\]: missing key 'height'"),
@@ -144,13 +142,16 @@ def _with(path, value):
      r"obstacles\[1\].vertices: polygon is self-intersecting"),
     (["obstacles", 1, "vertices"], [[1, 1], [2, 1]], r"obstacles\[1\].vertices must be a list of >= 3"),
     (["obstacles", 1, "vertices"], [[1, 1], [-2, 1], [1, 2]], r"obstacles\[1\]: obstacle lies"),
-    (["obstacles", 1, "shape"], "star", r"obstacles\[1\]: shape must be 'circle' or 'polygon'"),
-    (["obstacles", 0, "height"], 0, r"obstacles\[0\].height must be > 0"),
+    (["obstacles", 1, "shape"], "star", r"obstacles\[1\]: shape must be one of \['circle', 'polygon'\]"),
+    (["obstacles", 0, "height"], 0, r"obstacles\[0\].height must be a finite number > 0"),
     (["size"], [10], r"size must be a list of 2 numbers"),
     (["goals"], [[1, 2], [3, 4]], "starts and goals must have the same length"),
     (["starts", 0], [11, 1, 0], r"starts\[0\] lies outside the world"),
     (["goals", 0], [1, "x"], r"goals\[0\]\[1\] must be a finite number"),
     (["seed"], 1.5, "seed must be an integer"),
+    (["boundary"], "walls", r"world file has an unknown key 'boundary'; its keys are \['env', "),
+    (["obstacles", 0, "colour"], "red", r"obstacles\[0\]: unknown key 'colour'; a circle has "
+     r"the keys \['shape', 'center', 'radius', 'height'\]"),
 ])
 def test_malformed_world_files_are_refused(path, value, message):
     assert World.from_json(json.dumps(GOOD)).obstacles[0] == Circle((5.0, 5.0), 0.3, 2.0)
@@ -174,7 +175,7 @@ def test_raycast_hits_lie_on_boundaries(env):
     world = generate_world(env, 5)
     rng = np.random.default_rng(7)
     origins = rng.uniform([1, 3], [19, 17], (40, 2))
-    origins = origins[point_obstacle_distance(world, origins) > 0.05]
+    origins = origins[world.obstacle_distance(origins) > 0.05]
     angles = rng.uniform(-math.pi, math.pi, (len(origins), 30))
     dist = raycast_world(world, origins, angles, 3.0)
     hit = dist < 3.0
@@ -182,12 +183,12 @@ def test_raycast_hits_lie_on_boundaries(env):
     direction = np.stack([np.cos(angles), np.sin(angles)], axis=-1)
     at = origins[:, None, :] + dist[..., None] * direction
     before = origins[:, None, :] + (dist[..., None] - 1e-3) * direction
-    assert np.all(point_obstacle_distance(world, at[hit]) < 1e-9)
-    assert np.all(point_obstacle_distance(world, before.reshape(-1, 2)) > 0)
+    assert np.all(world.obstacle_distance(at[hit]) < 1e-9)
+    assert np.all(world.obstacle_distance(before.reshape(-1, 2)) > 0)
     # coarse marching: no obstacle anywhere along a ray shorter than its reported distance
     for f in np.linspace(0.0, 0.99, 25):
         pts = origins[:, None, :] + f * dist[..., None] * direction
-        assert np.all(point_obstacle_distance(world, pts.reshape(-1, 2)) > 0)
+        assert np.all(world.obstacle_distance(pts.reshape(-1, 2)) > 0)
 
 
 def test_raycast_simple_cases_and_errors():
@@ -196,7 +197,7 @@ def test_raycast_simple_cases_and_errors():
     world = World("x", 0, (10.0, 10.0), (square, tree), np.zeros((1, 3)), np.zeros((1, 2)))
     got = raycast_world(world, [[0.0, 0.0], [5.0, 0.0]], [[0.0, math.pi / 2], [0.0, 1.0]], 5.0)
     np.testing.assert_allclose(got, [[4.0, 1.5], [0.0, 0.0]])
-    assert obstacle_distance(tree, [[0.0, 0.0]])[0] == pytest.approx(1.5)
+    assert tree.distance([[0.0, 0.0]])[0] == pytest.approx(1.5)
     with pytest.raises(ValueError, match=r"origins must have shape \(K, 2\)"):
         raycast_world(world, [0.0, 0.0], [[0.0]], 3.0)
     with pytest.raises(ValueError, match="range_m must be a finite number > 0, got range_m=0"):

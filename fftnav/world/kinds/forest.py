@@ -1,0 +1,29 @@
+"""World kind ``forest``: tree trunks (circles) scattered between the start and goal strips.
+
+Preset ``worlds/forest.toml`` (paper Sec. IV-B): 20 m x 20 m, 80 trunks of radius 0.1-0.3 m.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from fftnav.validate import check_number
+from fftnav.world.kinds import DECIMALS, Params, register_world_kind, scatter_obstacles
+from fftnav.world.obstacles import Circle, Obstacle
+
+
+def _check(params: Params) -> None:
+    low, high = params["trunk_radius_m"]
+    check_number("trunk_radius_m[0]", low, low=0, low_open=True)
+    check_number("trunk_radius_m[1]", high, low=low)
+
+
+def _trunk(params: Params, rng: np.random.Generator) -> tuple[Obstacle, float]:
+    r = round(float(rng.uniform(*params["trunk_radius_m"])), DECIMALS)
+    return Circle((0.0, 0.0), r, params["obstacle_height_m"]), r
+
+
+@register_world_kind("forest", check=_check)
+def draw(params: Params, rng: np.random.Generator) -> list[Obstacle] | None:
+    """Trunks of radius uniform in ``trunk_radius_m`` (paper: forest)."""
+    return scatter_obstacles(params, rng, _trunk)
