@@ -78,8 +78,8 @@ def hit_share(env: str, *, seconds: float = 20.0, seed: int = 0) -> float:
         with SwarmSim(world, config=config) as sim:
             sim.reset(seed=seed)
             for _ in range(round(seconds * config.control_hz)):
-                sim.step(np.c_[rng.uniform(0, config.v_max, 15),
-                               rng.uniform(-1, 1, 15) * config.w_max])
+                sim.step(np.c_[rng.uniform(0, config.robot.v_max_mps, 15),
+                               rng.uniform(-1, 1, 15) * config.robot.w_max_radps])
     finally:
         lidar_module.cast_rays = cast
     every = np.concatenate(fractions)

@@ -51,7 +51,8 @@ def bench_sim(*, env: str = "forest", seconds: float = 20.0, seed: int = 0) -> d
         cast = lidar.rays_cast
         tic = time.perf_counter()
         for _ in range(ticks):
-            commands = np.c_[rng.uniform(0, config.v_max, k), rng.uniform(-1, 1, k) * config.w_max]
+            commands = np.c_[rng.uniform(0, config.robot.v_max_mps, k),
+                             rng.uniform(-1, 1, k) * config.robot.w_max_radps]
             sim.step(commands)
         wall = time.perf_counter() - tic
         lidar_s = lidar.seconds_spent
@@ -66,7 +67,7 @@ def bench_sim(*, env: str = "forest", seconds: float = 20.0, seed: int = 0) -> d
         "simulated_s": simulated,
         "physics_hz": config.physics_hz,
         "control_hz": config.control_hz,
-        "beams": config.beams,
+        "beams": config.sensor.beams,
         "rays_per_tick": rays,
         "rays_cast_per_tick": round(cast / ticks, 1),
         "wall_s": round(wall, 4),

@@ -3,28 +3,21 @@
 from __future__ import annotations
 
 import argparse
-import dataclasses
 import sys
 from pathlib import Path
 
 from fftnav.cli import CliError
+from fftnav.planning.policies import POLICIES
 
 
-def _overrides(pairs: list[str]) -> dict[str, object]:
-    """Parse ``--set key=value`` pairs against the EpisodeConfig fields and their types."""
-    from fftnav.episode.loop import EpisodeConfig
-
-    fields = {f.name: f.type for f in dataclasses.fields(EpisodeConfig) if f.init}
-    out: dict[str, object] = {}
+def _overrides(pairs: list[str]) -> dict[str, str]:
+    """``--set KEY=VALUE`` pairs as a mapping (checked by :meth:`SwarmConfig.replace`)."""
+    out: dict[str, str] = {}
     for pair in pairs:
         key, sep, text = pair.partition("=")
-        if not sep or key not in fields:
-            raise CliError(f"--set expects KEY=VALUE, KEY one of {sorted(fields)}; got {pair!r}")
-        kind = {"int": int, "float": float, "str": str}[str(fields[key])]
-        try:
-            out[key] = kind(text)
-        except ValueError:
-            raise CliError(f"--set {key} must be a {kind.__name__}, got {text!r}") from None
+        if not sep or not key:
+            raise CliError(f"--set expects KEY=VALUE, e.g. time_limit_s=60; got {pair!r}")
+        out[key] = text
     return out
 
 
@@ -32,11 +25,11 @@ def cmd_episode(args: argparse.Namespace) -> int:
     """Run the episode, write the per-robot CSV (stdout without --out), trajectories, plot."""
     import numpy as np
 
-    from fftnav.episode.loop import EpisodeConfig, episode_csv, run_episode
+    from fftnav.episode import SwarmConfig, episode_csv, run_episode
     from fftnav.world import load_world
 
     world = load_world(args.world)
-    config = EpisodeConfig(**_overrides(args.set or []))
+    config = SwarmConfig().replace(_overrides(args.set or []))
     result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui)
     text = episode_csv(result.rows)
     if args.out:
@@ -56,14 +49,15 @@ def cmd_episode(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("episode", help="run one episode of all robots of a world file")
     p.add_argument("--world", required=True, metavar="W.json", help="world file")
-    p.add_argument("--policy", required=True, metavar="NAME",
-                   help="bug-left, bug-right, fusion, own-only or random")
+    p.add_argument("--policy", required=True, choices=tuple(POLICIES), metavar="NAME",
+                   help=f"decision policy: {', '.join(POLICIES)}")
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
     p.add_argument("--out", metavar="E.csv", help="per-robot CSV (default: stdout)")
     p.add_argument("--trajectories", metavar="T.npz",
                    help="trajectories, one (T, 3) array of x, y, yaw per robot: arr_0, arr_1, ...")
     p.add_argument("--plot", metavar="P.png", help="draw the trajectories over the map")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
-                   help="override an episode parameter, e.g. --set time_limit_s=60 (repeatable)")
+                   help="override a parameter, e.g. --set time_limit_s=60 or "
+                   "--set comms.packet_loss=0.2 (repeatable; keys of docs/experiments.md)")
     p.add_argument("--gui", action="store_true", help="watch the episode in the PyBullet GUI")
     p.set_defaults(func=cmd_episode)

@@ -58,8 +58,9 @@ def cmd_grid(args: argparse.Namespace) -> int:
 
 def cmd_scan(args: argparse.Namespace) -> int:
     """Print the PyBullet lidar scan of a robot at a pose as JSON."""
+    from fftnav.config import SensorConfig
     from fftnav.sim.swarm import SimConfig, SwarmSim
-    from fftnav.world import World, load_world
+    from fftnav.world import load_world
 
     world = load_world(args.world)
     x, y, yaw_deg = args.pose
@@ -67,9 +68,9 @@ def cmd_scan(args: argparse.Namespace) -> int:
     if not (0 <= x <= w and 0 <= y <= h and math.isfinite(yaw_deg)):
         raise ValueError(f"pose must lie in the world [0, {w:g}] x [0, {h:g}] with a finite yaw, "
                          f"got pose={args.pose}")
-    probe = World(world.env, world.seed, world.size_m, world.obstacles,
-                  np.array([[x, y, math.radians(yaw_deg)]]), np.array([[x, y]]))
-    config = SimConfig(beams=args.beams, range_m=args.range, blind_deg=args.blind)
+    probe = world.with_robots([[x, y, math.radians(yaw_deg)]], [[x, y]])
+    config = SimConfig(sensor=SensorConfig(beams=args.beams, range_m=args.range,
+                                           blind_deg=args.blind))
     with SwarmSim(probe, config=config) as sim:
         obs = sim.reset(seed=0)
         print(json.dumps({"angles_deg": np.degrees(sim.lidar.angles_rad).round(6).tolist(),

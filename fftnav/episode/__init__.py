@@ -1,1 +1,15 @@
-"""One swarm episode: configuration, messages, the decision helper and the tick loop; 3D flights."""
+"""One swarm episode: the robots' messages, the side decider, the tick loop and its record;
+3D quadrotor flights.
+
+Modules: :mod:`~fftnav.episode.comms` (the lossy, delayed, range-limited channel),
+:mod:`~fftnav.episode.decider` (P_s and the fused P of a robot), :mod:`~fftnav.episode.record`
+(``EpisodeRow``, the CSV columns), :mod:`~fftnav.episode.loop` (``run_episode``),
+:mod:`~fftnav.episode.flight3d` (the 3D flight controller and experiment).
+"""
+
+from fftnav.config import CommsConfig, EpisodeConfig, RobotConfig, SensorConfig, SwarmConfig
+from fftnav.episode.loop import run_episode
+from fftnav.episode.record import EPISODE_COLUMNS, EpisodeResult, EpisodeRow, episode_csv
+
+__all__ = ["EPISODE_COLUMNS", "CommsConfig", "EpisodeConfig", "EpisodeResult", "EpisodeRow",
+           "RobotConfig", "SensorConfig", "SwarmConfig", "episode_csv", "run_episode"]

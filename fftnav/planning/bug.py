@@ -18,8 +18,10 @@ from enum import IntEnum
 
 import numpy as np
 
+from fftnav.config import SwarmConfig
 from fftnav.observe.safe import beam_index, nearest_safe_headings
 from fftnav.observe.scan import beam_angles_rad, wrap_angle
+from fftnav.validate import check_number
 
 __all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
 
@@ -100,13 +102,16 @@ class PlannerParams:
 
     def __post_init__(self) -> None:
         for name in ("v_max_mps", "w_max_radps", "control_hz", "heading_tol_rad", "loop_timeout_s"):
-            value = getattr(self, name)
-            if not (math.isfinite(value) and value > 0):
-                raise ValueError(f"{name} must be finite and > 0, got {name}={value!r}")
-        if not (math.isfinite(self.progress_m) and self.progress_m >= 0):
-            raise ValueError(
-                f"progress_m must be finite and >= 0, got progress_m={self.progress_m!r}"
-            )
+            check_number(name, getattr(self, name), low=0, low_open=True)
+        for name in ("progress_m", "clearance_m", "lookahead_m"):
+            check_number(name, getattr(self, name), low=0)
+
+    @classmethod
+    def for_swarm(cls, config: SwarmConfig, **constants: float) -> PlannerParams:
+        """The speed limits and control rate of a swarm configuration; ``constants`` override
+        the state machine's other constants."""
+        return cls(v_max_mps=config.robot.v_max_mps, w_max_radps=config.robot.w_max_radps,
+                   control_hz=config.episode.control_hz, **constants)
 
 
 @dataclass
@@ -144,6 +149,15 @@ class BugPlanner:
     fov_rad: float
     decide: Callable[[int], int]
     params: PlannerParams = field(default_factory=PlannerParams)
+
+    @classmethod
+    def for_swarm(cls, n_robots: int, config: SwarmConfig,
+                  decide: Callable[[int], int]) -> BugPlanner:
+        """The planner of ``n_robots`` robots of a swarm configuration (its geometry, lidar field
+        of view, speed limits and control rate)."""
+        return cls(n_robots, l_th_m=config.geometry.l_th_m, r0_m=config.robot.r0_m,
+                   fov_rad=config.sensor.fov_rad, decide=decide,
+                   params=PlannerParams.for_swarm(config))
 
     def __post_init__(self) -> None:
         self.memory = [_Memory() for _ in range(self.n_robots)]

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from fftnav.report.trajectories import draw_trajectories as draw_paths
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.run import write_atomic
 from fftnav.runner.tasks import task_world
@@ -137,8 +138,6 @@ def draw_trajectories(config: ExperimentConfig, out: Path, env: str, episodes: p
 
     Arrived robots solid, failed ones dashed with a cross (:mod:`fftnav.report.trajectories`).
     """
-    from fftnav.report.trajectories import draw_trajectories as draw_paths
-
     map_seed = config.map_seed
     found = [(p, out / "trajectories" / f"{env}-{map_seed}-{p}.npz") for p in config.policies]
     found = [(p, f) for p, f in found if f.exists()]
@@ -152,7 +151,7 @@ def draw_trajectories(config: ExperimentConfig, out: Path, env: str, episodes: p
                         & (episodes.policy == policy)].sort_values("robot")
         with np.load(file) as data:
             paths = [data[f"arr_{i}"] for i in range(len(data.files))]
-        draw_paths(ax, world, paths, rows.to_dict("records"))
+        draw_paths(ax, world, paths, rows.arrived.astype(bool).tolist())
         ax.set_title(f"{policy} ({PAPER_NAMES.get(policy, 'extra')}): "
                      f"{int(rows.arrived.sum())}/{len(rows)} arrived")
     fig.suptitle(f"{env}, map seed {map_seed}: trajectories of {config.robots} robots")

@@ -12,40 +12,44 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
+from fftnav.episode.record import EpisodeRow  # noqa: E402
+from fftnav.report.world_plot import draw_world  # noqa: E402
+from fftnav.world.model import World  # noqa: E402
+
 __all__ = ["draw_trajectories", "plot_episode"]
 
 
 def draw_trajectories(
-    ax: Any, world: Any, trajectories: Sequence[np.ndarray], rows: Sequence[dict] | None = None
+    ax: Any, world: World, trajectories: Sequence[np.ndarray],
+    arrived: Sequence[bool] | None = None,
 ) -> None:
     """Draw the map (obstacles, starts, goals) and every robot's path on ``ax``.
 
-    Arrived robots are solid lines, failed ones dashed with a cross where they stopped.
+    Arrived robots (``arrived[i]``; all when None) are solid lines, failed ones dashed with a
+    cross where they stopped.
     """
-    from fftnav.report.world_plot import draw_world
-
     draw_world(world, ax)
     colors = plt.cm.viridis(np.linspace(0.0, 0.95, max(len(trajectories), 1)))
     for i, path in enumerate(trajectories):
-        ok = True if rows is None else bool(rows[i]["arrived"])
+        ok = True if arrived is None else bool(arrived[i])
         ax.plot(path[:, 0], path[:, 1], color=colors[i], lw=1.2, ls="-" if ok else "--")
         if not ok:
             ax.plot(path[-1, 0], path[-1, 1], "x", color="crimson", ms=8, mew=2)
 
 
 def plot_episode(
-    world: Any,
+    world: World,
     trajectories: Sequence[np.ndarray],
-    rows: Sequence[dict],
+    rows: Sequence[EpisodeRow],
     path: str | Path,
     *,
     title: str = "",
 ) -> Path:
     """Write a PNG of one episode's trajectories over its map; returns the path."""
     fig, ax = plt.subplots(figsize=(6.5, 6.5), dpi=120)
-    draw_trajectories(ax, world, trajectories, rows)
-    arrived = sum(bool(r["arrived"]) for r in rows)
-    ax.set_title(title or f"{rows[0]['policy']}: {arrived}/{len(rows)} arrived")
+    draw_trajectories(ax, world, trajectories, [r.arrived for r in rows])
+    arrived = sum(r.arrived for r in rows)
+    ax.set_title(title or f"{rows[0].policy}: {arrived}/{len(rows)} arrived")
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, bbox_inches="tight")

@@ -3,22 +3,23 @@
 The file has an ``[experiment]`` table (what to run), an optional ``[world]`` table of overrides
 for :func:`fftnav.world.model.generate_world` (with optional per-env sub-tables such as
 ``[world.forest]``), and the episode sections ``[robot]``, ``[sensor]``, ``[comms]``,
-``[episode]`` of :class:`fftnav.episode.loop.EpisodeConfig`. Every unknown key or invalid value
-raises ``ValueError`` naming the key, e.g. ``experiment.maps must be an integer >= 1, got 0``.
+``[episode]`` of :class:`fftnav.config.SwarmConfig`. Every unknown key or invalid value raises
+``ValueError`` naming the key, e.g. ``experiment.maps must be an integer >= 1, got
+experiment.maps=0``.
 See ``docs/experiments.md`` for the reference of every key.
 """
 
 from __future__ import annotations
 
-import math
 import re
 import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from fftnav.episode.loop import EpisodeConfig
+from fftnav.config import SwarmConfig
 from fftnav.planning.policies import POLICIES
+from fftnav.validate import check_integer
 from fftnav.world import load_preset, world_kinds, world_parameters
 
 if sys.version_info >= (3, 11):
@@ -59,7 +60,7 @@ class ExperimentConfig:
         Overrides passed to ``generate_world`` for every env.
     world_by_env : dict
         Extra per-env overrides (``[world.<env>]``), applied after ``world``.
-    episode : EpisodeConfig
+    swarm : SwarmConfig
         Robot, sensor, communication and episode parameters.
     source : str
         The TOML text the config was parsed from (copied into the output folder).
@@ -75,7 +76,7 @@ class ExperimentConfig:
     out: str = ""
     world: dict[str, Any] = field(default_factory=dict)
     world_by_env: dict[str, dict[str, Any]] = field(default_factory=dict)
-    episode: EpisodeConfig = field(default_factory=EpisodeConfig)
+    swarm: SwarmConfig = field(default_factory=SwarmConfig)
     source: str = field(default="", repr=False, compare=False)
 
     def world_overrides(self, env: str) -> dict[str, Any]:
@@ -84,7 +85,8 @@ class ExperimentConfig:
         ``robot_radius_m`` (the radius the reachability check uses) defaults to ``robot.r0_m``;
         then ``[world]``, then ``[world.<env>]``.
         """
-        return {"robot_radius_m": self.episode.r0_m, **self.world, **self.world_by_env.get(env, {})}
+        return {"robot_radius_m": self.swarm.robot.r0_m, **self.world,
+                **self.world_by_env.get(env, {})}
 
 
 def load_config(path: str | Path) -> ExperimentConfig:
@@ -133,8 +135,7 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
     ValueError
         Unknown section or key, missing or invalid value; the message names the key.
     """
-    sections = EpisodeConfig().SECTIONS
-    allowed = ("experiment", "world", *sections)
+    allowed = ("experiment", "world", *SwarmConfig.SECTIONS)
     for name in data:
         if name not in allowed:
             raise ValueError(f"unknown section [{name}]; expected one of {list(allowed)}")
@@ -148,8 +149,9 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
         raise ValueError(f"experiment.name must be a non-empty string of letters, digits, "
                          f"'_', '.', '-', got {name!r}")
     envs = _names("experiment.envs", exp["envs"], world_kinds())
-    maps = _integer("experiment.maps", exp["maps"], 1)
-    trajectory_maps = _integer("experiment.trajectory_maps", exp.get("trajectory_maps", 1), 0)
+    maps = check_integer("experiment.maps", exp["maps"], low=1)
+    trajectory_maps = check_integer("experiment.trajectory_maps", exp.get("trajectory_maps", 1),
+                                    low=0)
     if trajectory_maps > maps:
         raise ValueError(f"experiment.trajectory_maps must be <= experiment.maps={maps}, "
                          f"got {trajectory_maps}")
@@ -157,7 +159,7 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
     if not (isinstance(out, str) and out):
         raise ValueError(f"experiment.out must be a non-empty string, got {out!r}")
 
-    robots = _integer("experiment.robots", exp["robots"], 1)
+    robots = check_integer("experiment.robots", exp["robots"], low=1)
     world = _table(data, "world")
     common = {k: v for k, v in world.items() if not isinstance(v, dict)}
     by_env = {k: v for k, v in world.items() if isinstance(v, dict)}
@@ -173,24 +175,19 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
         except ValueError as exc:  # name the config section the bad value came from
             raise ValueError(f"[world] for env {env!r}: {exc}") from None
 
-    episode = {}
-    for section, keys in sections.items():
-        table = _table(data, section)
-        _check_keys(section, table, keys)
-        episode[section] = {k: _episode_value(f"{section}.{k}", v, getattr(EpisodeConfig, k))
-                            for k, v in table.items()}
+    swarm = SwarmConfig.from_sections({s: _table(data, s) for s in SwarmConfig.SECTIONS})
     return ExperimentConfig(
         name=name,
         envs=envs,
         maps=maps,
-        map_seed=_integer("experiment.map_seed", exp["map_seed"], 0),
+        map_seed=check_integer("experiment.map_seed", exp["map_seed"], low=0),
         robots=robots,
         policies=_names("experiment.policies", exp["policies"], tuple(POLICIES)),
         trajectory_maps=trajectory_maps,
         out=out,
         world=common,
         world_by_env=by_env,
-        episode=EpisodeConfig.from_sections(episode),
+        swarm=swarm,
         source=source,
     )
 
@@ -218,12 +215,6 @@ def _check_world_keys(section: str, env: str, table: dict[str, Any]) -> None:
             raise ValueError(f"unknown key {section}.{key}; expected one of {sorted(preset)}")
 
 
-def _integer(key: str, value: Any, low: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, int) or value < low:
-        raise ValueError(f"{key} must be an integer >= {low}, got {value!r}")
-    return value
-
-
 def _names(key: str, value: Any, known: tuple[str, ...]) -> tuple[str, ...]:
     if (not isinstance(value, list) or not value
             or not all(isinstance(v, str) for v in value) or len(set(value)) != len(value)):
@@ -232,18 +223,3 @@ def _names(key: str, value: Any, known: tuple[str, ...]) -> tuple[str, ...]:
         if v not in known:
             raise ValueError(f"{key}: unknown name {v!r}; expected some of {list(known)}")
     return tuple(value)
-
-
-def _episode_value(key: str, value: Any, default: Any) -> Any:
-    """Type check against the field's default: same type (an int is accepted for a float)."""
-    if isinstance(default, str):
-        if not isinstance(value, str):
-            raise ValueError(f"{key} must be a string, got {value!r}")
-        return value
-    kind = int if isinstance(default, int) else float
-    ok_types = (int,) if kind is int else (int, float)
-    if isinstance(value, bool) or not isinstance(value, ok_types) or not math.isfinite(value):
-        raise ValueError(f"{key} must be a finite {kind.__name__}, got {value!r}")
-    if value < 0:
-        raise ValueError(f"{key} must be >= 0, got {value!r}")
-    return kind(value)

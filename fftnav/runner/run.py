@@ -29,7 +29,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from fftnav.episode.loop import EPISODE_COLUMNS, episode_csv
+from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
 from fftnav.runner.summary import paired_tests, summarize
@@ -171,16 +171,27 @@ def run_info(outcome: RunOutcome, *, workers: int | None, executor: str,
 
 
 def git_revision() -> str:
-    """``git rev-parse HEAD`` of the source tree (``-dirty`` if modified), else ``unknown``."""
-    root = Path(__file__).resolve().parents[2]
+    """The git revision of the fftnav source, when it runs from a git checkout of it.
+
+    ``git rev-parse HEAD`` (``-dirty`` if files under ``fftnav/`` are modified) of the
+    repository whose top level holds this ``fftnav`` package; ``unknown`` for an installed wheel
+    (even one installed into a virtualenv inside some repository), without git, or on any error.
+    """
+    package = Path(__file__).resolve().parents[1]
+    root = package.parent
+
+    def git(*args: str) -> str:
+        return subprocess.run(["git", "-C", str(root), *args], capture_output=True, text=True,
+                              check=True, timeout=10).stdout.strip()
+
     try:
-        head = subprocess.run(["git", "-C", str(root), "rev-parse", "HEAD"], capture_output=True,
-                              text=True, check=True, timeout=10).stdout.strip()
-        dirty = subprocess.run(["git", "-C", str(root), "status", "--porcelain", "--", "fftnav"],
-                               capture_output=True, text=True, check=True, timeout=10).stdout
+        if Path(git("rev-parse", "--show-toplevel")).resolve() != root:
+            return "unknown"
+        head = git("rev-parse", "HEAD")
+        dirty = git("status", "--porcelain", "--", package.name)
     except (OSError, subprocess.SubprocessError):
         return "unknown"
-    return head + ("-dirty" if dirty.strip() else "")
+    return head + ("-dirty" if dirty else "")
 
 
 def _check_same_experiment(config: ExperimentConfig, out: Path) -> None:
@@ -210,12 +221,12 @@ def _save_task(out: Path, task: Task, result: TaskResult) -> TaskResult:
         write_atomic(out / "trajectories" / f"{task.task_id}.npz", buffer.getvalue())
     if not result.rows:
         raise ValueError(f"task {task.task_id} returned no rows")
-    missing = sorted({c for row in result.rows for c in EPISODE_COLUMNS if c not in row})
-    if missing:
-        raise ValueError(f"task {task.task_id} returned rows without the columns {missing}")
+    wrong = [type(row).__name__ for row in result.rows if not isinstance(row, EpisodeRow)]
+    if wrong:
+        raise ValueError(f"task {task.task_id} returned rows of type {wrong[0]}, not EpisodeRow")
     keys = {"env": task.env, "map_seed": task.map_seed, "policy": task.policy,
             "episode_seed": task.episode_seed}
-    rows = sorted(({**row, **keys} for row in result.rows), key=lambda row: row["robot"])
+    rows = sorted(({**row.as_dict(), **keys} for row in result.rows), key=lambda r: r["robot"])
     write_atomic(_task_csv(out, task), episode_csv(rows, columns=CSV_COLUMNS, header=False))
     return result
 

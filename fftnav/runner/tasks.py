@@ -12,11 +12,12 @@ import json
 import zlib
 from dataclasses import dataclass
 from functools import lru_cache
-from typing import Any
 
 import numpy as np
 
+from fftnav.episode import EpisodeRow, run_episode
 from fftnav.runner.config import ExperimentConfig
+from fftnav.world import World, generate_world
 
 __all__ = ["Task", "TaskResult", "episode_seed", "make_tasks", "run_task", "task_world"]
 
@@ -39,10 +40,9 @@ class Task:
 
 @dataclass
 class TaskResult:
-    """Per-robot rows (``fftnav.episode.loop.EPISODE_COLUMNS``) and, if kept, trajectories (T_i,
-    3)."""
+    """Per-robot rows and, if kept, trajectories ``(T_i, 3)``."""
 
-    rows: list[dict[str, Any]]
+    rows: list[EpisodeRow]
     trajectories: list[np.ndarray] | None
 
 
@@ -87,22 +87,18 @@ def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
     -------
     TaskResult
     """
-    from fftnav.episode.loop import run_episode
-
     world = task_world(config, task.env, task.map_seed)
-    result = run_episode(world, task.policy, seed=task.episode_seed, config=config.episode)
+    result = run_episode(world, task.policy, seed=task.episode_seed, config=config.swarm)
     return TaskResult(result.rows, result.trajectories if task.keep_trajectories else None)
 
 
-def task_world(config: ExperimentConfig, env: str, map_seed: int) -> Any:
+def task_world(config: ExperimentConfig, env: str, map_seed: int) -> World:
     """The world of a map: ``generate_world(env, map_seed, robots=..., **overrides)``, cached."""
     return _cached_world(env, map_seed, config.robots,
                          json.dumps(config.world_overrides(env), sort_keys=True))
 
 
 @lru_cache(maxsize=8)
-def _cached_world(env: str, map_seed: int, robots: int, overrides_json: str) -> Any:
+def _cached_world(env: str, map_seed: int, robots: int, overrides_json: str) -> World:
     """Per-process cache of generated worlds (the policies of a map share its world)."""
-    from fftnav.world import generate_world
-
     return generate_world(env, map_seed, robots=robots, **json.loads(overrides_json))

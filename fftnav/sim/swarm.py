@@ -10,14 +10,16 @@ first observation; ``step(commands)`` applies (v, w) commands for one control pe
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass, fields
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pybullet as p
 
+from fftnav.config import EpisodeConfig, RobotConfig, SensorConfig, SwarmConfig
 from fftnav.sim.lidar import Lidar
+from fftnav.validate import check_integer, check_number
 from fftnav.world import World
 from fftnav.world.obstacles import combined_mesh
 
@@ -38,35 +40,30 @@ _WHEEL_TORQUE_NM = 0.5
 
 @dataclass(frozen=True)
 class SimConfig:
-    """Simulation parameters (SI units; paper Sec. IV-B defaults).
+    """Simulation parameters: the robot and its lidar (:mod:`fftnav.config`), rates and physics.
 
     Attributes
     ----------
-    r0_m : float
-        Robot collision radius r0 (m); the robot body is a sphere of this radius.
-    v_max, w_max : float
-        Command limits: linear speed (m/s) and yaw rate (rad/s); commands are clipped.
+    robot : RobotConfig
+        Collision radius r0 (the robot body is a sphere of this radius), command limits
+        ``v_max_mps`` and ``w_max_radps`` (commands are clipped) and the embodiment:
+        ``"body"`` (default), a rigid sphere of radius r0 (centre at height r0) driven at its
+        commanded planar velocity, without gravity or ground (planar): its horizontal section
+        through the centre is exactly the robot's disc, it touches vertical obstacles and other
+        robots only at that height, and every contact normal passes through its centre, so
+        contacts are those of the 2D disc, nothing can tip it over, and sphere contacts are
+        Bullet's cheapest; ``"wheeled"``: ``wheeled.urdf`` scaled to r0 (chassis of radius r0,
+        two wheels under velocity control, frictionless casters) rolling on a ground plane
+        under gravity.
+    sensor : SensorConfig
+        The lidar: M beams, range R, field of view, blind sector at the back, Gaussian range
+        noise on returns and dropout (a dropped beam reads R), drawn from the episode seed.
     physics_hz, control_hz : float
         Physics step rate and control / lidar rate (Hz); their ratio must be an integer.
-    beams, range_m, fov_deg, blind_deg : int, float, float, float
-        Lidar: M beams, maximum range R (m), field of view (deg), blind sector at the back (deg).
     lidar_height_m : float or None
         Height of the lidar beams above the ground (m); None (default) puts them at height r0:
         the body sphere's equator, or 5 cm below the wheeled robot's chassis top, where every
         robot appears to the others as its exact r0 disc.
-    noise_std_m : float
-        Standard deviation of Gaussian range noise on returns (m), drawn from the episode seed.
-    dropout : float
-        Probability that a beam loses its return and reads R (no return).
-    embodiment : {"body", "wheeled"}
-        ``"body"`` (default): a rigid sphere of radius r0 (centre at height r0) driven at its
-        commanded planar velocity, without gravity or ground (planar). Its horizontal section
-        through the centre is exactly the robot's disc, it touches vertical obstacles and other
-        robots only at that height, and every contact normal passes through its centre:
-        contacts are those of the 2D disc, nothing can tip it over, and sphere contacts are
-        Bullet's cheapest. ``"wheeled"``: ``wheeled.urdf`` scaled to r0 (chassis of radius r0,
-        two wheels under velocity control, frictionless casters) rolling on a ground plane
-        under gravity.
     robot_mass_kg : float
         Mass of the body embodiment (kg); the wheeled URDF carries its own (5 kg).
     gravity_mps2 : float
@@ -75,51 +72,30 @@ class SimConfig:
         Bullet constraint-solver iterations per physics step.
     """
 
-    r0_m: float = 0.15
-    v_max: float = 0.5
-    w_max: float = 1.5
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
     physics_hz: float = 240.0
     control_hz: float = 10.0
-    beams: int = 360
-    range_m: float = 3.0
-    fov_deg: float = 360.0
-    blind_deg: float = 15.0
     lidar_height_m: float | None = None
-    noise_std_m: float = 0.0
-    dropout: float = 0.0
-    embodiment: str = "body"
     robot_mass_kg: float = 5.0
     gravity_mps2: float = 9.81
     solver_iterations: int = 10
 
     def __post_init__(self) -> None:
-        for f in fields(self):
-            value = getattr(self, f.name)
-            if f.name == "lidar_height_m" and value is None:
-                continue
-            if f.name == "embodiment":
-                if value not in ("body", "wheeled"):
-                    raise ValueError("embodiment must be 'body' or 'wheeled', "
-                                     f"got embodiment={value!r}")
-            elif isinstance(value, bool) or not isinstance(value, (int, float)) or not (
-                math.isfinite(value) and value >= 0
-            ):
-                raise ValueError(f"{f.name} must be a finite number >= 0, got {f.name}={value!r}")
-        for name in ("r0_m", "v_max", "w_max", "physics_hz", "control_hz", "range_m", "fov_deg",
-                     "robot_mass_kg", "solver_iterations"):
-            if getattr(self, name) <= 0:
-                raise ValueError(f"{name} must be > 0, got {name}={getattr(self, name)!r}")
-        ratio = self.physics_hz / self.control_hz
-        if abs(ratio - round(ratio)) > 1e-9:
-            raise ValueError(f"physics_hz / control_hz must be an integer, got physics_hz="
-                             f"{self.physics_hz}, control_hz={self.control_hz}")
-        if not isinstance(self.beams, int) or self.beams < 2:
-            raise ValueError(f"beams must be an integer >= 2, got beams={self.beams!r}")
-        if self.fov_deg > 360 or self.blind_deg >= self.fov_deg:
-            raise ValueError(f"need 0 <= blind_deg < fov_deg <= 360, got fov_deg={self.fov_deg}, "
-                             f"blind_deg={self.blind_deg}")
-        if self.dropout > 1:
-            raise ValueError(f"dropout must be a probability in [0, 1], got dropout={self.dropout}")
+        EpisodeConfig(control_hz=self.control_hz, physics_hz=self.physics_hz)  # the same rules
+        if self.lidar_height_m is not None:
+            check_number("lidar_height_m", self.lidar_height_m, low=0)
+        check_number("robot_mass_kg", self.robot_mass_kg, low=0, low_open=True)
+        check_number("gravity_mps2", self.gravity_mps2, low=0)
+        check_integer("solver_iterations", self.solver_iterations, low=1)
+
+    @classmethod
+    def for_swarm(cls, config: SwarmConfig, **sim_only: Any) -> SimConfig:
+        """The simulator of a swarm configuration (``sim_only``: the fields above that are
+        not part of it, e.g. ``lidar_height_m``)."""
+        return cls(robot=config.robot, sensor=config.sensor,
+                   physics_hz=config.episode.physics_hz, control_hz=config.episode.control_hz,
+                   **sim_only)
 
     @property
     def substeps(self) -> int:
@@ -191,7 +167,7 @@ class SwarmSim:
 
     def _build(self) -> None:
         cfg, cid = self.config, self._client
-        wheeled = cfg.embodiment == "wheeled"
+        wheeled = cfg.robot.embodiment == "wheeled"
         # The body embodiment is planar (no gravity, no ground: its vertical velocity is held at
         # 0); the wheeled robot rolls on a ground plane under gravity.
         p.setGravity(0.0, 0.0, -cfg.gravity_mps2 if wheeled else 0.0, physicsClientId=cid)
@@ -220,21 +196,22 @@ class SwarmSim:
             self._track_m = abs(joints[0][14][1] - joints[1][14][1])  # parent-frame y offsets
             wheel = p.getCollisionShapeData(body, _WHEELS[0], physicsClientId=cid)[0]
             self._wheel_radius_m = wheel[3][0]  # sphere dimensions: (radius, ...)
-        self._lidar = Lidar(cid, beams=cfg.beams, range_m=cfg.range_m, fov_deg=cfg.fov_deg,
-                            blind_deg=cfg.blind_deg,
-                            height_m=cfg.r0_m if cfg.lidar_height_m is None else cfg.lidar_height_m,
-                            start_m=cfg.r0_m + 0.005, mask=_OBSTACLE | _ROBOT,
+        sensor, r0 = cfg.sensor, cfg.robot.r0_m
+        self._lidar = Lidar(cid, beams=sensor.beams, range_m=sensor.range_m,
+                            fov_deg=sensor.fov_deg, blind_deg=sensor.blind_deg,
+                            height_m=r0 if cfg.lidar_height_m is None else cfg.lidar_height_m,
+                            start_m=r0 + 0.005, mask=_OBSTACLE | _ROBOT,
                             bodies=[(o.bounding_circle(), o.cull_vertices())
                                     for o in self.world.obstacles],
-                            robot_radius_m=cfg.r0_m)
+                            robot_radius_m=cfg.robot.r0_m)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client
-        position = [x, y, cfg.r0_m]
+        position = [x, y, cfg.robot.r0_m]
         orientation = p.getQuaternionFromEuler([0.0, 0.0, yaw])
-        if cfg.embodiment == "wheeled":
+        if cfg.robot.embodiment == "wheeled":
             body = p.loadURDF(str(_URDF), position, orientation,
-                              globalScaling=cfg.r0_m / _URDF_R0_M,
+                              globalScaling=cfg.robot.r0_m / _URDF_R0_M,
                               flags=p.URDF_USE_INERTIA_FROM_FILE | p.URDF_USE_IMPLICIT_CYLINDER,
                               physicsClientId=cid)
             p.changeDynamics(body, -1, lateralFriction=0.0, rollingFriction=0.0,
@@ -242,7 +219,8 @@ class SwarmSim:
             for joint in _WHEELS:
                 p.changeDynamics(body, joint, lateralFriction=1.0, physicsClientId=cid)
         else:
-            shape = p.createCollisionShape(p.GEOM_SPHERE, radius=cfg.r0_m, physicsClientId=cid)
+            shape = p.createCollisionShape(p.GEOM_SPHERE, radius=cfg.robot.r0_m,
+                                           physicsClientId=cid)
             body = p.createMultiBody(cfg.robot_mass_kg, shape, basePosition=position,
                                      baseOrientation=orientation, physicsClientId=cid)
             p.changeDynamics(body, -1, lateralFriction=0.0, linearDamping=0.0,
@@ -308,10 +286,10 @@ class SwarmSim:
                              f"got shape={cmd.shape}")
         cfg, cid = self.config, self._client
         active = np.flatnonzero(self._active)
-        v = np.clip(cmd[active, 0], -cfg.v_max, cfg.v_max)
-        w = np.clip(cmd[active, 1], -cfg.w_max, cfg.w_max)
+        v = np.clip(cmd[active, 0], -cfg.robot.v_max_mps, cfg.robot.v_max_mps)
+        w = np.clip(cmd[active, 1], -cfg.robot.w_max_radps, cfg.robot.w_max_radps)
         bodies = [self._robots[i] for i in active]
-        if cfg.embodiment == "wheeled":  # wheel speeds (v -+ w b / 2) / r, held for the period
+        if cfg.robot.embodiment == "wheeled":  # wheel speeds (v -+ w b / 2) / r, for the period
             half_track = 0.5 * self._track_m * w
             for body, left, right in zip(bodies, (v - half_track) / self._wheel_radius_m,
                                          (v + half_track) / self._wheel_radius_m, strict=True):
@@ -404,15 +382,15 @@ class SwarmSim:
 
     def _observe(self, obstacle_hit: np.ndarray, robot_hit: np.ndarray) -> Observation:
         cfg = self.config
-        scans = np.full((self.num_robots, cfg.beams), np.nan)
+        scans = np.full((self.num_robots, cfg.sensor.beams), np.nan)
         live = self._active
         ranges = self._lidar.scan(self._poses[live])
-        if cfg.noise_std_m > 0 or cfg.dropout > 0:
-            noisy = ranges + self._rng.normal(0.0, cfg.noise_std_m, ranges.shape)
-            hit = (ranges > 0) & (ranges < cfg.range_m)  # returns; blind beams and misses stay
-            ranges = np.where(hit, np.clip(noisy, 0.0, cfg.range_m), ranges)
-            dropped = (self._rng.random(ranges.shape) < cfg.dropout) & self._lidar.live
-            ranges[dropped] = cfg.range_m
+        if cfg.sensor.noise_std_m > 0 or cfg.sensor.dropout > 0:
+            noisy = ranges + self._rng.normal(0.0, cfg.sensor.noise_std_m, ranges.shape)
+            hit = (ranges > 0) & (ranges < cfg.sensor.range_m)  # returns; blind, misses stay
+            ranges = np.where(hit, np.clip(noisy, 0.0, cfg.sensor.range_m), ranges)
+            dropped = (self._rng.random(ranges.shape) < cfg.sensor.dropout) & self._lidar.live
+            ranges[dropped] = cfg.sensor.range_m
         scans[live] = ranges
         return Observation(scans=scans, poses=self._poses.copy(),
                            obstacle_contact=obstacle_hit, robot_contact=robot_hit,

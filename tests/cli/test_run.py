@@ -13,7 +13,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-import fftnav.episode.loop
+import fftnav.runner.tasks
 from fftnav.cli import main
 from fftnav.runner import load_config, run_experiment
 
@@ -96,14 +96,14 @@ def test_dask_local_cluster_gives_the_same_csvs(smoke_run, tmp_path):
 
 
 def test_an_episode_that_raises_gives_exit_status_1(tmp_path, monkeypatch, capsys):
-    real = fftnav.episode.loop.run_episode
+    real = fftnav.runner.tasks.run_episode
 
     def flaky(world, policy, **kwargs):
         if policy == "fusion":
             raise RuntimeError("planner exploded")
         return real(world, policy, **kwargs)
 
-    monkeypatch.setattr(fftnav.episode.loop, "run_episode", flaky)
+    monkeypatch.setattr(fftnav.runner.tasks, "run_episode", flaky)
     status = main(["run", str(SMOKE), "--out", str(tmp_path), "--workers", "1", "--quiet"])
     assert status == 1
     err = capsys.readouterr().err
@@ -119,7 +119,7 @@ def test_an_episode_that_raises_gives_exit_status_1(tmp_path, monkeypatch, capsy
     (["CONFIG", "--executor", "spark"], r"argument --executor: invalid choice: 'spark'"),
     (["CONFIG", "--scheduler", "tcp://127.0.0.1:1"],
      r"fftnav run: error: scheduler needs executor='dask', got executor='local'"),
-    (["BAD"], r"fftnav run: error: experiment\.maps must be an integer >= 1, got 0"),
+    (["BAD"], r"fftnav run: error: experiment\.maps must be an integer >= 1, got experiment\.maps=0"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, match, tmp_path):
     bad = tmp_path / "bad.toml"

@@ -8,7 +8,8 @@ import sys
 import numpy as np
 import pytest
 
-from fftnav.episode.loop import EPISODE_COLUMNS, EpisodeConfig, episode_csv, run_episode
+from fftnav.config import CommsConfig, EpisodeConfig, SwarmConfig
+from fftnav.episode import EPISODE_COLUMNS, episode_csv, run_episode
 from fftnav.observe.codec import decode_message
 from fftnav.observe.fusion import decide_turn
 from fftnav.observe.geometry import SIM_ROBOT
@@ -33,18 +34,18 @@ def _crossing_x(path, y):
     return float(path[k, 0])
 
 
-CFG = EpisodeConfig(time_limit_s=60.0)
+CFG = SwarmConfig(episode=EpisodeConfig(time_limit_s=60.0))
 
 
 def test_single_robot_in_an_empty_world_is_near_optimal():
     world = _world([], [[4, 1, UP]], [[4, 9]])
     res = run_episode(world, "fusion", seed=0, config=CFG)
     row = res.rows[0]
-    assert row["arrived"] and not row["collided"]
-    assert row["optimal_length_m"] == pytest.approx(8.0, abs=0.06)  # start to goal point
-    assert 7.6 < row["path_length_m"] < 8.0  # it stops within 0.3 m of the goal
-    assert row["spl"] >= 0.97
-    assert row["decisions_left"] + row["decisions_right"] == 0
+    assert row.arrived and not row.collided
+    assert row.optimal_length_m == pytest.approx(8.0, abs=0.06)  # start to goal point
+    assert 7.6 < row.path_length_m < 8.0  # it stops within 0.3 m of the goal
+    assert row.spl >= 0.97
+    assert row.decisions_left + row.decisions_right == 0
 
 
 WALL = _box(2.5, 5.5, 4.5, 4.8)  # 3 m wide, centred on the robot's straight line x = 4
@@ -54,10 +55,10 @@ WALL = _box(2.5, 5.5, 4.5, 4.8)  # 3 m wide, centred on the robot's straight lin
 def test_baselines_pass_a_wide_wall_on_their_side(policy, left):
     res = run_episode(_world([WALL], [[4, 1, UP]], [[4, 9]]), policy, seed=0, config=CFG)
     row, path = res.rows[0], res.trajectories[0]
-    assert row["arrived"] and not row["collided"]
+    assert row.arrived and not row.collided
     x = _crossing_x(path, 4.65)  # heading +y: left is -x
     assert (x < 2.5) if left else (x > 5.5)
-    assert (row["decisions_left"], row["decisions_right"])[0 if left else 1] >= 1
+    assert (row.decisions_left, row.decisions_right)[0 if left else 1] >= 1
 
 
 # The wall reaches the world's left edge region and leaves only the right side open; the
@@ -72,11 +73,11 @@ MIRRORED = [_box(8 - x1, 8 - x0, y0, y1) for (x0, x1, y0, y1) in ((0.2, 4.6, 4.0
 def test_observation_based_policies_choose_the_open_side(policy, obstacles, open_right):
     res = run_episode(_world(obstacles, [[4, 1, UP]], [[4, 9]]), policy, seed=0, config=CFG)
     row, path = res.rows[0], res.trajectories[0]
-    assert row["arrived"], row
+    assert row.arrived, row
     x = _crossing_x(path, 4.15)
     assert (x > 4.6) if open_right else (x < 3.4)
     first = "decisions_right" if open_right else "decisions_left"
-    assert row[first] >= 1
+    assert getattr(row, first) >= 1
 
 
 def test_a_neighbour_seeing_open_space_on_the_left_flips_a_balanced_robot():
@@ -116,19 +117,20 @@ def test_fusion_robots_send_bytes_and_baselines_send_none():
     world = _world([WALL], [[3.5, 2.0, UP], [4.5, 1.0, UP]], [[3.5, 9], [4.5, 9]])  # 0 ahead of 1
     fusion = run_episode(world, "fusion", seed=0, config=CFG)
     left = run_episode(world, "bug-left", seed=0, config=CFG)
-    assert sum(r["bytes_sent"] for r in fusion.rows) > 0
-    assert all(r["messages_sent"] * 4 <= r["bytes_sent"] for r in fusion.rows)
-    assert all(r["bytes_sent"] == 0 for r in left.rows)
+    assert sum(r.bytes_sent for r in fusion.rows) > 0
+    assert all(r.messages_sent * 4 <= r.bytes_sent for r in fusion.rows)
+    assert all(r.bytes_sent == 0 for r in left.rows)
     for r in fusion.rows:
-        decisions = r["decisions_left"] + r["decisions_right"]
-        assert r["decisions_flipped_by_neighbours"] <= r["decisions_with_neighbours"] <= decisions
-    assert sum(r["decisions_with_neighbours"] for r in fusion.rows) >= 1
-    assert all(r["decisions_with_neighbours"] == 0 for r in left.rows)
+        decisions = r.decisions_left + r.decisions_right
+        assert r.decisions_flipped_by_neighbours <= r.decisions_with_neighbours <= decisions
+    assert sum(r.decisions_with_neighbours for r in fusion.rows) >= 1
+    assert all(r.decisions_with_neighbours == 0 for r in left.rows)
 
 
 def test_bad_episode_parameters_are_named():
-    with pytest.raises(ValueError, match=r"packet_loss must be in \[0, 1\), got packet_loss=1.5"):
-        EpisodeConfig(packet_loss=1.5)
+    with pytest.raises(ValueError, match=r"packet_loss must be a finite number in \[0, 1\), got "
+                       r"packet_loss=1.5"):
+        CommsConfig(packet_loss=1.5)
     with pytest.raises(ValueError, match=r"unknown policy 'bug-up'"):
         run_episode(_world([], [[4, 1, UP]], [[4, 9]]), "bug-up", seed=0)
     with pytest.raises(ValueError, match=r"seed must be an integer >= 0, got seed=-1"):
@@ -168,7 +170,7 @@ def test_cli_bad_policy_exits_2_with_one_line(tmp_path):
     _fftnav("world", "generate", "--env", "forest", "--seed", "3", "--out", "w.json", cwd=tmp_path)
     run = _fftnav("episode", "--world", "w.json", "--policy", "nope", cwd=tmp_path)
     assert run.returncode == 2 and "Traceback" not in run.stderr
-    assert run.stderr.count("\n") == 1 and "unknown policy 'nope'" in run.stderr
+    assert run.stderr.count("\n") == 1 and "invalid choice: 'nope'" in run.stderr
 
 
 @pytest.mark.parametrize("turn", [0.0, 0.7, 2.0, -2.9])
@@ -177,7 +179,7 @@ def test_decider_fuses_in_the_goal_frame_whatever_the_world_orientation(turn):
     and placed with the relative pose) gives the same P_s and P when the whole scene is rotated,
     and the same P as decide_turn called by hand in the goal frame."""
     from fftnav.episode.comms import Channel
-    from fftnav.episode.loop import _Decider
+    from fftnav.episode.decider import Decider
     from fftnav.observe.fusion import rotate_sigma
 
     pipe = Pipeline(SIM_ROBOT, beams=360, range_m=3.0)
@@ -195,10 +197,8 @@ def test_decider_fuses_in_the_goal_frame_whatever_the_world_orientation(turn):
     channel = Channel(2, range_m=6.0, rng=np.random.default_rng(0))
     channel.broadcast(1, res.messages[1], tick=0, poses=poses, active=np.ones(2, bool))
     channel.deliver(1)
-    dec = _Decider(SIM_ROBOT, CFG, channel, np.random.default_rng(0), True)
-    dec.tick, dec.poses, dec.sigma = 1, poses, {0: res.sigma[0]}
-    d = goal - poses[0, :2]
-    dec.beta = np.array([math.atan2(d[1], d[0]) - poses[0, 2], 0.0])
+    dec = Decider(CFG, channel, np.random.default_rng(0), full_circle=True)
+    dec.observe(1, poses, np.array([goal, [2.5, 9.0]]), np.array([0]), [res.sigma[0]])
     p_s, p = dec.own_probability(0), dec.fused_probability(0)
 
     # by hand, in the unrotated world: goal frame = heading + beta

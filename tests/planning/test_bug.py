@@ -111,7 +111,7 @@ def test_policy_must_return_a_side():
 
 
 def test_bad_params_are_named():
-    with pytest.raises(ValueError, match=r"v_max_mps must be finite and > 0, got v_max_mps=0"):
+    with pytest.raises(ValueError, match=r"v_max_mps must be a finite number > 0, got v_max_mps=0"):
         PlannerParams(v_max_mps=0)
 
 

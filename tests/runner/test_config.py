@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pytest
 
-from fftnav.episode.loop import EpisodeConfig
+from fftnav.config import EpisodeConfig, SensorConfig, SwarmConfig
 from fftnav.runner import load_config, make_tasks, parse_config
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -30,17 +30,18 @@ def with_value(path: str, value: object) -> dict:
 def test_valid_config_maps_sections_to_episode_config():
     config = parse_config(BASE)
     assert config.envs == ("forest", "rocky") and config.maps == 3 and config.robots == 4
-    assert config.episode == EpisodeConfig(beams=180, time_limit_s=30.0)
-    assert isinstance(config.episode.time_limit_s, float)
+    assert config.swarm == SwarmConfig(sensor=SensorConfig(beams=180),
+                                       episode=EpisodeConfig(time_limit_s=30.0))
+    assert isinstance(config.swarm.episode.time_limit_s, float)
     assert config.out == "results/t" and config.trajectory_maps == 1
 
 
 @pytest.mark.parametrize("path, value, match", [
-    ("experiment.maps", 0, r"experiment\.maps must be an integer >= 1, got 0"),
-    ("experiment.maps", 2.5, r"experiment\.maps must be an integer >= 1, got 2\.5"),
-    ("experiment.robots", "3", r"experiment\.robots must be an integer >= 1, got '3'"),
-    ("experiment.map_seed", -1, r"experiment\.map_seed must be an integer >= 0, got -1"),
-    ("experiment.maps", True, r"experiment\.maps must be an integer >= 1, got True"),
+    ("experiment.maps", 0, r"experiment\.maps must be an integer >= 1, got experiment\.maps=0"),
+    ("experiment.maps", 2.5, r"experiment\.maps must be an integer >= 1, got experiment\.maps=2\.5"),
+    ("experiment.robots", "3", r"experiment\.robots must be an integer >= 1, got experiment\.robots='3'"),
+    ("experiment.map_seed", -1, r"experiment\.map_seed must be an integer >= 0, got experiment\.map_seed=-1"),
+    ("experiment.maps", True, r"experiment\.maps must be an integer >= 1, got experiment\.maps=True"),
     ("experiment.trajectory_maps", 4,
      r"experiment\.trajectory_maps must be <= experiment\.maps=3, got 4"),
     ("experiment.policies", ["fusion", "teleport"],
@@ -53,18 +54,21 @@ def test_valid_config_maps_sections_to_episode_config():
     ("experiment.out", "", r"experiment\.out must be a non-empty string, got ''"),
     ("experiment.colour", 1, r"unknown key experiment\.colour; expected one of"),
     ("robot.wheels", 2, r"unknown key robot\.wheels; expected one of"),
-    ("sensor.beams", 90.5, r"sensor\.beams must be a finite int, got 90\.5"),
-    ("sensor.range_m", "far", r"sensor\.range_m must be a finite float, got 'far'"),
-    ("sensor.range_m", float("nan"), r"sensor\.range_m must be a finite float, got nan"),
-    ("comms.packet_loss", -0.1, r"comms\.packet_loss must be >= 0, got -0\.1"),
-    ("comms.broadcast", 1, r"comms\.broadcast must be a string, got 1"),
-    ("sensor.dropout", 1.5, r"dropout must be in \[0, 1\), got dropout=1\.5"),
+    ("sensor.beams", 90.5, r"sensor\.beams must be an integer >= 2, got sensor\.beams=90\.5"),
+    ("sensor.range_m", "far", r"sensor\.range_m must be a finite number > 0, got sensor\.range_m='far'"),
+    ("sensor.range_m", float("nan"), r"sensor\.range_m must be a finite number > 0, got sensor\.range_m=nan"),
+    ("comms.packet_loss", -0.1, r"comms\.packet_loss must be a finite number in \[0, 1\), got comms\.packet_loss=-0\.1"),
+    ("comms.broadcast", 1, r"comms\.broadcast must be one of \['on_obstacle', 'every_tick'\], got comms\.broadcast=1"),
+    ("sensor.dropout", 1.5, r"sensor\.dropout must be a finite number in \[0, 1\), got sensor\.dropout=1\.5"),
     ("world.robots", 4, r"world\.robots cannot be overridden; it is set by the experiment"),
     ("world.density_per_m2", -1.0,
      r"\[world\] for env 'forest': density_per_m2 must be a finite number in \[0, 1\], got density_per_m2=-1\.0"),
     ("world.size_m", "big",
      r"\[world\] for env 'forest': size_m must be a list of 2 numbers, got size_m='big'"),
     ("world.density", 0.1, r"unknown key world\.density; expected one of"),
+    ("robot.r_m", 0.1, r"\[robot\] r_m must be > r0_m=0\.15, got r_m=0\.1"),
+    ("episode.physics_hz", 25.0, r"\[episode\] physics_hz must be an integer multiple of "
+     r"control_hz=10\.0, got physics_hz=25\.0"),
 ])
 def test_invalid_value_or_unknown_key_is_refused_naming_the_key(path, value, match):
     with pytest.raises(ValueError, match=match):

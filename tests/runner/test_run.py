@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
+import dataclasses
 import time
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from fftnav.episode.loop import EPISODE_COLUMNS
+from fftnav.episode import EPISODE_COLUMNS, EpisodeRow
 from fftnav.runner import CSV_COLUMNS, TaskResult, execute, parse_config, run_experiment
 
 CONFIG = parse_config({
@@ -22,9 +23,9 @@ def fake_task(config, task):
     """Deterministic rows from the task's seeds; later tasks finish first (shuffled order)."""
     time.sleep(0.002 * (task.map_seed % 3))
     rng = np.random.default_rng([task.episode_seed, len(task.policy)])
-    rows = [{**{c: rng.uniform(0, 20) for c in EPISODE_COLUMNS}, "robot": r,
-             "policy": task.policy, "arrived": bool(rng.random() < 0.8), "collided": False,
-             "bytes_sent": int(rng.integers(0, 500))}
+    rows = [EpisodeRow(**{**{c: rng.uniform(0, 20) for c in EPISODE_COLUMNS}, "robot": r,
+                          "policy": task.policy, "arrived": bool(rng.random() < 0.8),
+                          "collided": False, "bytes_sent": int(rng.integers(0, 500))})
             for r in range(config.robots)]
     trajectories = [rng.random((4, 3)) for _ in rows] if task.keep_trajectories else None
     return TaskResult(rows, trajectories)
@@ -107,16 +108,14 @@ def test_a_task_that_raises_is_recorded_and_the_others_complete(tmp_path):
     assert (retry.completed, retry.failed) == (2, []) and not (tmp_path / "errors.csv").exists()
 
 
-def test_rows_missing_columns_are_a_task_error(tmp_path):
-    def no_spl(config, task):
+def test_rows_that_are_not_episode_rows_are_a_task_error(tmp_path):
+    def dict_rows(config, task):
         result = fake_task(config, task)
-        for row in result.rows:
-            del row["spl"]
-        return result
+        return TaskResult([row.as_dict() for row in result.rows], result.trajectories)
 
-    outcome = run_experiment(CONFIG, tmp_path, workers=1, task_fn=no_spl, progress=False)
+    outcome = run_experiment(CONFIG, tmp_path, workers=1, task_fn=dict_rows, progress=False)
     assert len(outcome.failed) == N_TASKS
-    assert "rows without the columns ['spl']" in outcome.failed[0][1].message
+    assert "returned rows of type dict, not EpisodeRow" in outcome.failed[0][1].message
     assert len(pd.read_csv(tmp_path / "episodes.csv")) == 0
 
 
@@ -141,9 +140,8 @@ def test_executor_options_are_validated(options, match):
 def test_fresh_reruns_and_replaces_every_task(tmp_path):
     def stale(config, task):
         result = fake_task(config, task)
-        for row in result.rows:
-            row["spl"] = 0.0
-        return result
+        return TaskResult([dataclasses.replace(row, spl=0.0) for row in result.rows],
+                          result.trajectories)
 
     run_experiment(CONFIG, tmp_path / "full", workers=1, task_fn=fake_task, progress=False)
     out = tmp_path / "fresh"

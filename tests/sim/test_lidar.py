@@ -8,6 +8,7 @@ from fractions import Fraction
 import numpy as np
 import pytest
 
+from fftnav.config import SensorConfig
 from fftnav.sim.swarm import SimConfig, SwarmSim
 from fftnav.world import World, generate_world
 from tests.sim.lidar_oracle import assert_ranges_match_analytic
@@ -85,7 +86,7 @@ def test_blind_sector_holds_the_beams_strictly_inside_it(beams, blind_deg):
     # robot 1 stands 1 m straight behind robot 0: the back beam sees it unless it is blind
     starts = np.array([[2.0, 2.0, 0.0], [1.0, 2.0, 0.0]])
     world = World("x", 0, (5.0, 4.0), (), starts, starts[:, :2])
-    with SwarmSim(world, config=SimConfig(beams=beams, blind_deg=blind_deg)) as sim:
+    with SwarmSim(world, config=SimConfig(sensor=SensorConfig(beams=beams, blind_deg=blind_deg))) as sim:
         scan = sim.reset(seed=0).scans[0]
         live = sim.lidar.live
     # exact oracle: beam n at -180 + 360 n / M deg is blind iff |angle| > 180 - blind / 2
@@ -99,7 +100,7 @@ def test_blind_sector_holds_the_beams_strictly_inside_it(beams, blind_deg):
 
 def test_noise_and_dropout_follow_the_episode_seed():
     world = generate_world("forest", 0)
-    config = SimConfig(noise_std_m=0.02, dropout=0.1)
+    config = SimConfig(sensor=SensorConfig(noise_std_m=0.02, dropout=0.1))
     with SwarmSim(world, config=config) as sim:
         a, b, c = (sim.reset(seed=s).scans for s in (5, 5, 6))
     with SwarmSim(world) as clean_sim:

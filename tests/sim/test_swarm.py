@@ -8,6 +8,7 @@ import numpy as np
 import pybullet as p
 import pytest
 
+from fftnav.config import RobotConfig, SensorConfig
 from fftnav.sim.swarm import SimConfig, SwarmSim
 from fftnav.world import Circle, World, generate_world
 
@@ -36,7 +37,7 @@ def test_drives_straight_and_turns_in_place_at_the_commanded_rates():
 
 def test_same_seed_and_commands_give_bitwise_equal_trajectories():
     world = generate_world("rocky", 2)
-    config = SimConfig(noise_std_m=0.01, dropout=0.05)
+    config = SimConfig(sensor=SensorConfig(noise_std_m=0.01, dropout=0.05))
 
     def run(seed):
         rng = np.random.default_rng(3)
@@ -97,7 +98,7 @@ def test_fifteen_robots_under_random_commands_stay_upright_on_the_ground(
     world = generate_world("forest", 6)
     rng = np.random.default_rng(0)
     contacts = 0
-    with SwarmSim(world, config=SimConfig(embodiment=embodiment)) as sim:
+    with SwarmSim(world, config=SimConfig(robot=RobotConfig(embodiment=embodiment))) as sim:
         sim.reset(seed=0)
         for tick in range(10 * seconds):
             if tick % 10 == 0:  # a new random command every second
@@ -114,7 +115,8 @@ def test_fifteen_robots_under_random_commands_stay_upright_on_the_ground(
 @pytest.mark.parametrize("embodiment", ["body", "wheeled"])
 def test_reset_reuses_the_world_built_once_and_repeats_an_episode_bitwise(embodiment, monkeypatch):
     world = generate_world("rocky", 2)
-    config = SimConfig(embodiment=embodiment, noise_std_m=0.01, dropout=0.05)
+    config = SimConfig(robot=RobotConfig(embodiment=embodiment),
+                       sensor=SensorConfig(noise_std_m=0.01, dropout=0.05))
     built = []  # every body Bullet creates
     for name in ("createMultiBody", "loadURDF"):
         create = getattr(p, name)
@@ -163,16 +165,20 @@ def test_parked_robot_leaves_the_world():
             sim.step([[0.5, 0.0]])
 
 
-@pytest.mark.parametrize(("kwargs", "message"), [
-    ({"r0_m": 0.0}, "r0_m must be > 0, got r0_m=0.0"),
-    ({"v_max": -1.0}, "v_max must be a finite number >= 0, got v_max=-1.0"),
-    ({"physics_hz": 100.0, "control_hz": 30.0}, "physics_hz / control_hz must be an integer"),
-    ({"beams": 1}, "beams must be an integer >= 2, got beams=1"),
-    ({"blind_deg": 400.0}, "need 0 <= blind_deg < fov_deg <= 360"),
-    ({"dropout": 1.5}, r"dropout must be a probability in \[0, 1\], got dropout=1.5"),
-    ({"embodiment": "legs"}, "embodiment must be 'body' or 'wheeled', got embodiment='legs'"),
+@pytest.mark.parametrize(("make", "message"), [
+    (lambda: RobotConfig(r0_m=0.0), r"r0_m must be a finite number > 0, got r0_m=0\.0"),
+    (lambda: RobotConfig(v_max_mps=-1.0), "v_max_mps must be a finite number > 0, got v_max_mps=-1.0"),
+    (lambda: SimConfig(physics_hz=100.0, control_hz=30.0),
+     "physics_hz must be an integer multiple of control_hz=30.0, got physics_hz=100.0"),
+    (lambda: SensorConfig(beams=1), "beams must be an integer >= 2, got beams=1"),
+    (lambda: SensorConfig(blind_deg=400.0), "blind_deg must be < fov_deg=360.0, got blind_deg=400.0"),
+    (lambda: SensorConfig(dropout=1.5), r"dropout must be a finite number in \[0, 1\), got dropout=1.5"),
+    (lambda: RobotConfig(embodiment="legs"),
+     r"embodiment must be one of \['body', 'wheeled'\], got embodiment='legs'"),
+    (lambda: SimConfig(solver_iterations=0), "solver_iterations must be an integer >= 1"),
+    (lambda: SimConfig(lidar_height_m=-1.0), "lidar_height_m must be a finite number >= 0"),
 ])
-def test_config_errors_name_the_parameter(kwargs, message):
+def test_config_errors_name_the_parameter(make, message):
     assert SimConfig().substeps == 24
     with pytest.raises(ValueError, match=message):
-        SimConfig(**kwargs)
+        make()

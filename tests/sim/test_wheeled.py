@@ -7,10 +7,11 @@ import math
 import numpy as np
 import pytest
 
+from fftnav.config import RobotConfig
 from fftnav.sim.swarm import SimConfig, SwarmSim
 from fftnav.world import Circle, World
 
-WHEELED = SimConfig(embodiment="wheeled")
+WHEELED = SimConfig(robot=RobotConfig(embodiment="wheeled"))
 
 
 def _world(starts, obstacles=()):

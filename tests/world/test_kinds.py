@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-import tomllib
 from importlib import resources
 from pathlib import Path
 
 import numpy as np
 import pytest
+import tomllib
 
 from fftnav.cli import build_parser
 from fftnav.world import WORLD_KINDS, Circle, generate_world, get_world_kind, load_preset

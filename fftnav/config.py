@@ -1,0 +1,317 @@
+"""Swarm configuration: one frozen dataclass per component, one name per quantity, units in names.
+
+A :class:`SwarmConfig` has four sections, the tables of an experiment TOML file:
+
+- ``[robot]`` :class:`RobotConfig`: collision and protective radii, speed limits, embodiment;
+- ``[sensor]`` :class:`SensorConfig`: the lidar (beams, range, field of view, blind sector, noise);
+- ``[comms]`` :class:`CommsConfig`: the message channel (range, loss, delay, when to send);
+- ``[episode]`` :class:`EpisodeConfig`: time limit, control and physics rates, arrival radius.
+
+The simulator (:class:`fftnav.sim.swarm.SimConfig` composes ``robot`` and ``sensor``), the
+observation pipeline (:meth:`SwarmConfig.pipeline`) and the planner
+(:meth:`fftnav.planning.bug.BugPlanner.for_swarm`) are all built from it. Every field declares
+its own check (``metadata["check"]``, the shared helpers of :mod:`fftnav.validate`), so the same
+rule refuses a bad value from Python, from a TOML file (``sensor.range_m must be ...``) or from
+``fftnav episode --set``:
+
+>>> cfg = SwarmConfig.from_sections({"sensor": {"range_m": 5}, "comms": {"packet_loss": 0.2}})
+>>> cfg.sensor.range_m, cfg.comms.packet_loss, cfg.robot.v_max_mps
+(5.0, 0.2, 0.5)
+>>> cfg.replace({"time_limit_s": 60, "sensor.beams": 180}).episode.time_limit_s
+60.0
+>>> SwarmConfig.from_sections({"sensor": {"beams": 1}})
+Traceback (most recent call last):
+...
+ValueError: sensor.beams must be an integer >= 2, got sensor.beams=1
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from functools import partial
+from typing import Any, ClassVar
+
+from fftnav.observe.geometry import RobotGeometry
+from fftnav.observe.pipeline import Pipeline
+from fftnav.validate import check_choice, check_integer, check_number
+
+__all__ = ["CommsConfig", "EpisodeConfig", "RobotConfig", "SensorConfig", "SwarmConfig"]
+
+Check = Callable[[str, Any], Any]
+
+
+def _number(default: float, **bounds: Any) -> Any:
+    """A float field checked by :func:`fftnav.validate.check_number` with ``bounds``."""
+    return field(default=default, metadata={"check": partial(check_number, **bounds),
+                                            "type": float})
+
+
+def _integer(default: int, **bounds: Any) -> Any:
+    return field(default=default, metadata={"check": partial(check_integer, **bounds),
+                                            "type": int})
+
+
+def _choice(default: str, choices: tuple[str, ...]) -> Any:
+    return field(default=default, metadata={"check": partial(check_choice, choices=choices),
+                                            "type": str})
+
+
+class _Section:
+    """Validation shared by the section dataclasses: each field's own check, then
+    ``_check_together`` (rules between fields)."""
+
+    #: The TOML table of the section.
+    name: ClassVar[str]
+
+    @classmethod
+    def keys(cls) -> tuple[str, ...]:
+        """The section's keys, in declaration order."""
+        return tuple(f.name for f in dataclasses.fields(cls))  # type: ignore[arg-type]
+
+    @classmethod
+    def value_type(cls, key: str) -> type:
+        """Python type of a key's values (float, int or str)."""
+        return {f.name: f.metadata["type"] for f in dataclasses.fields(cls)}[key]  # type: ignore[arg-type]
+
+    @classmethod
+    def checked(cls, values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+        """``values`` checked field by field (errors name ``prefix + key``), floats as float;
+        an unknown key is refused."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
+        out = {}
+        for key, value in values.items():
+            if key not in fields:
+                raise ValueError(f"unknown key {prefix}{key}; expected one of {list(fields)}")
+            out[key] = fields[key].metadata["check"](f"{prefix}{key}", value)
+        return out
+
+    def __post_init__(self) -> None:
+        values = self.checked({f.name: getattr(self, f.name)
+                               for f in dataclasses.fields(self)})  # type: ignore[arg-type]
+        for key, value in values.items():
+            object.__setattr__(self, key, value)
+        self._check_together()
+
+    def _check_together(self) -> None:
+        """Rules between fields (none by default)."""
+
+
+@dataclass(frozen=True)
+class RobotConfig(_Section):
+    """``[robot]``: a differential-drive robot of radius r0 (paper Sec. III-A, IV-B).
+
+    Attributes
+    ----------
+    r0_m : float
+        Lateral collision radius r0 (m); the robot's body is a disc (sphere) of this radius.
+    r_m : float
+        Protective radius r (m), > r0; with r0 it sets l_th = r^2 / r0 and alpha (eqs. 1-2).
+    v_max_mps, w_max_radps : float
+        Speed limits: linear (m/s) and yaw rate (rad/s).
+    embodiment : {"body", "wheeled"}
+        The simulated body (:class:`fftnav.sim.swarm.SimConfig`).
+    """
+
+    name: ClassVar[str] = "robot"
+    r0_m: float = _number(0.15, low=0, low_open=True)
+    r_m: float = _number(0.30, low=0, low_open=True)
+    v_max_mps: float = _number(0.5, low=0, low_open=True)
+    w_max_radps: float = _number(1.5, low=0, low_open=True)
+    embodiment: str = _choice("body", ("body", "wheeled"))
+
+    def _check_together(self) -> None:
+        if self.r_m <= self.r0_m:
+            raise ValueError(f"r_m must be > r0_m={self.r0_m!r}, got r_m={self.r_m!r}")
+
+    @property
+    def geometry(self) -> RobotGeometry:
+        """The protective-distance model (l_th, alpha) of this robot."""
+        return RobotGeometry(r0_m=self.r0_m, r_m=self.r_m)
+
+
+@dataclass(frozen=True)
+class SensorConfig(_Section):
+    """``[sensor]``: a 2D lidar (paper Sec. IV-B: 360 beams, R = 3 m, 360 deg, 15 deg blind).
+
+    Attributes
+    ----------
+    beams : int
+        Number of beams M.
+    range_m : float
+        Maximum range R (m).
+    fov_deg, blind_deg : float
+        Field of view Theta and the blind sector at the back (degrees), ``blind < fov <= 360``.
+    noise_std_m : float
+        Standard deviation of Gaussian range noise on returns (m).
+    dropout : float
+        Probability in [0, 1) that a beam loses its return (reads R).
+    """
+
+    name: ClassVar[str] = "sensor"
+    beams: int = _integer(360, low=2)
+    range_m: float = _number(3.0, low=0, low_open=True)
+    fov_deg: float = _number(360.0, low=0, high=360, low_open=True)
+    blind_deg: float = _number(15.0, low=0)
+    noise_std_m: float = _number(0.0, low=0)
+    dropout: float = _number(0.0, low=0, high=1, high_open=True)
+
+    def _check_together(self) -> None:
+        if self.blind_deg >= self.fov_deg:
+            raise ValueError(f"blind_deg must be < fov_deg={self.fov_deg!r}, "
+                             f"got blind_deg={self.blind_deg!r}")
+
+    @property
+    def fov_rad(self) -> float:
+        """Field of view Theta (rad)."""
+        return math.radians(self.fov_deg)
+
+    @property
+    def blind_rad(self) -> float:
+        """Blind sector at the back (rad)."""
+        return math.radians(self.blind_deg)
+
+
+@dataclass(frozen=True)
+class CommsConfig(_Section):
+    """``[comms]``: the swarm's message channel (:class:`fftnav.episode.comms.Channel`).
+
+    Attributes
+    ----------
+    comm_range_m : float
+        Robots within this distance (m) of a sender receive its messages (paper: 2 R).
+    packet_loss : float
+        Probability in [0, 1) that a receiver misses a message.
+    delay_ticks : int
+        Extra control ticks before a message arrives.
+    broadcast : {"on_obstacle", "every_tick"}
+        When a robot sends: when its goal direction is blocked (the paper), or every tick.
+    pose_noise_m : float
+        Standard deviation (m) of the noise on the relative position of a sender.
+    """
+
+    name: ClassVar[str] = "comms"
+    comm_range_m: float = _number(6.0, low=0, low_open=True)
+    packet_loss: float = _number(0.0, low=0, high=1, high_open=True)
+    delay_ticks: int = _integer(0, low=0)
+    broadcast: str = _choice("on_obstacle", ("on_obstacle", "every_tick"))
+    pose_noise_m: float = _number(0.0, low=0)
+
+
+@dataclass(frozen=True)
+class EpisodeConfig(_Section):
+    """``[episode]``: time and arrival.
+
+    Attributes
+    ----------
+    time_limit_s : float
+        A robot not at its goal by then has failed (paper: 120 s).
+    control_hz, physics_hz : float
+        Control / lidar rate and physics rate (Hz); ``physics_hz / control_hz`` is an integer.
+    success_radius_m : float
+        A robot within this distance (m) of its goal has arrived.
+    """
+
+    name: ClassVar[str] = "episode"
+    time_limit_s: float = _number(120.0, low=0, low_open=True)
+    control_hz: float = _number(10.0, low=0, low_open=True)
+    physics_hz: float = _number(240.0, low=0, low_open=True)
+    success_radius_m: float = _number(0.3, low=0, low_open=True)
+
+    def _check_together(self) -> None:
+        ratio = self.physics_hz / self.control_hz
+        if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
+            raise ValueError(f"physics_hz must be an integer multiple of control_hz="
+                             f"{self.control_hz!r}, got physics_hz={self.physics_hz!r}")
+
+    @property
+    def max_ticks(self) -> int:
+        """Control ticks in the time limit."""
+        return int(round(self.time_limit_s * self.control_hz))
+
+
+_SECTIONS: dict[str, type[_Section]] = {
+    cls.name: cls for cls in (RobotConfig, SensorConfig, CommsConfig, EpisodeConfig)}
+
+
+@dataclass(frozen=True)
+class SwarmConfig:
+    """Everything about an episode except the world, the policy and the seed."""
+
+    robot: RobotConfig = field(default_factory=RobotConfig)
+    sensor: SensorConfig = field(default_factory=SensorConfig)
+    comms: CommsConfig = field(default_factory=CommsConfig)
+    episode: EpisodeConfig = field(default_factory=EpisodeConfig)
+
+    #: Section name -> its dataclass.
+    SECTIONS: ClassVar[dict[str, type[_Section]]] = _SECTIONS
+
+    @classmethod
+    def from_sections(cls, sections: Mapping[str, Mapping[str, Any]]) -> SwarmConfig:
+        """Build from TOML-like tables; an unknown section or key, or a bad value, raises
+        ValueError naming it (``sensor.range_m must be ...``)."""
+        kwargs = {}
+        for name, values in sections.items():
+            if name not in _SECTIONS:
+                raise ValueError(f"unknown section [{name}]; expected one of {list(_SECTIONS)}")
+            if not isinstance(values, Mapping):
+                raise ValueError(f"[{name}] must be a table, got {values!r:.80}")
+            section = _SECTIONS[name]
+            try:
+                kwargs[name] = section(**section.checked(values, prefix=f"{name}."))
+            except ValueError as exc:
+                message = str(exc)
+                if not message.startswith(f"{name}.") and not message.startswith("unknown"):
+                    message = f"[{name}] {message}"  # a rule between keys
+                raise ValueError(message) from None
+        return cls(**kwargs)
+
+    def to_sections(self) -> dict[str, dict[str, Any]]:
+        """The sections as plain dictionaries (the inverse of :meth:`from_sections`)."""
+        return {name: dataclasses.asdict(getattr(self, name)) for name in _SECTIONS}
+
+    @classmethod
+    def locate(cls, key: str) -> tuple[str, str]:
+        """``(section, key)`` of ``"section.key"`` or of a key that only one section has."""
+        section, dot, name = key.rpartition(".")
+        if dot:
+            if section in _SECTIONS and name in _SECTIONS[section].keys():
+                return section, name
+        else:
+            owners = [s for s, c in _SECTIONS.items() if key in c.keys()]
+            if len(owners) == 1:
+                return owners[0], key
+        known = [f"{s}.{k}" for s, c in _SECTIONS.items() for k in c.keys()]
+        raise ValueError(f"unknown key {key!r}; expected one of {known}")
+
+    def replace(self, overrides: Mapping[str, Any]) -> SwarmConfig:
+        """A copy with ``overrides`` applied: keys ``"section.key"`` or a bare key, values
+        typed (``{"packet_loss": 0.3}``) or text as on a command line (``{"beams": "180"}``)."""
+        sections = self.to_sections()
+        for key, value in overrides.items():
+            section, name = self.locate(key)
+            if isinstance(value, str) and _SECTIONS[section].value_type(name) is not str:
+                value = _parse(value, _SECTIONS[section].value_type(name), f"{section}.{name}")
+            sections[section][name] = value
+        return self.from_sections(sections)
+
+    @property
+    def geometry(self) -> RobotGeometry:
+        """The robot's protective-distance model."""
+        return self.robot.geometry
+
+    def pipeline(self) -> Pipeline:
+        """The FFT observation pipeline of this robot and lidar."""
+        return Pipeline(self.geometry, beams=self.sensor.beams, fov_rad=self.sensor.fov_rad,
+                        range_m=self.sensor.range_m, blind_rad=self.sensor.blind_rad)
+
+
+def _parse(text: str, kind: type, key: str) -> Any:
+    """A command-line value as ``kind`` (int or float); ValueError naming the key."""
+    try:
+        return kind(text)
+    except ValueError:
+        raise ValueError(f"{key} must be {'an integer' if kind is int else 'a number'}, "
+                         f"got {key}={text!r}") from None

@@ -1,0 +1,102 @@
+"""The record of an episode: one :class:`EpisodeRow` per robot, whose fields are the CSV columns.
+
+Adding a column is adding a field here (and filling it in :mod:`fftnav.episode.loop`); the CSV
+writers, the runner's ``episodes.csv`` and the resume check follow from the fields.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Iterable, Mapping
+from dataclasses import dataclass
+from typing import Any
+
+import numpy as np
+
+__all__ = ["EPISODE_COLUMNS", "EpisodeResult", "EpisodeRow", "episode_csv"]
+
+
+@dataclass(frozen=True)
+class EpisodeRow:
+    """The outcome of one robot in one episode.
+
+    Attributes
+    ----------
+    robot : int
+        Index of the robot in the world's starts.
+    policy : str
+        The decision policy's name.
+    arrived, collided : bool
+        Within ``success_radius_m`` of its goal by the time limit without touching an obstacle;
+        touched an obstacle (fatal).
+    path_length_m : float
+        Length of the driven path (m).
+    optimal_length_m, geodesic_length_m : float
+        8-connected grid A* length (the paper's reference) and 32-connected geodesic length (m).
+    spl : float
+        ``S l / max(p, l)`` against ``optimal_length_m``.
+    time_s : float
+        Time of arrival (s); NaN if the robot did not arrive.
+    bytes_sent, messages_sent : int
+        Bytes and messages the robot broadcast.
+    decisions_left, decisions_right : int
+        Side decisions taken.
+    decisions_with_neighbours, decisions_flipped_by_neighbours : int
+        ``fusion``: decisions that fused at least one neighbour, and those whose side differs
+        from the robot's own (P_s) side.
+    robot_contacts : int
+        Contact onsets with other robots (not fatal).
+    """
+
+    robot: int
+    policy: str
+    arrived: bool
+    collided: bool
+    path_length_m: float
+    optimal_length_m: float
+    geodesic_length_m: float
+    spl: float
+    time_s: float
+    bytes_sent: int
+    messages_sent: int
+    decisions_left: int
+    decisions_right: int
+    decisions_with_neighbours: int
+    decisions_flipped_by_neighbours: int
+    robot_contacts: int
+
+    def as_dict(self) -> dict[str, Any]:
+        """Column name -> value."""
+        return dataclasses.asdict(self)
+
+
+#: Columns of an episode's per-robot table, in order: the fields of :class:`EpisodeRow`.
+EPISODE_COLUMNS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EpisodeRow))
+
+
+@dataclass
+class EpisodeResult:
+    """Outcome of one episode: one row per robot and the trajectories."""
+
+    rows: list[EpisodeRow]
+    #: One (T_i, 3) array of x, y, yaw per robot, sampled at the control rate.
+    trajectories: list[np.ndarray]
+
+
+def _cell(value: Any) -> str:
+    if isinstance(value, (bool, np.bool_)):
+        return "true" if value else "false"
+    if isinstance(value, (float, np.floating)):
+        return "" if np.isnan(value) else f"{value:.6f}"
+    return str(value)
+
+
+def episode_csv(rows: Iterable[EpisodeRow | Mapping[str, Any]], *,
+                columns: tuple[str, ...] = EPISODE_COLUMNS, header: bool = True) -> str:
+    """Rows as CSV text: ``columns`` in order, booleans ``true``/``false``, floats ``%.6f``
+    (fixed, so the same episode gives byte-identical files), NaN as an empty field."""
+    lines = [",".join(columns)] if header else []
+    for row in rows:
+        values = row.as_dict() if isinstance(row, EpisodeRow) else row
+        lines.append(",".join(_cell(values[c]) for c in columns))
+    return "\n".join(lines) + "\n"
