@@ -11,14 +11,16 @@ optimal (shortest-path) length from its start to its goal. Distances in metres, 
 ``docs/metrics.md`` states every definition and the l = 0 guard.
 
 :data:`MEASURES` maps a measure name to a function of an episode's per-robot table (a mapping or
-``pandas.DataFrame`` with the columns of :data:`fftnav.episode.loop.EPISODE_COLUMNS`), in the
-manner of habitat-lab's measure registry, so reports look measures up by name.
+``pandas.DataFrame`` with the columns of :data:`fftnav.episode.record.EPISODE_COLUMNS`), in the
+manner of habitat-lab's measure registry: experiment summaries have one column per registered
+measure (and an interval for those with ``terms``), so a new measure is one registered function.
 """
 
 from __future__ import annotations
 
 import math
 from collections.abc import Callable, Iterable, Mapping
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -26,10 +28,12 @@ from numpy.typing import ArrayLike
 
 __all__ = [
     "MEASURES",
+    "Measure",
     "arrival_rate",
     "arrived",
     "average_path_length_m",
     "evaluate",
+    "register_measure",
     "path_length_m",
     "spl",
     "spl_terms",
@@ -233,13 +237,61 @@ def average_path_length_m(success: ArrayLike, path_length_m: ArrayLike) -> float
 
 
 Table = Mapping[str, Any]
-#: Measures by name, each a function of a per-robot table returning one float.
-MEASURES: dict[str, Callable[[Table], float]] = {}
 
 
-def _measure(name: str) -> Callable[[Callable[[Table], float]], Callable[[Table], float]]:
+@dataclass(frozen=True)
+class Measure:
+    """A named measure of a per-robot table, and how to put an interval on it.
+
+    Attributes
+    ----------
+    name : str
+        The measure's name: its key in :data:`MEASURES` and its column in experiment summaries.
+    fn : callable
+        ``fn(table) -> float``, the point estimate over the table's robots.
+    terms : callable, optional
+        ``terms(table) -> (numerator, denominator)``, per-robot arrays whose per-map sums give
+        the measure as ``sum(numerator) / sum(denominator)``; summaries then report a 95%
+        bootstrap interval over maps in the columns ``<interval>_ci_low`` and ``_ci_high``.
+    interval : str
+        Prefix of the interval columns (default: the name).
+    description : str
+        One line (the function's docstring).
+    """
+
+    name: str
+    fn: Callable[[Table], float]
+    terms: Callable[[Table], tuple[np.ndarray, np.ndarray]] | None = None
+    interval: str = ""
+    description: str = ""
+
+    def __call__(self, table: Table) -> float:
+        return self.fn(table)
+
+    @property
+    def columns(self) -> tuple[str, ...]:
+        """The summary columns of this measure: its value, then its interval if it has one."""
+        if self.terms is None:
+            return (self.name,)
+        prefix = self.interval or self.name
+        return (self.name, f"{prefix}_ci_low", f"{prefix}_ci_high")
+
+
+#: Measures by name, in the order of the summary columns (habitat-lab style registry).
+MEASURES: dict[str, Measure] = {}
+
+
+def register_measure(
+    name: str, *, terms: Callable[[Table], tuple[np.ndarray, np.ndarray]] | None = None,
+    interval: str = "",
+) -> Callable[[Callable[[Table], float]], Callable[[Table], float]]:
+    """Decorator registering ``fn(table) -> float`` as measure ``name`` (see :class:`Measure`)."""
+
     def register(fn: Callable[[Table], float]) -> Callable[[Table], float]:
-        MEASURES[name] = fn
+        if name in MEASURES:
+            raise ValueError(f"measure {name!r} is already registered")
+        doc = (fn.__doc__ or "").strip().splitlines()
+        MEASURES[name] = Measure(name, fn, terms, interval, doc[0] if doc else "")
         return fn
 
     return register
@@ -251,19 +303,33 @@ def _column(table: Table, name: str) -> np.ndarray:
     return np.asarray(table[name])
 
 
-@_measure("arrival_rate")
+def _ones(table: Table) -> np.ndarray:
+    return np.ones(len(_column(table, "arrived")))
+
+
+def _share(part: float, whole: float) -> float:
+    return float(part / whole) if whole else float("nan")
+
+
+def _mean(table: Table, name: str) -> float:
+    return float(np.mean(_column(table, name).astype(float)))
+
+
+@register_measure("ar", terms=lambda t: (_column(t, "arrived").astype(float), _ones(t)))
 def _ar(table: Table) -> float:
-    """AR, fraction of robots with ``arrived``."""
+    """AR, the fraction of robots with ``arrived``."""
     return arrival_rate(_column(table, "arrived"))
 
 
-@_measure("apl_m")
+@register_measure("apl_m", interval="apl", terms=lambda t: (
+    np.where(_column(t, "arrived").astype(bool), _column(t, "path_length_m"), 0.0),
+    _column(t, "arrived").astype(float)))
 def _apl(table: Table) -> float:
-    """APL, mean ``path_length_m`` of arrived robots (m); NaN if none arrived."""
+    """APL, the mean ``path_length_m`` of arrived robots (m); NaN if none arrived."""
     return average_path_length_m(_column(table, "arrived"), _column(table, "path_length_m"))
 
 
-@_measure("spl")
+@register_measure("spl", terms=lambda t: (_column(t, "spl").astype(float), _ones(t)))
 def _spl(table: Table) -> float:
     """SPL against ``optimal_length_m`` (8-connected A*, the paper's reference)."""
     return spl(
@@ -273,7 +339,7 @@ def _spl(table: Table) -> float:
     )
 
 
-@_measure("spl_geodesic")
+@register_measure("spl_geodesic")
 def _spl_geodesic(table: Table) -> float:
     """SPL against ``geodesic_length_m`` (near-Euclidean, 32-connected)."""
     return spl(
@@ -283,29 +349,60 @@ def _spl_geodesic(table: Table) -> float:
     )
 
 
-@_measure("collision_rate")
+@register_measure("collision_rate")
 def _collision_rate(table: Table) -> float:
-    """Fraction of robots that hit an obstacle (``collided``)."""
+    """The fraction of robots that hit an obstacle (``collided``)."""
     return float(np.mean(_column(table, "collided").astype(bool)))
 
 
-@_measure("time_to_goal_s")
+@register_measure("bytes_per_robot")
+def _bytes_per_robot(table: Table) -> float:
+    """Mean ``bytes_sent`` per robot."""
+    return _mean(table, "bytes_sent")
+
+
+@register_measure("messages_per_robot")
+def _messages_per_robot(table: Table) -> float:
+    """Mean ``messages_sent`` per robot."""
+    return _mean(table, "messages_sent")
+
+
+def _decisions(table: Table) -> np.ndarray:
+    return _column(table, "decisions_left") + _column(table, "decisions_right")
+
+
+@register_measure("decisions_per_robot")
+def _decisions_per_robot(table: Table) -> float:
+    """Mean side decisions (left and right) per robot."""
+    decisions = _decisions(table)
+    return float(decisions.sum() / len(decisions))
+
+
+@register_measure("share_with_neighbours")
+def _share_with_neighbours(table: Table) -> float:
+    """The fraction of side decisions that fused at least one neighbour (NaN: no decision)."""
+    return _share(_column(table, "decisions_with_neighbours").sum(), _decisions(table).sum())
+
+
+@register_measure("share_flipped_by_neighbours")
+def _share_flipped(table: Table) -> float:
+    """Among the decisions that fused a neighbour, the fraction whose side differs from the
+    robot's own (P_s) side (NaN: none fused a neighbour)."""
+    return _share(_column(table, "decisions_flipped_by_neighbours").sum(),
+                  _column(table, "decisions_with_neighbours").sum())
+
+
+@register_measure("time_to_goal_s")
 def _time_to_goal(table: Table) -> float:
     """Mean ``time_s`` of arrived robots (s); NaN if none arrived."""
     s = _success(_column(table, "arrived"))
     return float(np.mean(_column(table, "time_s")[s].astype(float))) if s.any() else float("nan")
 
 
-@_measure("bytes_sent")
-def _bytes_sent(table: Table) -> float:
-    """Mean ``bytes_sent`` per robot."""
-    return float(np.mean(_column(table, "bytes_sent").astype(float)))
-
-
-@_measure("robot_contacts")
+@register_measure("robot_contacts_per_robot")
 def _robot_contacts(table: Table) -> float:
-    """Mean ``robot_contacts`` (robot-robot contacts, not fatal) per robot."""
-    return float(np.mean(_column(table, "robot_contacts").astype(float)))
+    """Mean ``robot_contacts`` (robot-robot contact onsets, not fatal) per robot."""
+    return _mean(table, "robot_contacts")
 
 
 def evaluate(table: Table, names: Iterable[str] | None = None) -> dict[str, float]:
@@ -322,6 +419,12 @@ def evaluate(table: Table, names: Iterable[str] | None = None) -> dict[str, floa
     -------
     dict
         ``{name: value}`` in the order requested.
+
+    Examples
+    --------
+    >>> evaluate({"arrived": [True, False], "path_length_m": [20.0, 3.0],
+    ...           "optimal_length_m": [18.0, 18.0]}, ["ar", "apl_m", "spl"])
+    {'ar': 0.5, 'apl_m': 20.0, 'spl': 0.45}
     """
     names = list(MEASURES) if names is None else list(names)
     unknown = [n for n in names if n not in MEASURES]

@@ -109,7 +109,13 @@ def episode_table() -> dict:
         "geodesic_length_m": np.array([18.0, 18.0, 17.0]),
         "time_s": np.array([50.0, 70.0, np.nan]),
         "bytes_sent": np.array([100, 200, 0]),
+        "messages_sent": np.array([4, 8, 0]),
+        "decisions_left": np.array([1, 2, 0]),
+        "decisions_right": np.array([0, 1, 2]),
+        "decisions_with_neighbours": np.array([1, 1, 0]),
+        "decisions_flipped_by_neighbours": np.array([0, 1, 0]),
         "robot_contacts": np.array([1, 0, 2]),
+        "spl": np.array([19 / 20, 1.0, 0.0]),
     }
 
 
@@ -120,15 +126,38 @@ def test_measures_registry_by_name(as_frame):
         table = pd.DataFrame(table)
     got = evaluate(table)
     assert set(got) == set(MEASURES)
-    assert got["arrival_rate"] == pytest.approx(2 / 3)
+    assert got["ar"] == pytest.approx(2 / 3)
     assert got["apl_m"] == pytest.approx(19.5)
     assert got["spl"] == pytest.approx((19 / 20 + 1) / 3)
     assert got["spl_geodesic"] == pytest.approx((18 / 20 + 18 / 19) / 3)
     assert got["collision_rate"] == pytest.approx(1 / 3)
     assert got["time_to_goal_s"] == pytest.approx(60.0)
-    assert got["bytes_sent"] == pytest.approx(100.0)
-    assert got["robot_contacts"] == pytest.approx(1.0)
+    assert got["bytes_per_robot"] == pytest.approx(100.0)
+    assert got["messages_per_robot"] == pytest.approx(4.0)
+    assert got["decisions_per_robot"] == pytest.approx(2.0)
+    assert got["share_with_neighbours"] == pytest.approx(2 / 6)
+    assert got["share_flipped_by_neighbours"] == pytest.approx(1 / 2)
+    assert got["robot_contacts_per_robot"] == pytest.approx(1.0)
     assert MEASURES["spl"](table) == got["spl"]
+    for name in ("ar", "apl_m", "spl"):  # the interval terms are the measure as a ratio
+        num, den = MEASURES[name].terms(table)
+        assert num.sum() / den.sum() == pytest.approx(got[name])
+    assert MEASURES["apl_m"].columns == ("apl_m", "apl_ci_low", "apl_ci_high")
+    assert MEASURES["spl_geodesic"].columns == ("spl_geodesic",)
+
+
+def test_a_registered_measure_becomes_a_summary_column(monkeypatch):
+    from fftnav.metrics import register_measure
+    from fftnav.runner.summary import summarize, summary_columns
+
+    monkeypatch.setattr("fftnav.metrics.MEASURES", dict(MEASURES))
+    monkeypatch.setattr("fftnav.runner.summary.MEASURES", __import__("fftnav").metrics.MEASURES)
+    register_measure("longest_path_m")(lambda t: float(np.max(t["path_length_m"])))
+    assert summary_columns()[-1] == "longest_path_m"
+    frame = pd.DataFrame({**episode_table(), "env": "forest", "policy": "fusion", "map_seed": 1})
+    assert summarize(frame, n_resamples=10)["longest_path_m"].tolist() == [20.0]
+    with pytest.raises(ValueError, match="measure 'spl' is already registered"):
+        register_measure("spl")(lambda t: 0.0)
 
 
 @pytest.mark.parametrize(

@@ -3,7 +3,7 @@
 Each module in this package exposes ``register(subparsers)``, which adds its
 subcommand(s) and sets ``func`` on each parser. ``main`` turns every library
 ``ValueError`` / ``OSError`` (and argparse usage errors) into one line on stderr
-and exit status 2, with no traceback.
+and exit status 2, with no traceback; anything else is a bug and keeps its traceback.
 """
 
 from __future__ import annotations
@@ -40,13 +40,7 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True
     for name in _MODULES:
-        try:
-            module = importlib.import_module(f"fftnav.cli.{name}")
-        except ModuleNotFoundError as exc:  # a subcommand still being written
-            if exc.name == f"fftnav.cli.{name}":
-                continue
-            raise
-        module.register(sub)
+        importlib.import_module(f"fftnav.cli.{name}").register(sub)
     return parser
 
 
@@ -58,7 +52,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         status = args.func(args)
     except BrokenPipeError:  # e.g. `fftnav scan ... | head`
         return 0
-    except (CliError, ValueError, OSError, KeyError) as exc:
+    except (CliError, ValueError, OSError) as exc:
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         sys.stderr.write(f"fftnav {args.command}: error: {msg}\n")
         return EXIT_USAGE

@@ -17,15 +17,12 @@ from __future__ import annotations
 import math
 from collections.abc import Iterable
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
 
 import numpy as np
 
 from fftnav.observe.geometry import DRONE, RobotGeometry
 from fftnav.observe.spherical import SAFE_TOL, DiscFilterBank, SphericalGrid
-
-if TYPE_CHECKING:
-    from fftnav.sim.drone import DroneSim, Forest3D
+from fftnav.sim.drone import DroneSim, Forest3D, make_forest3d
 
 __all__ = ["FlightConfig", "FlightResult", "FLIGHT_COLUMNS", "fly", "run_flights", "summarize",
            "swept_clear", "collides_along"]
@@ -239,8 +236,6 @@ def fly(
     FlightResult
         The flight ends on arrival, on the first collision or at ``max_time_s``.
     """
-    from fftnav.sim.drone import DroneSim, make_forest3d
-
     if forest is None:
         forest = make_forest3d(np.random.default_rng(seed), distance_m=config.distance_m)
     bank = config.filter_bank()

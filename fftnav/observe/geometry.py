@@ -63,16 +63,6 @@ class RobotGeometry:
         """Safety-sector angle in degrees."""
         return math.degrees(self.alpha_rad)
 
-    def quadrant_bounds_rad(self) -> tuple[tuple[float, float], ...]:
-        """Quadrants I-IV of Fig. 2b as ``(low, high)`` angle pairs, radians, CCW from heading.
-
-        I front-left ``[0, a/2]``, II left side ``[a/2, pi/2]``, III right side
-        ``[-pi/2, -a/2]``, IV front-right ``[-a/2, 0]``.
-        """
-        h = self.alpha_rad / 2.0
-        q = math.pi / 2.0
-        return ((0.0, h), (h, q), (-q, -h), (-h, 0.0))
-
 
 #: The paper's simulated swarm robot (Sec. IV-B): l_th = 0.6 m, alpha = 60 deg.
 SIM_ROBOT = RobotGeometry(r0_m=0.15, r_m=0.30)

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import matplotlib
 
@@ -13,9 +12,9 @@ import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 from matplotlib.patches import Circle, Rectangle  # noqa: E402
 
-if TYPE_CHECKING:
-    from fftnav.episode.flight3d import FlightResult
-    from fftnav.observe.spherical import SphericalGrid
+from fftnav.episode.flight3d import FlightResult  # noqa: E402
+from fftnav.observe.spherical import DiscFilterBank, SphericalGrid  # noqa: E402
+from fftnav.sim.drone import DroneSim, make_forest3d  # noqa: E402
 
 __all__ = ["draw_depth3d_figure", "draw_flight_figure"]
 
@@ -47,9 +46,6 @@ def draw_depth3d_figure(out_dir: Path, *, seed: int = 0) -> list[Path]:
     list of pathlib.Path
         ``fig4_depth.png`` and ``fig4_safe.png`` in ``out_dir``.
     """
-    from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
-    from fftnav.sim.drone import DroneSim, make_forest3d
-
     grid = SphericalGrid(90, 360)
     bank = DiscFilterBank(grid)
     forest = make_forest3d(np.random.default_rng(seed))

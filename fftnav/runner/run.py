@@ -29,6 +29,7 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
+from fftnav import __version__
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
@@ -195,16 +196,32 @@ def git_revision() -> str:
 
 
 def _check_same_experiment(config: ExperimentConfig, out: Path) -> None:
-    """Refuse a folder whose ``config.json`` (canonical config without ``out``, and the fftnav
-    version that wrote it) differs: resuming must not mix configs or code versions."""
-    from fftnav import __version__
-
+    """Refuse a folder whose ``config.json`` (canonical config without ``out``, the fftnav
+    version and the CSV columns that wrote it) differs: resuming must not mix configs, code
+    versions or columns. A folder written with other columns is refused naming them."""
     record = out / "config.json"
     canonical = json.dumps({**asdict(config), "out": None, "source": None,
-                            "fftnav_version": __version__}, indent=1, sort_keys=True)
-    if record.exists() and record.read_text() != canonical:
-        raise ValueError(f"{out} holds results of a different experiment config or fftnav "
-                         f"version ({record}); use another --out")
+                            "fftnav_version": __version__, "csv_columns": list(CSV_COLUMNS)},
+                           indent=1, sort_keys=True)
+    if record.exists():
+        text = record.read_text()
+        try:
+            columns = json.loads(text).get("csv_columns")
+        except (ValueError, AttributeError):
+            columns = None
+        episodes = out / "episodes.csv"
+        if columns is None and episodes.exists():  # a folder written before columns were kept
+            columns = episodes.read_text().split("\n", 1)[0].split(",")
+        if columns is not None and tuple(columns) != CSV_COLUMNS:
+            missing = [c for c in CSV_COLUMNS if c not in columns]
+            extra = [c for c in columns if c not in CSV_COLUMNS]
+            raise ValueError(f"{out} holds episodes with other columns than this fftnav writes "
+                             f"(missing {missing}, extra {extra}"
+                             f"{', or in another order' if not missing + extra else ''}); "
+                             "use another --out")
+        if text != canonical:
+            raise ValueError(f"{out} holds results of a different experiment config or fftnav "
+                             f"version ({record}); use another --out")
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(record, canonical)
 

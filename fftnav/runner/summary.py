@@ -15,18 +15,21 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
-from fftnav.metrics import evaluate
+from fftnav.metrics import MEASURES
 
-__all__ = ["SUMMARY_COLUMNS", "PAIRED_COLUMNS", "bootstrap_ratio_ci", "summarize", "paired_tests"]
+__all__ = ["PAIRED_COLUMNS", "bootstrap_ratio_ci", "paired_tests", "summarize",
+           "summary_columns"]
 
-SUMMARY_COLUMNS: tuple[str, ...] = (
-    "env", "policy", "episodes", "robots",
-    "ar", "ar_ci_low", "ar_ci_high",
-    "apl_m", "apl_ci_low", "apl_ci_high",
-    "spl", "spl_ci_low", "spl_ci_high", "spl_geodesic",
-    "collision_rate", "bytes_per_robot", "messages_per_robot",
-    "decisions_per_robot", "share_with_neighbours", "share_flipped_by_neighbours",
-)
+#: Columns of a summary before the measures: the group and its size.
+_KEYS: tuple[str, ...] = ("env", "policy", "episodes", "robots")
+
+
+def summary_columns() -> tuple[str, ...]:
+    """Columns of :func:`summarize`: env, policy, episodes, robots, then the columns of every
+    registered measure (:data:`fftnav.metrics.MEASURES`) in registration order."""
+    return _KEYS + tuple(c for m in MEASURES.values() for c in m.columns)
+
+
 PAIRED_COLUMNS: tuple[str, ...] = (
     "env", "reference", "policy", "maps", "spl_reference", "spl_policy", "median_diff",
     "statistic", "p_value",
@@ -84,53 +87,37 @@ def bootstrap_ratio_ci(
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
-def _share(part: float, whole: float) -> float:
-    return float(part / whole) if whole else float("nan")
-
-
 def summarize(episodes: pd.DataFrame, *, n_resamples: int = 2000, seed: int = 0) -> pd.DataFrame:
-    """One row per (env, policy): counts, AR, APL, SPL with 95% bootstrap intervals over maps.
+    """One row per (env, policy): counts, then every registered measure.
 
     Parameters
     ----------
     episodes : DataFrame
-        ``episodes.csv`` rows (env, map_seed, policy, arrived, collided, path_length_m, spl,
-        bytes_sent, messages_sent, ...).
+        ``episodes.csv`` rows (env, map_seed, policy and the episode columns).
     n_resamples, seed
         Bootstrap resamples and seed (see :func:`bootstrap_ratio_ci`).
 
     Returns
     -------
     DataFrame
-        Columns ``SUMMARY_COLUMNS``; sorted by env, policy. Point estimates come from the
-        measures registry (:data:`fftnav.metrics.MEASURES`); APL is NaN where no robot arrived.
-        ``share_with_neighbours``: the fraction of side decisions that fused at least one
-        neighbour; ``share_flipped_by_neighbours``: among those, the fraction whose side differs
-        from the robot's own (P_s) side (NaN when undefined).
+        Columns :func:`summary_columns`, sorted by env, policy. Each measure's value is
+        ``measure(table)`` of the group's robots; measures with ``terms`` (AR, APL, SPL) get a
+        95% bootstrap interval over maps of the ratio of their per-map sums.
     """
-    df = episodes.assign(arrived=episodes["arrived"].astype(bool), n=1)
-    df["arrived_path_m"] = df["path_length_m"].where(df["arrived"], 0.0)
     rows = []
-    for (env, policy), g in df.groupby(["env", "policy"], sort=True):
-        maps = g.groupby("map_seed")[["n", "arrived", "spl", "arrived_path_m"]].sum()
-        n, arrived = maps["n"].to_numpy(), maps["arrived"].to_numpy()
-        ci = {name: bootstrap_ratio_ci(num, den, n_resamples=n_resamples, seed=seed)
-              for name, num, den in (("ar", arrived, n), ("apl", maps["arrived_path_m"], arrived),
-                                     ("spl", maps["spl"], n))}
-        decisions = g["decisions_left"] + g["decisions_right"]
-        with_neighbours = g["decisions_with_neighbours"]
-        m = evaluate(g, ("arrival_rate", "apl_m", "spl", "spl_geodesic", "collision_rate",
-                         "bytes_sent"))
-        rows.append((
-            env, policy, len(maps), int(n.sum()),
-            m["arrival_rate"], *ci["ar"],
-            m["apl_m"], *ci["apl"],
-            m["spl"], *ci["spl"], m["spl_geodesic"],
-            m["collision_rate"], m["bytes_sent"], g["messages_sent"].mean(),
-            decisions.sum() / len(g), _share(with_neighbours.sum(), decisions.sum()),
-            _share(g["decisions_flipped_by_neighbours"].sum(), with_neighbours.sum()),
-        ))
-    return pd.DataFrame(rows, columns=list(SUMMARY_COLUMNS))
+    for (env, policy), g in episodes.groupby(["env", "policy"], sort=True):
+        maps = g.groupby("map_seed")
+        row: list[object] = [env, policy, maps.ngroups, len(g)]
+        for measure in MEASURES.values():
+            row.append(measure(g))
+            if measure.terms is not None:
+                num, den = measure.terms(g)
+                sums = pd.DataFrame({"num": num, "den": den, "map": g["map_seed"].to_numpy()}
+                                    ).groupby("map").sum()
+                row += bootstrap_ratio_ci(sums["num"].to_numpy(), sums["den"].to_numpy(),
+                                          n_resamples=n_resamples, seed=seed)
+        rows.append(row)
+    return pd.DataFrame(rows, columns=list(summary_columns()))
 
 
 def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion") -> pd.DataFrame:

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import dataclasses
+import json
 import time
 
 import numpy as np
@@ -125,6 +126,25 @@ def test_folder_of_another_experiment_is_refused(tmp_path):
                                          "map_seed": 5, "robots": 3, "policies": ["fusion"]}})
     with pytest.raises(ValueError, match=r"holds results of a different experiment config"):
         run_experiment(other, tmp_path, workers=1, task_fn=fake_task, progress=False)
+
+
+def test_folder_written_with_other_columns_is_refused_naming_them(tmp_path):
+    run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
+    record = tmp_path / "config.json"
+    data = json.loads(record.read_text())
+    data["csv_columns"] = [c for c in data["csv_columns"] if c != "spl"] + ["colour"]
+    record.write_text(json.dumps(data, indent=1, sort_keys=True))
+    with pytest.raises(ValueError, match=r"holds episodes with other columns than this fftnav "
+                       r"writes \(missing \['spl'\], extra \['colour'\]\)"):
+        run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
+    # a folder from before the columns were recorded: its episodes.csv header is checked
+    del data["csv_columns"]
+    record.write_text(json.dumps(data, indent=1, sort_keys=True))
+    episodes = tmp_path / "episodes.csv"
+    header, rest = episodes.read_text().split("\n", 1)
+    episodes.write_text(header.replace(",robot_contacts", "") + "\n" + rest)
+    with pytest.raises(ValueError, match=r"missing \['robot_contacts'\], extra \[\]"):
+        run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
 
 
 @pytest.mark.parametrize("options, match", [

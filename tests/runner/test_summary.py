@@ -47,7 +47,9 @@ def episodes(rows):
     frame = pd.DataFrame(rows, columns=cols)
     return frame.assign(geodesic_length_m=8.5, decisions_left=1, decisions_right=1,
                         decisions_with_neighbours=1,
-                        decisions_flipped_by_neighbours=[1] + [0] * (len(frame) - 1))
+                        decisions_flipped_by_neighbours=[1] + [0] * (len(frame) - 1),
+                        time_s=np.where(frame.arrived, frame.path_length_m / 0.5, np.nan),
+                        robot_contacts=[2] + [0] * (len(frame) - 1))
 
 
 def test_summary_metrics_hand_computed():
@@ -68,6 +70,7 @@ def test_summary_metrics_hand_computed():
     assert f.decisions_per_robot == 2 and f.share_with_neighbours == pytest.approx(0.5)
     assert f.share_flipped_by_neighbours == pytest.approx(0.25)
     assert f.bytes_per_robot == pytest.approx(100) and f.messages_per_robot == pytest.approx(1.5)
+    assert f.time_to_goal_s == pytest.approx(24.0) and f.robot_contacts_per_robot == 0.5
     # maps: SPL 0.45 and (0.75 + 9/14)/2 -> the interval spans exactly these two (two maps)
     assert (f.spl_ci_low, f.spl_ci_high) == pytest.approx((0.45, (0.75 + 9 / 14) / 2))
     r = s.loc["random"]
