@@ -26,6 +26,8 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from fftnav.validate import check_number
+
 __all__ = [
     "MEASURES",
     "Measure",
@@ -77,8 +79,7 @@ def _times(n: int, dt_s: float | None, times_s: ArrayLike | None) -> np.ndarray:
             f"give exactly one of dt_s and times_s, got dt_s={dt_s}, times_s={times_s}"
         )
     if dt_s is not None:
-        if not (np.isfinite(dt_s) and dt_s > 0):
-            raise ValueError(f"dt_s must be finite and > 0, got dt_s={dt_s}")
+        check_number("dt_s", dt_s, low=0, low_open=True)
         return np.arange(n) * dt_s
     times = np.asarray(times_s, dtype=float)
     if times.shape != (n,) or not np.isfinite(times).all() or np.any(np.diff(times) < 0):
@@ -122,10 +123,7 @@ def time_to_goal_s(
         raise ValueError(
             f"goal must be {pos.shape[1]} finite coordinates like the trajectory, got goal={goal}"
         )
-    if not (np.isfinite(success_radius_m) and success_radius_m > 0):
-        raise ValueError(
-            f"success_radius_m must be finite and > 0, got success_radius_m={success_radius_m}"
-        )
+    check_number("success_radius_m", success_radius_m, low=0, low_open=True)
     times = _times(len(pos), dt_s, times_s)
     inside = np.flatnonzero(np.linalg.norm(pos - goal_arr, axis=1) <= success_radius_m)
     return float(times[inside[0]]) if inside.size else float("nan")
@@ -158,8 +156,7 @@ def arrived(
     -------
     bool
     """
-    if not (np.isfinite(time_limit_s) and time_limit_s > 0):
-        raise ValueError(f"time_limit_s must be finite and > 0, got time_limit_s={time_limit_s}")
+    check_number("time_limit_s", time_limit_s, low=0, low_open=True)
     t = time_to_goal_s(
         trajectory, goal, success_radius_m=success_radius_m, dt_s=dt_s, times_s=times_s
     )

@@ -167,18 +167,18 @@ def test_a_registered_measure_becomes_a_summary_column(monkeypatch):
         (lambda: path_length_m([[0.0, np.nan]]), r"trajectory must be finite"),
         (lambda: time_to_goal_s([[0, 0]], [0, 0]), r"give exactly one of dt_s and times_s"),
         (lambda: time_to_goal_s([[0, 0]], [0, 0, 0], dt_s=1), r"goal must be 2 finite coordinates"),
-        (lambda: time_to_goal_s([[0, 0]], [0, 0], dt_s=0), r"dt_s must be finite and > 0, got dt_s=0"),
+        (lambda: time_to_goal_s([[0, 0]], [0, 0], dt_s=0), r"dt_s must be a finite number > 0, got dt_s=0"),
         (
             lambda: time_to_goal_s([[0, 0], [1, 1]], [0, 0], times_s=[1.0, 0.0]),
             r"times_s must be 2 finite non-decreasing times",
         ),
         (
             lambda: time_to_goal_s([[0, 0]], [0, 0], dt_s=1, success_radius_m=-1),
-            r"success_radius_m must be finite and > 0, got success_radius_m=-1",
+            r"success_radius_m must be a finite number > 0, got success_radius_m=-1",
         ),
         (
             lambda: arrived([[0, 0]], [0, 0], dt_s=1, time_limit_s=0),
-            r"time_limit_s must be finite and > 0, got time_limit_s=0",
+            r"time_limit_s must be a finite number > 0, got time_limit_s=0",
         ),
         (lambda: spl([], [], []), r"success must be a non-empty 1-D array of booleans"),
         (lambda: spl([True], [-1.0], [1.0]), r"path_length_m must be 1 finite lengths >= 0"),

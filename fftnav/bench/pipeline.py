@@ -27,6 +27,7 @@ from fftnav.observe.geometry import SIM_ROBOT
 from fftnav.observe.pipeline import Pipeline
 from fftnav.observe.safe import safe_mask, sliding_min_safe_mask
 from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
+from fftnav.validate import check_integer
 from fftnav.world.scenes import trunk_scans
 
 __all__ = ["bench_pipeline", "format_pipeline", "record_csv"]
@@ -85,8 +86,7 @@ def bench_pipeline(*, repeats: int = 2000, seed: int = 0) -> dict:
         ``numpy.convolve`` (``mask_convolve_us_per_scan``) and by a sliding-window minimum
         (``mask_sliding_min_us_per_scan``), ``masks_agree``, ``repeats``, ``cpu``.
     """
-    if isinstance(repeats, bool) or not isinstance(repeats, int) or repeats < 1:
-        raise ValueError(f"repeats must be an integer >= 1, got repeats={repeats!r}")
+    check_integer("repeats", repeats, low=1)
     pipe = Pipeline(SIM_ROBOT)
     bank = pipe.bank
     scans = trunk_scans(np.random.default_rng(seed), BATCH)

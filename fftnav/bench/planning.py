@@ -14,6 +14,7 @@ import numpy as np
 from fftnav.planning.astar import astar
 from fftnav.planning.gridgraph import shortest_paths
 from fftnav.planning.reference import robot_cells
+from fftnav.validate import check_number
 from fftnav.world import generate_world
 from fftnav.world.grid import occupancy_grid
 
@@ -33,8 +34,7 @@ def bench_optimal_paths(
         8-connected Dijkstra, and mean lengths in metres (``astar_m``, ``geodesic_m``,
         ``euclidean_m``).
     """
-    if not (np.isfinite(r0_m) and r0_m >= 0):
-        raise ValueError(f"r0_m must be finite and >= 0, got r0_m={r0_m}")
+    check_number("r0_m", r0_m, low=0)
     world = generate_world(env, seed)
     og = occupancy_grid(world, resolution_m=resolution_m, inflate_m=r0_m)
     starts, goals = robot_cells(og, world)

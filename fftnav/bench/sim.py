@@ -9,6 +9,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.sim.swarm import SimConfig, SwarmSim
+from fftnav.validate import check_number
 from fftnav.world import generate_world
 
 __all__ = ["bench_sim", "format_sim"]
@@ -37,8 +38,7 @@ def bench_sim(*, env: str = "forest", seconds: float = 20.0, seed: int = 0) -> d
         left after culling, mean), ``load_avg_1min`` (the machine's load average at the end:
         the bench shares the CPU with whatever else runs) and the setting.
     """
-    if not (isinstance(seconds, (int, float)) and 0 < seconds <= 3600):
-        raise ValueError(f"seconds must be in (0, 3600], got seconds={seconds!r}")
+    check_number("seconds", seconds, low=0, high=3600, low_open=True)
     config = SimConfig()
     world = generate_world(env, seed)
     rng = np.random.default_rng(seed)

@@ -28,8 +28,8 @@ def cmd_episode(args: argparse.Namespace) -> int:
     from fftnav.episode import SwarmConfig, episode_csv, run_episode
     from fftnav.world import load_world
 
-    world = load_world(args.world)
     config = SwarmConfig().replace(_overrides(args.set or []))
+    world = load_world(args.world)
     result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui)
     text = episode_csv(result.rows)
     if args.out:

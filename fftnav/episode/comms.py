@@ -13,6 +13,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fftnav.validate import check_integer, check_number
+
 __all__ = ["Packet", "Channel"]
 
 
@@ -69,16 +71,10 @@ class Channel:
         delay_ticks: int = 0,
         rng: np.random.Generator,
     ) -> None:
-        if not (isinstance(n_robots, (int, np.integer)) and n_robots >= 1):
-            raise ValueError(f"n_robots must be an integer >= 1, got n_robots={n_robots!r}")
-        if not (np.isfinite(range_m) and range_m > 0):
-            raise ValueError(f"range_m must be finite and > 0, got range_m={range_m!r}")
-        if not (0.0 <= loss < 1.0):
-            raise ValueError(f"loss must be in [0, 1), got loss={loss!r}")
-        if not (isinstance(delay_ticks, (int, np.integer)) and delay_ticks >= 0):
-            raise ValueError(
-                f"delay_ticks must be an integer >= 0, got delay_ticks={delay_ticks!r}"
-            )
+        check_integer("n_robots", n_robots, low=1)
+        check_number("range_m", range_m, low=0, low_open=True)
+        check_number("loss", loss, low=0, high=1, high_open=True)
+        check_integer("delay_ticks", delay_ticks, low=0)
         self.n_robots = int(n_robots)
         self.range_m = float(range_m)
         self.loss = float(loss)

@@ -23,6 +23,7 @@ import numpy as np
 from fftnav.observe.geometry import DRONE, RobotGeometry
 from fftnav.observe.spherical import SAFE_TOL, DiscFilterBank, SphericalGrid
 from fftnav.sim.drone import DroneSim, Forest3D, make_forest3d
+from fftnav.validate import check_number
 
 __all__ = ["FlightConfig", "FlightResult", "FLIGHT_COLUMNS", "fly", "run_flights", "summarize",
            "swept_clear", "collides_along"]
@@ -82,9 +83,7 @@ class FlightConfig:
 
     def __post_init__(self) -> None:
         for name in ("speed_mps", "control_period_s", "step_s", "max_time_s", "arrive_radius_m"):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and math.isfinite(v) and v > 0):
-                raise ValueError(f"{name} must be a finite number > 0, got {name}={v!r}")
+            check_number(name, getattr(self, name), low=0, low_open=True)
         if self.step_s > self.control_period_s:
             raise ValueError(f"step_s must be <= control_period_s={self.control_period_s}, "
                              f"got step_s={self.step_s}")
@@ -92,10 +91,7 @@ class FlightConfig:
             raise ValueError(
                 f"control_period_s must be an integer multiple of step_s={self.step_s}, "
                 f"got control_period_s={self.control_period_s}")
-        if not (isinstance(self.momentum, (int, float)) and math.isfinite(self.momentum)
-                and self.momentum >= 0):
-            raise ValueError(
-                f"momentum must be a finite number >= 0, got momentum={self.momentum!r}")
+        check_number("momentum", self.momentum, low=0)
         self.filter_bank()  # validates the sensor grid, geometry and range
 
     @property

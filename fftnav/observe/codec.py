@@ -21,6 +21,8 @@ import math
 
 import numpy as np
 
+from fftnav.validate import check_choice, check_number
+
 __all__ = [
     "LAYOUTS",
     "MessageError",
@@ -47,8 +49,7 @@ class MessageError(ValueError):
 
 
 def _check_range(range_m: float) -> None:
-    if not (isinstance(range_m, (int, float)) and math.isfinite(range_m) and range_m > 0):
-        raise ValueError(f"range_m must be a finite number > 0, got range_m={range_m!r}")
+    check_number("range_m", range_m, low=0, low_open=True)
 
 
 def _crc(data: bytes) -> bytes:
@@ -91,8 +92,7 @@ def encode_batch(
     """Encode the Sigmas of K scans stored flat (``sigma[offsets[k]:offsets[k+1]]`` is scan k,
     as returned by :func:`fftnav.observe.compress.find_extrema_flat`): one message per scan."""
     _check_range(range_m)
-    if layout not in LAYOUTS:
-        raise ValueError(f"layout must be one of {tuple(LAYOUTS)}, got layout={layout!r}")
+    check_choice("layout", layout, LAYOUTS)
     sig = np.asarray(sigma, dtype=np.float64)
     flags = np.asarray(is_min, dtype=bool)
     off = np.asarray(offsets)

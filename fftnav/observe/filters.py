@@ -15,6 +15,7 @@ import scipy.fft
 
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.scan import angle_increment_rad, is_full_circle
+from fftnav.validate import check_choice, check_number
 
 __all__ = ["FilterBank", "MODES", "DEFAULT_BLIND_RAD"]
 
@@ -107,8 +108,7 @@ class FilterBank:
                 f"range_m must be finite and >= l_th_m={geometry.l_th_m:.4g}, "
                 f"got range_m={range_m!r}"
             )
-        if mode not in MODES:
-            raise ValueError(f"mode must be one of {MODES}, got mode={mode!r}")
+        check_choice("mode", mode, MODES)
         full = is_full_circle(fov_rad)
         if mode == "circular" and not full:
             raise ValueError(
@@ -116,8 +116,9 @@ class FilterBank:
             )
         if blind_rad is None:
             blind_rad = DEFAULT_BLIND_RAD if full else 0.0
-        if not (math.isfinite(blind_rad) and 0.0 <= blind_rad < fov_rad):
-            raise ValueError(f"blind_rad must be in [0, fov_rad), got blind_rad={blind_rad!r}")
+        if not (check_number("blind_rad", blind_rad, low=0) < fov_rad):
+            raise ValueError(f"blind_rad must be < fov_rad={fov_rad!r}, "
+                             f"got blind_rad={blind_rad!r}")
         alpha = geometry.alpha_rad
         tc = math.ceil(alpha / inc - 1e-9)
         if beams < tc:

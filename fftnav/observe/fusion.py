@@ -14,6 +14,7 @@ import numpy as np
 from fftnav.observe.compress import quadrant_areas, reconstruct
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.scan import wrap_angle
+from fftnav.validate import check_number
 
 __all__ = [
     "NEIGHBOUR_WEIGHT_RATIO",
@@ -49,8 +50,7 @@ def own_probability(x0: np.ndarray, *, ws: float = 1.0, b0: float = 0.0) -> np.n
     b0 : float
         Bias (0 without prior knowledge).
     """
-    if not (math.isfinite(ws) and ws > 0):
-        raise ValueError(f"ws must be a finite number > 0, got ws={ws!r}")
+    check_number("ws", ws, low=0, low_open=True)
     x0 = np.asarray(x0, dtype=np.float64)
     if x0.shape[-1:] != (4,):
         raise ValueError(f"x0 must have shape (..., 4), got shape={x0.shape}")

@@ -8,6 +8,8 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from fftnav.validate import check_number
+
 __all__ = ["RobotGeometry", "SIM_ROBOT", "REAL_ROBOT", "DRONE"]
 
 
@@ -40,9 +42,7 @@ class RobotGeometry:
     r_m: float
 
     def __post_init__(self) -> None:
-        r0, r = self.r0_m, self.r_m
-        if not (isinstance(r0, (int, float)) and math.isfinite(r0) and r0 > 0):
-            raise ValueError(f"r0_m must be a finite number > 0, got r0_m={r0!r}")
+        r0, r = check_number("r0_m", self.r0_m, low=0, low_open=True), self.r_m
         if not (isinstance(r, (int, float)) and math.isfinite(r) and r > r0):
             raise ValueError(f"r_m must be finite and > r0_m={r0!r}, got r_m={r!r}")
         object.__setattr__(self, "r0_m", float(r0))

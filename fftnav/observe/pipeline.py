@@ -23,6 +23,7 @@ from fftnav.observe.fusion import own_probability
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.safe import nearest_safe_headings, safe_mask
 from fftnav.observe.scan import as_scan_batch, beam_angles_rad, sanitize_ranges
+from fftnav.validate import check_choice
 
 __all__ = ["Pipeline", "PipelineResult"]
 
@@ -109,8 +110,7 @@ class Pipeline:
         self.bank = FilterBank(
             geometry, beams=beams, fov_rad=fov_rad, range_m=range_m, mode=mode, blind_rad=blind_rad
         )
-        if layout not in LAYOUTS:
-            raise ValueError(f"layout must be one of {tuple(LAYOUTS)}, got layout={layout!r}")
+        check_choice("layout", layout, LAYOUTS)
         self.layout = layout
         self.angles_rad = beam_angles_rad(beams, fov_rad)
 

@@ -10,6 +10,8 @@ import math
 
 import numpy as np
 
+from fftnav.validate import check_integer, check_number
+
 __all__ = [
     "FULL_CIRCLE_RAD",
     "is_full_circle",
@@ -34,8 +36,7 @@ def wrap_angle(angle_rad: np.ndarray | float) -> np.ndarray:
 
 
 def _check_fov_beams(beams: int, fov_rad: float) -> None:
-    if isinstance(beams, bool) or not isinstance(beams, (int, np.integer)) or beams < 2:
-        raise ValueError(f"beams must be an integer >= 2, got beams={beams!r}")
+    check_integer("beams", beams, low=2)
     if not (math.isfinite(fov_rad) and 0.0 < fov_rad <= FULL_CIRCLE_RAD + 1e-9):
         raise ValueError(f"fov_rad must be in (0, 2*pi], got fov_rad={fov_rad!r}")
 
@@ -103,8 +104,7 @@ def sanitize_ranges(ranges: np.ndarray, *, range_m: float) -> np.ndarray:
     range_m : float
         Maximum range R in metres, ``> 0``.
     """
-    if not (math.isfinite(range_m) and range_m > 0):
-        raise ValueError(f"range_m must be a finite number > 0, got range_m={range_m!r}")
+    check_number("range_m", range_m, low=0, low_open=True)
     d = np.asarray(ranges, dtype=np.float64)
     out = np.minimum(d, range_m)  # +inf -> R; NaN stays NaN
     out[~(out >= 0.0)] = 0.0  # NaN and negative -> blocked

@@ -13,6 +13,8 @@ from pathlib import Path
 
 import numpy as np
 
+from fftnav.validate import check_choice
+
 __all__ = ["FORMATS", "CARMEN_NO_RETURN_M", "ScanFile", "detect_format", "read_scans"]
 
 FORMATS = ("auto", "npy", "csv", "carmen")
@@ -107,8 +109,7 @@ def read_scans(path: str | Path, *, format: str = "auto") -> ScanFile:
     OSError
         The file cannot be opened.
     """
-    if format not in FORMATS:
-        raise ValueError(f"format must be one of {FORMATS}, got format={format!r}")
+    check_choice("format", format, FORMATS)
     path = Path(path)
     fmt = detect_format(path) if format == "auto" else format
     if fmt == "carmen":

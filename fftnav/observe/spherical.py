@@ -35,17 +35,12 @@ from scipy import fft as sfft
 
 from fftnav.observe.geometry import DRONE, RobotGeometry
 from fftnav.observe.scan import sanitize_ranges
+from fftnav.validate import check_integer, check_number
 
 __all__ = ["SphericalGrid", "Band", "DiscFilterBank", "disc_footprint", "sanitize_depth"]
 
 #: Absolute tolerance of the test ``y1 >= l_th / R`` on normalised values (FFT round-off is ~1e-15).
 SAFE_TOL = 1e-9
-
-
-def _check_count(name: str, value: object, minimum: int) -> int:
-    if isinstance(value, bool) or not isinstance(value, (int, np.integer)) or value < minimum:
-        raise ValueError(f"{name} must be an integer >= {minimum}, got {name}={value!r}")
-    return int(value)
 
 
 @dataclass(frozen=True)
@@ -68,8 +63,8 @@ class SphericalGrid:
     fov_az_rad: float = 2 * math.pi
 
     def __post_init__(self) -> None:
-        _check_count("rows", self.rows, 2)
-        _check_count("cols", self.cols, 2)
+        check_integer("rows", self.rows, low=2)
+        check_integer("cols", self.cols, low=2)
         for name, top in (("fov_el_rad", math.pi), ("fov_az_rad", 2 * math.pi)):
             v = getattr(self, name)
             if not (isinstance(v, (int, float)) and 0 < v <= top + 1e-12):
@@ -206,10 +201,7 @@ class DiscFilterBank:
         if not (isinstance(range_m, (int, float)) and math.isfinite(range_m) and range_m > l_th):
             raise ValueError(
                 f"range_m must be finite and > l_th_m={l_th:.4g}, got range_m={range_m!r}")
-        if not (isinstance(band_widening, (int, float)) and math.isfinite(band_widening)
-                and band_widening > 1):
-            raise ValueError(
-                f"band_widening must be a finite number > 1, got band_widening={band_widening!r}")
+        check_number("band_widening", band_widening, low=1, low_open=True)
         self.grid, self.geometry, self.range_m = grid, geometry, float(range_m)
         self.threshold = l_th / self.range_m
         half = geometry.alpha_rad / 2

@@ -21,6 +21,7 @@ from fftnav.planning.gridgraph import (
     check_grid,
     move_table,
 )
+from fftnav.validate import check_number
 
 __all__ = ["GridPath", "UnreachableGoalError", "astar", "path_length_m"]
 
@@ -108,6 +109,5 @@ def path_length_m(path: GridPath, resolution_m: float) -> float:
     resolution_m : float
         Cell size in metres (> 0; the paper uses 0.05 m).
     """
-    if not (np.isfinite(resolution_m) and resolution_m > 0):
-        raise ValueError(f"resolution_m must be finite and > 0, got resolution_m={resolution_m}")
+    check_number("resolution_m", resolution_m, low=0, low_open=True)
     return path.length_cells * resolution_m

@@ -25,6 +25,8 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from fftnav.validate import check_choice
+
 __all__ = [
     "CONNECTIVITIES",
     "GridPath",
@@ -90,10 +92,7 @@ def grid_moves(connectivity: int) -> np.ndarray:
     -------
     ndarray of int, shape (connectivity, 2)
     """
-    if connectivity not in CONNECTIVITIES:
-        raise ValueError(
-            f"connectivity must be one of 8, 16, 32, got connectivity={connectivity!r}"
-        )
+    check_choice("connectivity", connectivity, CONNECTIVITIES)
     k = CONNECTIVITIES[connectivity]
     return np.array(
         [

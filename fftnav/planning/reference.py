@@ -13,6 +13,7 @@ from __future__ import annotations
 import numpy as np
 
 from fftnav.planning.geodesic import geodesic_lengths
+from fftnav.validate import check_number
 from fftnav.world import World
 from fftnav.world.grid import OccupancyGrid, occupancy_grid
 
@@ -83,8 +84,7 @@ def optimal_lengths(
         If a start or goal lies in an inflated obstacle cell (naming the robot), or
         :class:`~fftnav.planning.gridgraph.UnreachableGoalError` if a goal cannot be reached.
     """
-    if not (np.isfinite(r0_m) and r0_m >= 0):
-        raise ValueError(f"r0_m must be finite and >= 0, got r0_m={r0_m}")
+    check_number("r0_m", r0_m, low=0)
     og = occupancy_grid(world, resolution_m=resolution_m, inflate_m=r0_m)
     starts, goals = robot_cells(og, world)
     astar_m = geodesic_lengths(og.grid, starts, goals, connectivity=8) * og.resolution_m

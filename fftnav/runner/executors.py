@@ -16,6 +16,7 @@ from typing import Any
 
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import Task, TaskResult
+from fftnav.validate import check_choice, check_integer
 
 __all__ = ["EXECUTORS", "TaskError", "TaskFunction", "check_options", "execute"]
 
@@ -53,11 +54,9 @@ def _outcome(future: Any) -> TaskResult | TaskError:
 
 def check_options(*, executor: str, workers: int | None, scheduler: str | None) -> int:
     """Validate the options of :func:`execute`; return the worker count (default: all cores)."""
-    if executor not in EXECUTORS:
-        raise ValueError(f"executor must be one of {list(EXECUTORS)}, got executor={executor!r}")
-    if workers is not None and (isinstance(workers, bool) or not isinstance(workers, int)
-                                or workers < 1):
-        raise ValueError(f"workers must be an integer >= 1, got workers={workers!r}")
+    check_choice("executor", executor, EXECUTORS)
+    if workers is not None:
+        check_integer("workers", workers, low=1)
     if scheduler is not None and executor != "dask":
         raise ValueError(f"scheduler needs executor='dask', got executor={executor!r}")
     return workers or os.cpu_count() or 1

@@ -16,6 +16,7 @@ import pandas as pd
 from scipy import stats
 
 from fftnav.metrics import MEASURES
+from fftnav.validate import check_integer, check_number
 
 __all__ = ["PAIRED_COLUMNS", "bootstrap_ratio_ci", "paired_tests", "summarize",
            "summary_columns"]
@@ -63,10 +64,8 @@ def bootstrap_ratio_ci(
         NaN, NaN with fewer than two maps, or when some resample has a zero denominator (e.g.
         APL when a resample holds only maps where no robot arrived).
     """
-    if not 0.0 < confidence < 1.0:
-        raise ValueError(f"confidence must be in (0, 1), got confidence={confidence!r}")
-    if isinstance(n_resamples, bool) or not isinstance(n_resamples, int) or n_resamples < 1:
-        raise ValueError(f"n_resamples must be an integer >= 1, got n_resamples={n_resamples!r}")
+    check_number("confidence", confidence, low=0, high=1, low_open=True, high_open=True)
+    check_integer("n_resamples", n_resamples, low=1)
     num = np.asarray(numerators, dtype=float)
     den = np.asarray(denominators, dtype=float)
     if num.shape != den.shape or num.ndim != 1:

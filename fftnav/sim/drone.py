@@ -18,6 +18,7 @@ import pybullet as p
 
 from fftnav.observe.spherical import SphericalGrid
 from fftnav.sim.rays import cast_rays
+from fftnav.validate import check_number
 from fftnav.world.obstacles import Circle, combined_mesh
 
 __all__ = ["Forest3D", "make_forest3d", "DroneSim"]
@@ -79,13 +80,11 @@ def make_forest3d(
     """
     for name, value in (("trees_per_100m2", trees_per_100m2), ("min_spacing_m", min_spacing_m),
                         ("clearance_m", clearance_m)):
-        if not (math.isfinite(value) and value >= 0):
-            raise ValueError(f"{name} must be a finite number >= 0, got {name}={value!r}")
+        check_number(name, value, low=0)
     if not (math.isfinite(distance_m) and distance_m > 2 * clearance_m):
         raise ValueError(f"distance_m must be finite and > 2 * clearance_m (clearance_m="
                          f"{clearance_m!r}), got distance_m={distance_m!r}")
-    if not (math.isfinite(altitude_m) and altitude_m > 0):
-        raise ValueError(f"altitude_m must be finite and > 0, got altitude_m={altitude_m!r}")
+    check_number("altitude_m", altitude_m, low=0, low_open=True)
     start = np.array([0.0, 0.0, altitude_m])
     goal = np.array([distance_m, 0.0, altitude_m])
     lo, hi = np.array([-5.0, -10.0]), np.array([distance_m + 5.0, 10.0])
@@ -135,8 +134,7 @@ class DroneSim:
         self, forest: Forest3D, *, grid: SphericalGrid, range_m: float = 10.0, r0_m: float = 0.15,
         trunk_shape: str = "mesh",
     ) -> None:
-        if not (math.isfinite(r0_m) and r0_m > 0):
-            raise ValueError(f"r0_m must be finite and > 0, got r0_m={r0_m!r}")
+        check_number("r0_m", r0_m, low=0, low_open=True)
         if not (math.isfinite(range_m) and range_m > r0_m):
             raise ValueError(f"range_m must be finite and > r0_m={r0_m}, got range_m={range_m!r}")
         if trunk_shape not in ("mesh", "cylinder"):

@@ -32,4 +32,4 @@ def test_bench_sim_bad_seconds_exit_2_with_one_line():
     run = _fftnav("bench", "sim", "--seconds", "-1")
     assert run.returncode == 2 and run.stdout == ""
     assert run.stderr.count("\n") == 1 and "Traceback" not in run.stderr
-    assert run.stderr.strip().endswith("error: seconds must be in (0, 3600], got seconds=-1.0")
+    assert run.stderr.strip().endswith("error: seconds must be a finite number in (0, 3600], got seconds=-1.0")

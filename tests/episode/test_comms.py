@@ -57,8 +57,8 @@ def test_packet_loss_rate_is_seeded_and_close_to_nominal():
 @pytest.mark.parametrize(
     ("kwargs", "match"),
     [
-        ({"range_m": 0.0}, r"range_m must be finite and > 0, got range_m=0.0"),
-        ({"range_m": 1.0, "loss": 1.0}, r"loss must be in \[0, 1\), got loss=1.0"),
+        ({"range_m": 0.0}, r"range_m must be a finite number > 0, got range_m=0.0"),
+        ({"range_m": 1.0, "loss": 1.0}, r"loss must be a finite number in \[0, 1\), got loss=1.0"),
         ({"range_m": 1.0, "delay_ticks": -1}, r"delay_ticks must be an integer >= 0, got delay_ticks=-1"),
     ],
 )

@@ -166,6 +166,30 @@ def test_cli_full_15_robot_forest_episode_writes_a_well_formed_csv(tmp_path):
     assert (tmp_path / "p.png").stat().st_size > 10_000
 
 
+@pytest.mark.parametrize(("pair", "message"), [
+    ("beams=abc", "sensor.beams must be an integer, got sensor.beams='abc'"),
+    ("sensor.range_m=-1", "sensor.range_m must be a finite number > 0, got sensor.range_m=-1.0"),
+    ("colour=red", "unknown key 'colour'; expected one of ['robot.r0_m', "),
+    ("packet_loss", "--set expects KEY=VALUE"),
+])
+def test_cli_bad_set_is_refused_before_the_world_is_read(tmp_path, pair, message):
+    run = _fftnav("episode", "--world", "missing.json", "--policy", "fusion", "--set", pair,
+                  cwd=tmp_path)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert run.stderr.count("\n") == 1 and message in run.stderr
+
+
+def test_cli_set_overrides_the_swarm_config(tmp_path):
+    from fftnav.world import save_world
+
+    save_world(_world([], [[4, 1, UP]], [[4, 9]]), tmp_path / "w.json")
+    run = _fftnav("episode", "--world", "w.json", "--policy", "bug-left", "--set",
+                  "episode.time_limit_s=3", "--set", "v_max_mps=0.2", cwd=tmp_path)
+    assert run.returncode == 0, run.stderr
+    row = list(csv.DictReader(run.stdout.splitlines()))[0]
+    assert row["arrived"] == "false" and 0.5 < float(row["path_length_m"]) <= 0.6 + 1e-6
+
+
 def test_cli_bad_policy_exits_2_with_one_line(tmp_path):
     _fftnav("world", "generate", "--env", "forest", "--seed", "3", "--out", "w.json", cwd=tmp_path)
     run = _fftnav("episode", "--world", "w.json", "--policy", "nope", cwd=tmp_path)

@@ -89,7 +89,7 @@ def test_partial_fov_parameters():
         ({"range_m": 0.5}, r"range_m must be finite and >= l_th_m=0.6, got range_m=0.5"),
         ({"mode": "wrap"}, r"mode must be one of .* got mode='wrap'"),
         ({"mode": "circular", "fov_rad": 3.0}, r"full 360 degree .* got fov_rad=3.0"),
-        ({"blind_rad": -0.1}, r"blind_rad must be in \[0, fov_rad\), got blind_rad=-0.1"),
+        ({"blind_rad": -0.1}, r"blind_rad must be a finite number >= 0, got blind_rad=-0.1"),
     ],
 )
 def test_bad_parameters(kwargs, match):

@@ -157,7 +157,7 @@ def test_path_length_m_scales_by_resolution():
     occupied = np.zeros((5, 5), dtype=bool)
     path = astar(occupied, (0, 0), (3, 4))
     assert path_length_m(path, 0.05) == pytest.approx((4 + 3 * (SQRT2 - 1)) * 0.05)
-    with pytest.raises(ValueError, match=r"resolution_m must be finite and > 0, got resolution_m=0"):
+    with pytest.raises(ValueError, match=r"resolution_m must be a finite number > 0, got resolution_m=0"):
         path_length_m(path, 0)
 
 
@@ -184,7 +184,7 @@ def test_diagonal_gap_is_not_passable():
         ({"start_cell": (5, 0)}, r"start_cell must lie inside the 4x4 grid, got start_cell=\(5, 0\)"),
         ({"goal_cell": (1, 1)}, r"goal_cell must be a free cell, got occupied goal_cell=\(1, 1\)"),
         ({"start_cell": (0.5, 0)}, r"start_cell must be an integer \(row, col\) pair"),
-        ({"connectivity": 4}, r"connectivity must be one of 8, 16, 32, got connectivity=4"),
+        ({"connectivity": 4}, r"connectivity must be one of \[8, 16, 32\], got connectivity=4"),
         (
             {"occupied": np.zeros((4, 4))},
             r"occupied must be a non-empty 2-D boolean array, got occupied with shape=\(4, 4\) "

@@ -56,7 +56,7 @@ def test_start_inside_inflated_obstacle_is_an_error():
     world = make_world([Circle((1.0, 1.0), 0.3, 2.0)], starts=[[1.0, 1.4, 0.0]], goals=[[3.0, 3.0]])
     with pytest.raises(ValueError, match=r"start of robot 0 at \[1.0, 1.4\] m lies in an occupied cell of the inflated grid"):
         optimal_lengths(world, r0_m=0.15)
-    with pytest.raises(ValueError, match=r"r0_m must be finite and >= 0, got r0_m=-1"):
+    with pytest.raises(ValueError, match=r"r0_m must be a finite number >= 0, got r0_m=-1"):
         optimal_lengths(world, r0_m=-1)
 
 
@@ -80,5 +80,5 @@ def test_cli_bench_planning_times_both_solvers_and_they_agree():
 def test_cli_bench_planning_bad_r0_exits_2_with_one_line():
     proc = run_cli("--r0", "-1")
     assert proc.returncode == 2
-    assert proc.stderr.strip() == "fftnav bench: error: r0_m must be finite and >= 0, got r0_m=-1.0"
+    assert proc.stderr.strip() == "fftnav bench: error: r0_m must be a finite number >= 0, got r0_m=-1.0"
     assert "Traceback" not in proc.stderr

@@ -33,7 +33,7 @@ def test_bootstrap_matches_normal_theory_for_many_maps():
 
 def test_bootstrap_one_map_has_no_interval_and_bad_options_are_refused():
     assert np.isnan(bootstrap_ratio_ci([1.0], [2.0])).all()
-    with pytest.raises(ValueError, match=r"confidence must be in \(0, 1\), got confidence=1\.0"):
+    with pytest.raises(ValueError, match=r"confidence must be a finite number in \(0, 1\), got confidence=1\.0"):
         bootstrap_ratio_ci([1.0, 2.0], [1.0, 1.0], confidence=1.0)
     with pytest.raises(ValueError, match=r"n_resamples must be an integer >= 1, got n_resamples=0"):
         bootstrap_ratio_ci([1.0, 2.0], [1.0, 1.0], n_resamples=0)

@@ -133,7 +133,7 @@ def test_errors() -> None:
         ({"distance_m": 4}, r"distance_m must be finite and > 2 \* clearance_m \(clearance_m=2.5\)"
                             r", got distance_m=4"),
         ({"distance_m": 9, "clearance_m": 5.0}, r"\(clearance_m=5.0\), got distance_m=9"),
-        ({"altitude_m": -1}, r"altitude_m must be finite and > 0, got altitude_m=-1"),
+        ({"altitude_m": -1}, r"altitude_m must be a finite number > 0, got altitude_m=-1"),
         ({"trees_per_100m2": -1.0}, r"trees_per_100m2 must be a finite number >= 0, "
                                     r"got trees_per_100m2=-1.0"),
         ({"trees_per_100m2": math.nan}, r"got trees_per_100m2=nan"),
@@ -147,8 +147,8 @@ def test_errors() -> None:
     grid = SphericalGrid(4, 8)
     for kwargs, match in [
         ({"range_m": 0.1}, r"range_m must be finite and > r0_m=0.15, got range_m=0.1"),
-        ({"r0_m": 0.0}, r"r0_m must be finite and > 0, got r0_m=0.0"),
-        ({"r0_m": -1.0, "range_m": 10.0}, r"r0_m must be finite and > 0, got r0_m=-1.0"),
+        ({"r0_m": 0.0}, r"r0_m must be a finite number > 0, got r0_m=0.0"),
+        ({"r0_m": -1.0, "range_m": 10.0}, r"r0_m must be a finite number > 0, got r0_m=-1.0"),
         ({"trunk_shape": "box"}, r"trunk_shape must be 'mesh' or 'cylinder', got trunk_shape='box'"),
     ]:
         with pytest.raises(ValueError, match=match):
