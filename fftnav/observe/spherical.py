@@ -34,13 +34,12 @@ import numpy as np
 from scipy import fft as sfft
 
 from fftnav.observe.geometry import DRONE, RobotGeometry
+from fftnav.observe.safe import safe_tolerance
 from fftnav.observe.scan import sanitize_ranges
 from fftnav.validate import check_integer, check_number
 
 __all__ = ["SphericalGrid", "Band", "DiscFilterBank", "disc_footprint", "sanitize_depth"]
 
-#: Absolute tolerance of the test ``y1 >= l_th / R`` on normalised values (FFT round-off is ~1e-15).
-SAFE_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -293,7 +292,7 @@ class DiscFilterBank:
         numpy.ndarray
             Boolean mask, shape ``(rows, cols)``, in the image's own layout.
         """
-        return self.filter(depth_m) >= self.threshold - SAFE_TOL
+        return self.filter(depth_m) >= self.threshold - safe_tolerance(self.threshold)
 
     def nearest_direction(
         self, mask: np.ndarray, target_el_rad: float, target_az_rad: float
