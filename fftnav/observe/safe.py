@@ -39,8 +39,8 @@ def safe_tolerance(threshold: float) -> float:
     """Tolerance of the safety test for a threshold ``l_th/R``: ``min(SAFE_TOL, SAFE_RTOL *
     threshold)`` (``SAFE_TOL`` for the paper's robots and ranges, relative for huge R).
 
-    >>> safe_tolerance(0.2), safe_tolerance(6e-10)
-    (1e-09, 6e-18)
+    >>> safe_tolerance(0.2), safe_tolerance(0.5e-9)
+    (1e-09, 5e-18)
     """
     return min(SAFE_TOL, SAFE_RTOL * float(threshold))
 
