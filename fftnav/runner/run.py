@@ -31,6 +31,7 @@ from tqdm import tqdm
 
 from fftnav import __version__
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
+from fftnav.files import write_atomic
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
 from fftnav.runner.summary import paired_tests, summarize
@@ -55,13 +56,6 @@ class RunOutcome:
     completed: int
     failed: list[tuple[Task, TaskError]] = field(default_factory=list)
     wall_time_s: float = 0.0
-
-
-def write_atomic(path: Path, data: str | bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, then rename it over ``path``."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_bytes(data.encode() if isinstance(data, str) else data)
-    os.replace(tmp, path)
 
 
 def run_experiment(

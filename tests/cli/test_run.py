@@ -119,7 +119,7 @@ def test_an_episode_that_raises_gives_exit_status_1(tmp_path, monkeypatch, capsy
     (["CONFIG", "--executor", "spark"], r"argument --executor: invalid choice: 'spark'"),
     (["CONFIG", "--scheduler", "tcp://127.0.0.1:1"],
      r"fftnav run: error: scheduler needs executor='dask', got executor='local'"),
-    (["BAD"], r"fftnav run: error: experiment\.maps must be an integer >= 1, got experiment\.maps=0"),
+    (["BAD"], r"fftnav run: error: .*bad\.toml: experiment\.maps must be an integer >= 1, got experiment\.maps=0"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, match, tmp_path):
     bad = tmp_path / "bad.toml"
