@@ -22,7 +22,7 @@ import zlib
 from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
-from typing import Any
+from typing import Any, BinaryIO
 
 import numpy as np
 
@@ -33,26 +33,51 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["json_depth", "load_npy", "load_npz", "parse_json", "read_csv_floats", "read_json",
-           "read_lines", "read_text", "read_toml", "write_atomic"]
+__all__ = ["atomic_writer", "json_depth", "load_npy", "load_npz", "parse_json", "read_csv_floats",
+           "read_json", "read_lines", "read_text", "read_toml", "remove_pending_temporaries",
+           "write_atomic"]
 
 #: Exceptions of damaged compressed streams.
 _STREAM_ERRORS = (EOFError, zlib.error, gzip.BadGzipFile, zipfile.BadZipFile)
+#: Temporary files being written by :func:`write_atomic` in this process.
+_PENDING: set[Path] = set()
 _STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.DOTALL)
+
+
+@contextmanager
+def atomic_writer(path: str | Path) -> Iterator[BinaryIO]:
+    """A binary file to write ``path`` through: a temporary file beside it, renamed over
+    ``path`` when the block ends, removed if it raises (see :func:`write_atomic`)."""
+    path = Path(path)
+    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    _PENDING.add(tmp)
+    try:
+        with open(tmp, "wb") as fh:
+            yield fh
+        os.replace(tmp, path)
+    except BaseException:
+        tmp.unlink(missing_ok=True)
+        raise
+    finally:
+        _PENDING.discard(tmp)
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> None:
     """Write ``data`` to a temporary file beside ``path``, then rename it over ``path``: readers
     see the old file or the whole new one, never a part. The temporary file is removed on every
     path (a full disk, an interrupt), so no ``.tmp`` is ever left behind by a live process."""
-    path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    try:
-        tmp.write_bytes(data.encode() if isinstance(data, str) else data)
-        os.replace(tmp, path)
-    except BaseException:
-        tmp.unlink(missing_ok=True)
-        raise
+    with atomic_writer(path) as fh:
+        fh.write(data.encode() if isinstance(data, str) else data)
+
+
+def remove_pending_temporaries() -> None:
+    """Delete the temporary files this process is writing right now (for an exit that skips
+    the ``finally`` blocks, e.g. ``os._exit`` on a second Ctrl-C)."""
+    for tmp in list(_PENDING):
+        try:
+            tmp.unlink()
+        except OSError:
+            pass
 
 
 def read_text(path: str | Path, *, encoding: str = "utf-8") -> str:
