@@ -27,10 +27,10 @@ __all__ = [
 #: Cells of one occupancy grid (bool; labelling needs 4 bytes per cell more): 100 million.
 MAX_GRID_CELLS = 100_000_000
 #: Cells of the grid the A* / geodesic reference (SPL) searches: its 32-connected graph costs
-#: about 0.8 kB per cell, so 2 million cells (a 70 m x 70 m map at 0.05 m) stay below 2 GB.
-#: Larger maps get a coarser reference grid
+#: about 2 kB per cell (measured: 2.9 GB peak for a 60 m x 60 m map at 0.05 m, 1.44 million
+#: cells). Larger maps get a coarser reference grid
 #: (:func:`fftnav.planning.reference.reference_resolution`).
-MAX_REFERENCE_CELLS = 2_000_000
+MAX_REFERENCE_CELLS = 1_500_000
 #: Lidar rays cast in one control tick (robots x beams).
 MAX_RAYS_PER_TICK = 2_000_000
 #: Beams of one scan.
