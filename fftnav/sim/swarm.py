@@ -11,6 +11,7 @@ first observation; ``step(commands)`` applies (v, w) commands for one control pe
 from __future__ import annotations
 
 import os
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -170,6 +171,10 @@ class SwarmSim:
         check_limit(f"lidar rays per control tick ({len(world.starts)} robots x beams)",
                     len(world.starts) * self.config.sensor.beams, MAX_RAYS_PER_TICK,
                     hint="lower sensor.beams or the number of robots")
+        if gui and sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
+            # PyBullet's GUI would print "cannot connect to X server" and exit the process
+            raise ValueError("gui needs a display, got DISPLAY unset (run without --gui, or "
+                             "with a virtual display such as xvfb-run)")
         try:
             self._client = p.connect(p.GUI if gui else p.DIRECT)
         except p.error:

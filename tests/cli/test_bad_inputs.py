@@ -10,6 +10,7 @@ whose values would fail every episode, hang, or allocate without bound.
 
 from __future__ import annotations
 
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -127,6 +128,20 @@ def test_absurd_options_are_refused_in_one_line(argv, match, capsys, tmp_path):
     assert re.search(match, line), line
 
 
+def test_gui_without_a_display_is_refused_in_one_line(tmp_path):
+    from fftnav.world import generate_world, save_world
+
+    save_world(generate_world("forest", 3, size_m=[8.0, 8.0], goal_y_m=7.0, robots=3),
+               tmp_path / "w.json")
+    env = {k: v for k, v in os.environ.items() if k != "DISPLAY"}
+    proc = subprocess.run([sys.executable, "-m", "fftnav", "episode", "--world",
+                           str(tmp_path / "w.json"), "--policy", "fusion", "--gui"],
+                          capture_output=True, text=True, timeout=120, env=env)
+    assert proc.returncode == 2 and proc.stderr == (
+        "fftnav episode: error: gui needs a display, got DISPLAY unset (run without --gui, or "
+        "with a virtual display such as xvfb-run)\n")
+
+
 def test_world_grid_writes_exactly_the_named_path(tmp_path, capsys):
     from fftnav.world import generate_world, save_world
 
@@ -157,3 +172,44 @@ def test_a_bad_file_is_one_line_and_exit_2_from_the_installed_command():
                               text=True, timeout=120)
         assert proc.returncode == 2 and proc.stdout == "", (argv, proc.stderr)
         assert len(proc.stderr.strip().splitlines()) == 1 and "Traceback" not in proc.stderr
+
+
+def test_huge_ranges_give_the_right_answer_not_every_beam_safe(tmp_path, capsys):
+    """The reported wrong answers: 0.2 m everywhere (l_th = 0.6 m) at R = 1e9 m, and a wall at
+    1 m in every direction of a depth image at R = 1e300 m, are nowhere safe."""
+    import json
+
+    import numpy as np
+
+    np.save(tmp_path / "near.npy", np.full((2, 360), 0.2))
+    assert main(["scan", str(tmp_path / "near.npy"), "--range", "1e9"]) == 0
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert len(rows) == 2 and all(sum(r["safe_mask"]) == 0 for r in rows)
+    np.save(tmp_path / "wall.npy", np.full((30, 120), 1.0))
+    assert main(["scan3d", str(tmp_path / "wall.npy"), "--range", "1e300"]) == 0
+    assert json.loads(capsys.readouterr().out)["safe_fraction"] == 0.0
+
+
+def test_a_60m_forest_generates_and_scans(tmp_path, capsys):
+    """The 60 m x 60 m forest (720 trunks, two static meshes) that crashed the simulator."""
+    import json
+
+    world = str(tmp_path / "f60.json")
+    assert main(["world", "generate", "--env", "forest", "--seed", "1", "--size", "60", "60",
+                 "--out", world]) == 0
+    assert "720 obstacles" in capsys.readouterr().out
+    assert main(["world", "scan", world, "--pose", "30", "30", "90"]) == 0
+    ranges = json.loads(capsys.readouterr().out)["ranges"]
+    assert len(ranges) == 360 and max(ranges) <= 3.0
+
+
+def test_a_failed_write_leaves_no_temporary_file(tmp_path):
+    from fftnav.files import write_atomic
+
+    class FullDisk(str):
+        def encode(self, *args):
+            raise OSError(28, "No space left on device")
+
+    with pytest.raises(OSError, match="No space left"):
+        write_atomic(tmp_path / "x.csv", FullDisk("data"))
+    assert list(tmp_path.iterdir()) == []

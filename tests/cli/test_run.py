@@ -73,7 +73,8 @@ def test_ctrl_c_then_rerun_ends_with_the_rows_of_an_uninterrupted_run(smoke_run,
     out = tmp_path / "interrupted"
     proc = subprocess.Popen([sys.executable, "-m", "fftnav", "run", str(SMOKE), "--out",
                              str(out), "--workers", "1", "--quiet"], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 120
     while not list((out / "episodes").glob("*.csv")) and time.monotonic() < deadline:
         time.sleep(0.005)
