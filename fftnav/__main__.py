@@ -1,8 +1,6 @@
 """``python -m fftnav`` is the ``fftnav`` command."""
 
-import sys
-
-from fftnav.cli import main
+from fftnav.cli import entry
 
 if __name__ == "__main__":
-    sys.exit(main())
+    entry()

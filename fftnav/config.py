@@ -22,7 +22,7 @@ rule refuses a bad value from Python, from a TOML file (``sensor.range_m must be
 >>> SwarmConfig.from_sections({"sensor": {"beams": 1}})
 Traceback (most recent call last):
 ...
-ValueError: sensor.beams must be an integer >= 2, got sensor.beams=1
+ValueError: sensor.beams must be an integer in [2, 100000], got sensor.beams=1
 """
 
 from __future__ import annotations
@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from functools import partial
 from typing import Any, ClassVar
 
+from fftnav.limits import MAX_BEAMS, MAX_EPISODE_PHYSICS_STEPS, MAX_MAP_SIDE_M, check_limit
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.pipeline import Pipeline
 from fftnav.validate import check_choice, check_integer, check_number
@@ -41,6 +42,10 @@ from fftnav.validate import check_choice, check_integer, check_number
 __all__ = ["CommsConfig", "EpisodeConfig", "RobotConfig", "SensorConfig", "SwarmConfig"]
 
 Check = Callable[[str, Any], Any]
+
+#: Upper bounds of the speed limits (a robot, not a projectile).
+MAX_SPEED_MPS = 100.0
+MAX_YAW_RATE_RADPS = 100.0
 
 
 def _number(default: float, **bounds: Any) -> Any:
@@ -118,8 +123,8 @@ class RobotConfig(_Section):
     name: ClassVar[str] = "robot"
     r0_m: float = _number(0.15, low=0, low_open=True)
     r_m: float = _number(0.30, low=0, low_open=True)
-    v_max_mps: float = _number(0.5, low=0, low_open=True)
-    w_max_radps: float = _number(1.5, low=0, low_open=True)
+    v_max_mps: float = _number(0.5, low=0, low_open=True, high=MAX_SPEED_MPS)
+    w_max_radps: float = _number(1.5, low=0, low_open=True, high=MAX_YAW_RATE_RADPS)
     embodiment: str = _choice("body", ("body", "wheeled"))
 
     def _check_together(self) -> None:
@@ -151,11 +156,11 @@ class SensorConfig(_Section):
     """
 
     name: ClassVar[str] = "sensor"
-    beams: int = _integer(360, low=2)
-    range_m: float = _number(3.0, low=0, low_open=True)
+    beams: int = _integer(360, low=2, high=MAX_BEAMS)
+    range_m: float = _number(3.0, low=0, low_open=True, high=MAX_MAP_SIDE_M)
     fov_deg: float = _number(360.0, low=0, high=360, low_open=True)
     blind_deg: float = _number(15.0, low=0)
-    noise_std_m: float = _number(0.0, low=0)
+    noise_std_m: float = _number(0.0, low=0, high=MAX_MAP_SIDE_M)
     dropout: float = _number(0.0, low=0, high=1, high_open=True)
 
     def _check_together(self) -> None:
@@ -193,11 +198,11 @@ class CommsConfig(_Section):
     """
 
     name: ClassVar[str] = "comms"
-    comm_range_m: float = _number(6.0, low=0, low_open=True)
+    comm_range_m: float = _number(6.0, low=0, low_open=True, high=10 * MAX_MAP_SIDE_M)
     packet_loss: float = _number(0.0, low=0, high=1, high_open=True)
-    delay_ticks: int = _integer(0, low=0)
+    delay_ticks: int = _integer(0, low=0, high=1_000_000)
     broadcast: str = _choice("on_obstacle", ("on_obstacle", "every_tick"))
-    pose_noise_m: float = _number(0.0, low=0)
+    pose_noise_m: float = _number(0.0, low=0, high=MAX_MAP_SIDE_M)
 
 
 @dataclass(frozen=True)
@@ -218,13 +223,16 @@ class EpisodeConfig(_Section):
     time_limit_s: float = _number(120.0, low=0, low_open=True)
     control_hz: float = _number(10.0, low=0, low_open=True)
     physics_hz: float = _number(240.0, low=0, low_open=True)
-    success_radius_m: float = _number(0.3, low=0, low_open=True)
+    success_radius_m: float = _number(0.3, low=0, low_open=True, high=MAX_MAP_SIDE_M)
 
     def _check_together(self) -> None:
         ratio = self.physics_hz / self.control_hz
         if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
             raise ValueError(f"physics_hz must be an integer multiple of control_hz="
                              f"{self.control_hz!r}, got physics_hz={self.physics_hz!r}")
+        check_limit("physics steps per episode (time_limit_s x physics_hz)",
+                    self.time_limit_s * self.physics_hz, MAX_EPISODE_PHYSICS_STEPS,
+                    hint="lower time_limit_s or physics_hz")
 
     @property
     def max_ticks(self) -> int:
@@ -247,6 +255,15 @@ class SwarmConfig:
 
     #: Section name -> its dataclass.
     SECTIONS: ClassVar[dict[str, type[_Section]]] = _SECTIONS
+
+    def __post_init__(self) -> None:
+        """Rules between sections: a robot moves at most its radius r0 per physics step (else
+        it could tunnel through a thin obstacle or another robot between two steps)."""
+        step_m = self.robot.v_max_mps / self.episode.physics_hz
+        if step_m > self.robot.r0_m:
+            raise ValueError(f"robot.v_max_mps must be <= robot.r0_m x episode.physics_hz = "
+                             f"{self.robot.r0_m * self.episode.physics_hz:g} (at most r0 per "
+                             f"physics step), got robot.v_max_mps={self.robot.v_max_mps!r}")
 
     @classmethod
     def from_sections(cls, sections: Mapping[str, Mapping[str, Any]]) -> SwarmConfig:

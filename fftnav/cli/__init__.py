@@ -4,12 +4,18 @@ Each module in this package exposes ``register(subparsers)``, which adds its
 subcommand(s) and sets ``func`` on each parser. ``main`` turns every library
 ``ValueError`` / ``OSError`` (and argparse usage errors) into one line on stderr
 and exit status 2, with no traceback; anything else is a bug and keeps its traceback.
+
+``entry`` (the console script) adds the process life: Ctrl-C exits 130 and SIGTERM 143 after
+the command cleaned up (``fftnav run`` keeps its finished episodes and stops its workers); a
+second Ctrl-C or SIGTERM during that cleanup exits at once, with one line.
 """
 
 from __future__ import annotations
 
 import argparse
 import importlib
+import os
+import signal
 import sys
 from collections.abc import Sequence
 
@@ -17,6 +23,14 @@ from collections.abc import Sequence
 _MODULES = ("scan", "scan3d", "fly3d", "world", "episode", "run", "figure", "bench")
 
 EXIT_USAGE = 2
+#: Exit statuses of a command stopped by Ctrl-C (128 + SIGINT) and by SIGTERM (128 + SIGTERM).
+EXIT_INTERRUPTED = 130
+EXIT_TERMINATED = 143
+
+
+class Terminated(BaseException):
+    """Raised in the main thread when the process receives SIGTERM (like KeyboardInterrupt for
+    SIGINT), so that the command cleans up on the way out."""
 
 
 class CliError(Exception):
@@ -52,8 +66,60 @@ def main(argv: Sequence[str] | None = None) -> int:
         status = args.func(args)
     except BrokenPipeError:  # e.g. `fftnav scan ... | head`
         return 0
+    except KeyboardInterrupt:
+        sys.stderr.write(f"fftnav {args.command}: interrupted\n")
+        return EXIT_INTERRUPTED
+    except Terminated:
+        sys.stderr.write(f"fftnav {args.command}: terminated\n")
+        return EXIT_TERMINATED
     except (CliError, ValueError, OSError) as exc:
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         sys.stderr.write(f"fftnav {args.command}: error: {msg}\n")
         return EXIT_USAGE
     return int(status or 0)
+
+
+def _exit_now(signum: int, frame: object) -> None:
+    """A second Ctrl-C / SIGTERM during cleanup: one line, remove this process's temporary
+    files, exit at once (pool workers die with this process)."""
+    from fftnav.files import remove_pending_temporaries
+
+    remove_pending_temporaries()
+    status = EXIT_TERMINATED if signum == signal.SIGTERM else EXIT_INTERRUPTED
+    os.write(2, b"fftnav: interrupted again; exiting now (finished episodes are kept)\n")
+    os._exit(status)
+
+
+def _on_sigint(signum: int, frame: object) -> None:
+    signal.signal(signal.SIGINT, _exit_now)
+    signal.signal(signal.SIGTERM, _exit_now)
+    raise KeyboardInterrupt
+
+
+def _on_sigterm(signum: int, frame: object) -> None:
+    signal.signal(signal.SIGINT, _exit_now)
+    signal.signal(signal.SIGTERM, _exit_now)
+    raise Terminated
+
+
+def install_signal_handlers() -> None:
+    """First Ctrl-C raises KeyboardInterrupt, first SIGTERM :class:`Terminated`; the next one
+    of either exits at once. A SIGINT ignored at start (a background job) stays ignored."""
+    if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
+        signal.signal(signal.SIGINT, _on_sigint)
+    signal.signal(signal.SIGTERM, _on_sigterm)
+
+
+def entry() -> None:
+    """The ``fftnav`` console script: :func:`main` with the signal handling above."""
+    install_signal_handlers()
+    status = main()
+    if status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+        # Already stopping and cleaned up: skip the interpreter's teardown (about half a second
+        # with pandas and Dask loaded), during which a further Ctrl-C would kill the process by
+        # signal instead of exiting with the status.
+        signal.signal(signal.SIGINT, signal.SIG_IGN)
+        sys.stdout.flush()
+        sys.stderr.flush()
+        os._exit(status)
+    sys.exit(status)

@@ -1,4 +1,5 @@
-"""``fftnav bench {pipeline,sim}``: measured latency and simulation speed."""
+"""``fftnav bench {pipeline,sim,planning,worlds}``: measured latency, simulation speed, large
+worlds."""
 
 from __future__ import annotations
 
@@ -42,6 +43,20 @@ def cmd_bench_planning(args: argparse.Namespace) -> int:
     return _report(result, args, format_optimal_paths(result))
 
 
+def cmd_bench_worlds(args: argparse.Namespace) -> int:
+    """Large worlds: a 60 m x 60 m forest and a 10,000-obstacle forest run an episode."""
+    from fftnav.bench.pipeline import record_csv
+    from fftnav.bench.worlds import bench_worlds, format_worlds
+
+    results = bench_worlds(args.case or None, seed=args.seed, drive_s=args.drive,
+                           episode_s=args.episode)
+    for i, result in enumerate(results):
+        if args.csv:
+            record_csv(result, args.csv, append=args.append or i > 0)
+    print("\n".join(json.dumps(r) for r in results) if args.json else format_worlds(results))
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="measure latency and simulation speed")
     benches = p.add_subparsers(dest="bench", metavar="BENCH", parser_class=type(p))
@@ -63,7 +78,17 @@ def register(sub: argparse._SubParsersAction) -> None:
     g.add_argument("--r0", type=float, default=0.15, help="inflation radius r0, m (default 0.15)")
     g.set_defaults(func=cmd_bench_planning)
 
-    for q in (b, s, g):
+    w = benches.add_parser("worlds", help="large worlds: build, speed, memory, one episode each")
+    w.add_argument("--case", action="append", metavar="NAME",
+                   help="forest-60m or forest-10k (repeatable; default: all)")
+    w.add_argument("--seed", type=int, default=0)
+    w.add_argument("--drive", type=float, default=5.0,
+                   help="simulated seconds of random driving for the real-time factor")
+    w.add_argument("--episode", type=float, default=20.0,
+                   help="time limit of the fusion episode, simulated seconds (default 20)")
+    w.set_defaults(func=cmd_bench_worlds)
+
+    for q in (b, s, g, w):
         q.add_argument("--json", action="store_true", help="print one JSON object")
         q.add_argument("--csv", metavar="PATH", help="also record the run in this CSV")
         q.add_argument("--append", action="store_true", help="append to --csv instead of replacing")

@@ -19,6 +19,8 @@ def cmd_figure_depth3d(args: argparse.Namespace) -> int:
     """Draw the paper's Fig. 4 (depth image and safe domain) into ``args.out``."""
     from fftnav.report.depth3d import draw_depth3d_figure
 
+    if args.seed < 0:
+        raise ValueError(f"--seed must be an integer >= 0, got --seed={args.seed}")
     for path in draw_depth3d_figure(Path(args.out), seed=args.seed):
         print(path)
     return 0

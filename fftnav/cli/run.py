@@ -11,8 +11,10 @@ def cmd_run(args: argparse.Namespace) -> int:
     """Run (or resume) an experiment, then write its summary, report and figures.
 
     Exit status 0 when every episode finished, 1 when some raised (see ``DIR/errors.csv``),
-    130 when interrupted (rerun the same command to resume).
+    130 when interrupted (Ctrl-C), 143 when terminated (SIGTERM): rerun the same command to
+    resume.
     """
+    from fftnav.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, Terminated
     from fftnav.report.experiment import write_report
     from fftnav.runner import load_config, run_experiment
 
@@ -22,10 +24,11 @@ def cmd_run(args: argparse.Namespace) -> int:
         outcome = run_experiment(config, out, workers=args.workers, executor=args.executor,
                                  scheduler=args.scheduler, progress=not args.quiet,
                                  fresh=args.fresh)
-    except KeyboardInterrupt:
-        sys.stderr.write(f"fftnav run: interrupted; finished episodes are kept in {out}, "
-                         "rerun the same command to resume\n")
-        return 130
+    except (KeyboardInterrupt, Terminated) as exc:
+        term = isinstance(exc, Terminated)
+        sys.stderr.write(f"fftnav run: {'terminated' if term else 'interrupted'}; finished "
+                         f"episodes are kept in {out}, rerun the same command to resume\n")
+        return EXIT_TERMINATED if term else EXIT_INTERRUPTED
     report = write_report(config, out)
     print(f"{outcome.completed} episodes run, {outcome.skipped} already done, "
           f"{len(outcome.failed)} failed, {outcome.wall_time_s:.1f} s; report: {report}")

@@ -17,12 +17,14 @@ SIM_RANGE_M = 3.0
 
 def cmd_scan(args: argparse.Namespace) -> int:
     """Process every scan of ``args.file`` in one batch and print one JSON object per scan."""
+    from fftnav.limits import MAX_BEAMS, check_limit
     from fftnav.observe.geometry import REAL_ROBOT, SIM_ROBOT, RobotGeometry
     from fftnav.observe.pipeline import Pipeline
     from fftnav.observe.safe import safe_sectors_rad
     from fftnav.observe.scanio import read_scans
 
     data = read_scans(args.file, format=args.format)
+    check_limit(f"{args.file}: beams per scan", data.ranges.shape[1], MAX_BEAMS)
     carmen = data.format == "carmen"
     default = REAL_ROBOT if carmen else SIM_ROBOT
     r0 = args.r0 if args.r0 is not None else default.r0_m

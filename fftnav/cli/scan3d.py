@@ -11,24 +11,20 @@ import numpy as np
 
 def cmd_scan3d(args: argparse.Namespace) -> int:
     """Load a (rows, cols) depth image in metres and print its safe mask and summary."""
+    from fftnav.files import load_npy
+    from fftnav.limits import MAX_DEPTH_PIXELS, check_limit
     from fftnav.observe.geometry import RobotGeometry
     from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
 
     for flag, value, top in (("--fov-el", args.fov_el, 180.0), ("--fov-az", args.fov_az, 360.0)):
         if not 0 < value <= top:
             raise ValueError(f"{flag} must be in (0, {top:g}] degrees, got {flag}={value:g}")
-    try:
-        depth = np.load(args.file, allow_pickle=False)
-    except ValueError as exc:
-        raise ValueError(f"cannot read FILE={args.file!r} as a .npy array: {exc}") from exc
-    if not isinstance(depth, np.ndarray):  # a .npz archive
-        with depth:
-            raise ValueError(f"FILE={args.file!r} must hold one array (.npy), got an archive "
-                             f"of {len(depth.files)} arrays {depth.files}")
+    depth = load_npy(args.file)
     if depth.ndim != 2:
         raise ValueError(f"FILE must hold a 2D (rows, cols) depth image, got shape={depth.shape}")
     if not np.issubdtype(depth.dtype, np.number) or np.issubdtype(depth.dtype, np.complexfloating):
         raise ValueError(f"FILE must hold real numbers, got dtype={depth.dtype}")
+    check_limit(f"{args.file}: pixels", depth.size, MAX_DEPTH_PIXELS)
     grid = SphericalGrid(depth.shape[0], depth.shape[1], math.radians(args.fov_el),
                          math.radians(args.fov_az))
     geometry = RobotGeometry(r0_m=args.r0, r_m=args.r)

@@ -3,8 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import io
 import json
 import math
+from pathlib import Path
 
 import numpy as np
 
@@ -42,12 +44,18 @@ def cmd_render(args: argparse.Namespace) -> int:
 
 def cmd_grid(args: argparse.Namespace) -> int:
     """Rasterise a world file into an occupancy grid (.npy, optionally a ROS map pair)."""
+    from fftnav.files import write_atomic
     from fftnav.world import load_world
     from fftnav.world.grid import occupancy_grid, write_ros_map
 
+    out = Path(args.out)
+    if out.is_dir():
+        raise ValueError(f"--out must be a file to write, got --out={args.out!r}, a directory")
     og = occupancy_grid(load_world(args.world), resolution_m=args.resolution,
                         inflate_m=args.inflate)
-    np.save(args.out, og.grid)
+    buffer = io.BytesIO()
+    np.save(buffer, og.grid)  # into memory: np.save(path) would append .npy to another name
+    write_atomic(out, buffer.getvalue())
     print(f"{args.out}: {og.grid.shape[0]} rows (y) x {og.grid.shape[1]} cols (x), "
           f"{og.grid.mean():.1%} occupied")
     if args.ros_map:

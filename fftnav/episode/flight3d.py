@@ -21,7 +21,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from fftnav.observe.geometry import DRONE, RobotGeometry
-from fftnav.observe.spherical import SAFE_TOL, DiscFilterBank, SphericalGrid
+from fftnav.observe.safe import safe_tolerance
+from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
 from fftnav.sim.drone import DroneSim, Forest3D, make_forest3d
 from fftnav.validate import check_number
 
@@ -188,12 +189,13 @@ def _command(bank: DiscFilterBank, dirs: np.ndarray, depth_m: np.ndarray, target
     y1 = bank.filter(depth_m)
     clear = swept_clear(dirs, depth_m, r_m=g.r_m, r0_m=g.r0_m,
                         margin_rad=max(grid.el_step_rad, grid.az_step_rad))
-    best = bank.nearest_direction(clear & (y1 >= bank.threshold - SAFE_TOL), el_t, az_t)
+    tol = safe_tolerance(bank.threshold)
+    best = bank.nearest_direction(clear & (y1 >= bank.threshold - tol), el_t, az_t)
     if best is None:  # nothing safe: creep towards the least obstructed clear disc
         if not clear.any():
             return np.zeros(3)
         top = np.max(y1[clear])
-        best = bank.nearest_direction(clear & (y1 >= top - SAFE_TOL), el_t, az_t)
+        best = bank.nearest_direction(clear & (y1 >= top - tol), el_t, az_t)
         speed /= 4
     return speed * _world_direction(best[0], best[1] + yaw)
 

@@ -45,6 +45,9 @@ class RobotGeometry:
         r0, r = check_number("r0_m", self.r0_m, low=0, low_open=True), self.r_m
         if not (isinstance(r, (int, float)) and math.isfinite(r) and r > r0):
             raise ValueError(f"r_m must be finite and > r0_m={r0!r}, got r_m={r!r}")
+        if not math.isfinite(r / r0 * r):  # l_th = r^2 / r0 must be a number too
+            raise ValueError(f"r_m must keep l_th = r_m^2 / r0_m finite, got r_m={r!r} with "
+                             f"r0_m={r0!r}")
         object.__setattr__(self, "r0_m", float(r0))
         object.__setattr__(self, "r_m", float(r))
 

@@ -15,7 +15,9 @@ from fftnav.observe.scan import angle_increment_rad, beam_angles_rad, is_full_ci
 
 __all__ = [
     "SAFE_TOL",
+    "SAFE_RTOL",
     "safe_mask",
+    "safe_tolerance",
     "sliding_min_safe_mask",
     "safe_sectors_rad",
     "beam_index",
@@ -23,15 +25,30 @@ __all__ = [
     "nearest_safe_headings",
 ]
 
-#: Absolute tolerance (normalised units) of the test ``y1 >= l_th/R - SAFE_TOL``. FFT round-off
-#: is ~1e-16; the smallest real deficit of a scan quantised to 1 mm is ~1e-3 / R / window
-#: (5e-6 for R = 3 m and a 61-beam window), so 1e-9 separates the two by orders of magnitude.
+#: Largest tolerance (normalised units) of the test ``y1 >= l_th/R - tol``. FFT round-off is
+#: ~1e-16 of the signal (whose values are at most ``l_th/R``); the smallest real deficit of a scan
+#: quantised to 1 mm is ~1e-3 / R / window (5e-6 for R = 3 m and a 61-beam window).
 SAFE_TOL = 1e-9
+#: Tolerance relative to the threshold ``l_th/R``: an absolute 1e-9 would exceed the threshold
+#: itself once R > 1e9 l_th (every beam safe); relative to ``l_th/R`` it stays 1e7 times above the
+#: round-off and 1e5 times below the deficit of any blocked beam, whatever R.
+SAFE_RTOL = 1e-8
+
+
+def safe_tolerance(threshold: float) -> float:
+    """Tolerance of the safety test for a threshold ``l_th/R``: ``min(SAFE_TOL, SAFE_RTOL *
+    threshold)`` (``SAFE_TOL`` for the paper's robots and ranges, relative for huge R).
+
+    >>> safe_tolerance(0.2), safe_tolerance(0.5e-9)
+    (1e-09, 5e-18)
+    """
+    return min(SAFE_TOL, SAFE_RTOL * float(threshold))
 
 
 def safe_mask(y1: np.ndarray, *, threshold: float) -> np.ndarray:
-    """Safe beams ``y1 >= threshold - SAFE_TOL`` (eq. (y1 for safe)), boolean, same shape."""
-    return np.asarray(y1) >= threshold - SAFE_TOL
+    """Safe beams ``y1 >= threshold - safe_tolerance(threshold)`` (eq. (y1 for safe)), boolean,
+    same shape."""
+    return np.asarray(y1) >= threshold - safe_tolerance(threshold)
 
 
 def sliding_min_safe_mask(

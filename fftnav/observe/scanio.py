@@ -6,14 +6,15 @@ format implies (CARMEN front lasers: 180 degrees; npy / csv: unknown, ``None``).
 
 from __future__ import annotations
 
-import gzip
 import math
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from fftnav.validate import check_choice
+from fftnav.files import load_npy, read_csv_floats, read_lines
+from fftnav.limits import MAX_BEAMS, MAX_INPUT_BYTES, check_limit
+from fftnav.validate import check_choice, check_number
 
 __all__ = ["FORMATS", "CARMEN_NO_RETURN_M", "ScanFile", "detect_format", "read_scans"]
 
@@ -60,35 +61,59 @@ def detect_format(path: Path) -> str:
 
 
 def _read_carmen(path: Path) -> np.ndarray:
-    opener = gzip.open if path.name.lower().endswith(".gz") else open
-    rows: list[list[str]] = []
+    rows: list[np.ndarray] = []
     no_return = CARMEN_NO_RETURN_M
-    with opener(path, "rt", encoding="ascii", errors="replace") as fh:
-        for lineno, line in enumerate(fh, 1):
-            if line.startswith("FLASER "):
-                parts = line.split()
-                try:
-                    n = int(parts[1])
-                except (IndexError, ValueError):
-                    raise ValueError(f"{path}:{lineno}: bad FLASER line (no beam count)") from None
-                if n < 1 or len(parts) < n + 2:
-                    raise ValueError(f"{path}:{lineno}: FLASER line with fewer than n={n} ranges")
-                if rows and n != len(rows[0]):
-                    raise ValueError(
-                        f"{path}:{lineno}: FLASER with n={n} beams, "
-                        f"earlier scans had {len(rows[0])}"
-                    )
-                rows.append(parts[2 : n + 2])
-            elif line.startswith("PARAM robot_front_laser_max "):
-                no_return = min(no_return, float(line.split()[2]))
+    for lineno, line in enumerate(read_lines(path, encoding="latin-1"), 1):
+        if line.startswith("FLASER "):
+            parts = line.split()
+            try:
+                n = int(parts[1])
+            except (IndexError, ValueError):
+                raise ValueError(f"{path}:{lineno}: bad FLASER line (no beam count)") from None
+            if n < 1 or len(parts) < n + 2:
+                raise ValueError(f"{path}:{lineno}: FLASER line with fewer than n={n} ranges")
+            check_limit(f"{path}:{lineno}: FLASER beams", n, MAX_BEAMS)
+            if rows and n != len(rows[0]):
+                raise ValueError(
+                    f"{path}:{lineno}: FLASER with n={n} beams, "
+                    f"earlier scans had {len(rows[0])}"
+                )
+            try:
+                rows.append(np.array(parts[2 : n + 2], dtype=np.float64))
+            except ValueError:
+                bad = next(v for v in parts[2 : n + 2] if not _is_number(v))
+                raise ValueError(f"{path}:{lineno}: FLASER range is not a number, got "
+                                 f"{bad[:40]!r}") from None
+            check_limit(f"{path}: ranges (bytes)", 8.0 * n * len(rows), MAX_INPUT_BYTES)
+        elif line.startswith("PARAM robot_front_laser_max"):
+            no_return = min(no_return, _laser_max(line, f"{path}:{lineno}"))
     if not rows:
         raise ValueError(f"no FLASER scan in {str(path)!r}")
-    try:
-        ranges = np.array(rows, dtype=np.float64)
-    except ValueError:
-        raise ValueError(f"{path}: a FLASER line holds a non-numeric range") from None
+    ranges = np.array(rows)
     ranges[ranges >= no_return] = np.inf
     return ranges
+
+
+def _is_number(text: str) -> bool:
+    try:
+        float(text)
+    except ValueError:
+        return False
+    return True
+
+
+def _laser_max(line: str, where: str) -> float:
+    """The value of a ``PARAM robot_front_laser_max VALUE`` line: a finite number > 0 (a
+    maximum range of 0 would turn every reading into "no return")."""
+    parts = line.split()
+    if parts[0] != "PARAM" or parts[1] != "robot_front_laser_max" or len(parts) < 3:
+        raise ValueError(f"{where}: robot_front_laser_max must be a number > 0 (the laser's "
+                         f"maximum range, m), got {line.strip()[:80]!r}")
+    value = float(parts[2]) if _is_number(parts[2]) else parts[2]
+    try:
+        return check_number("robot_front_laser_max", value, low=0, low_open=True)
+    except ValueError as exc:
+        raise ValueError(f"{where}: {exc}") from None
 
 
 def read_scans(path: str | Path, *, format: str = "auto") -> ScanFile:
@@ -105,7 +130,9 @@ def read_scans(path: str | Path, *, format: str = "auto") -> ScanFile:
     Raises
     ------
     ValueError
-        Unknown format, unreadable content, empty file, ragged rows.
+        Unknown format, damaged or unreadable content (named with the file and, where known,
+        the line), empty file, ragged rows, an impossible sensor parameter, a size above
+        :mod:`fftnav.limits`.
     OSError
         The file cannot be opened.
     """
@@ -114,13 +141,7 @@ def read_scans(path: str | Path, *, format: str = "auto") -> ScanFile:
     fmt = detect_format(path) if format == "auto" else format
     if fmt == "carmen":
         return ScanFile(_read_carmen(path), math.pi, "carmen")
-    try:
-        if fmt == "npy":
-            ranges = np.load(path, allow_pickle=False)
-        else:
-            ranges = np.loadtxt(path, delimiter=",", ndmin=2, dtype=np.float64)
-    except (ValueError, EOFError) as exc:
-        raise ValueError(f"cannot read {str(path)!r} as {fmt}: {exc}") from None
+    ranges = load_npy(path) if fmt == "npy" else read_csv_floats(path)
     if ranges.ndim not in (1, 2) or ranges.size == 0 or ranges.dtype.kind not in "biuf":
         raise ValueError(
             f"{str(path)!r} must hold a numeric (M,) or (K, M) array, got shape={ranges.shape} "

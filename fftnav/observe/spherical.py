@@ -33,14 +33,14 @@ from typing import NamedTuple
 import numpy as np
 from scipy import fft as sfft
 
+from fftnav.limits import MAX_DEPTH_PIXELS, check_limit
 from fftnav.observe.geometry import DRONE, RobotGeometry
+from fftnav.observe.safe import safe_tolerance
 from fftnav.observe.scan import sanitize_ranges
 from fftnav.validate import check_integer, check_number
 
 __all__ = ["SphericalGrid", "Band", "DiscFilterBank", "disc_footprint", "sanitize_depth"]
 
-#: Absolute tolerance of the test ``y1 >= l_th / R`` on normalised values (FFT round-off is ~1e-15).
-SAFE_TOL = 1e-9
 
 
 @dataclass(frozen=True)
@@ -147,8 +147,12 @@ def disc_footprint(grid: SphericalGrid, elevation_rad: float, *, half_angle_rad:
         Boolean ``(2a + 1, 2b + 1)``, centre ``(a, b)``; ``a = floor(half_angle / el_step)`` and
         ``b`` the largest column offset in the disc.
     """
-    a = int(half_angle_rad // grid.el_step_rad)
+    rows = half_angle_rad // grid.el_step_rad
     b_max = grid.cols // 2 if grid.full_azimuth else grid.cols - 1
+    check_limit("disc footprint cells (the image's elevation step is tiny against alpha)",
+                (2 * rows + 1) * (2 * b_max + 1), MAX_DEPTH_PIXELS,
+                hint="use a larger fov_el or fewer columns")
+    a = int(rows)
     e2 = elevation_rad - np.arange(-a, a + 1)[:, None] * grid.el_step_rad
     dj = np.arange(-b_max, b_max + 1)[None, :] * grid.az_step_rad
     cos_d = (math.sin(elevation_rad) * np.sin(e2)
@@ -293,7 +297,7 @@ class DiscFilterBank:
         numpy.ndarray
             Boolean mask, shape ``(rows, cols)``, in the image's own layout.
         """
-        return self.filter(depth_m) >= self.threshold - SAFE_TOL
+        return self.filter(depth_m) >= self.threshold - safe_tolerance(self.threshold)
 
     def nearest_direction(
         self, mask: np.ndarray, target_el_rad: float, target_az_rad: float

@@ -10,14 +10,17 @@ carry the up-to-8 % excess of 8-connected paths.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
+from fftnav.limits import MAX_REFERENCE_CELLS, grid_cells
 from fftnav.planning.geodesic import geodesic_lengths
 from fftnav.validate import check_number
 from fftnav.world import World
 from fftnav.world.grid import OccupancyGrid, occupancy_grid
 
-__all__ = ["optimal_lengths", "robot_cells"]
+__all__ = ["optimal_lengths", "reference_resolution", "robot_cells"]
 
 
 def robot_cells(grid: OccupancyGrid, world: World) -> tuple[np.ndarray, np.ndarray]:
@@ -57,6 +60,25 @@ def robot_cells(grid: OccupancyGrid, world: World) -> tuple[np.ndarray, np.ndarr
     return cells(world.starts[:, :2], "start"), cells(world.goals, "goal")
 
 
+def reference_resolution(world: World, resolution_m: float = 0.05) -> float:
+    """Cell size (m) of the reference grid: ``resolution_m`` while the grid has at most
+    :data:`fftnav.limits.MAX_REFERENCE_CELLS` cells, else the smallest multiple of 1 cm that
+    keeps it within (a 60 m x 60 m map keeps 0.05 m; 224 m x 224 m gets 0.19 m).
+
+    >>> from fftnav.world import World
+    >>> big = World("forest", 0, (224.0, 224.0), (), np.zeros((1, 3)), np.zeros((1, 2)))
+    >>> reference_resolution(big), reference_resolution(big, 0.5)
+    (0.19, 0.5)
+    """
+    w, h = world.size_m
+    if grid_cells(w, h, resolution_m) <= MAX_REFERENCE_CELLS:
+        return resolution_m
+    cm = math.ceil(100 * math.sqrt(w * h / MAX_REFERENCE_CELLS))
+    while grid_cells(w, h, cm / 100) > MAX_REFERENCE_CELLS:
+        cm += 1
+    return cm / 100
+
+
 def optimal_lengths(
     world: World, *, r0_m: float, resolution_m: float = 0.05
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -69,7 +91,9 @@ def optimal_lengths(
     r0_m : float
         Inflation radius (m): the robot's safety radius r0 (Sec. III-A; 0.15 m in simulation).
     resolution_m : float, optional
-        Grid cell size (m); the paper's 0.05 m by default.
+        Grid cell size (m); the paper's 0.05 m by default, coarser for maps larger than
+        :data:`fftnav.limits.MAX_REFERENCE_CELLS` cells (:func:`reference_resolution`), so that
+        the search graph stays within memory.
 
     Returns
     -------
@@ -85,7 +109,8 @@ def optimal_lengths(
         :class:`~fftnav.planning.gridgraph.UnreachableGoalError` if a goal cannot be reached.
     """
     check_number("r0_m", r0_m, low=0)
-    og = occupancy_grid(world, resolution_m=resolution_m, inflate_m=r0_m)
+    og = occupancy_grid(world, resolution_m=reference_resolution(world, resolution_m),
+                        inflate_m=r0_m)
     starts, goals = robot_cells(og, world)
     astar_m = geodesic_lengths(og.grid, starts, goals, connectivity=8) * og.resolution_m
     geodesic_m = geodesic_lengths(og.grid, starts, goals, connectivity=32) * og.resolution_m

@@ -12,20 +12,16 @@ See ``docs/experiments.md`` for the reference of every key.
 from __future__ import annotations
 
 import re
-import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
 from fftnav.config import SwarmConfig
+from fftnav.files import read_toml
+from fftnav.limits import MAX_RAYS_PER_TICK, MAX_TASKS, check_limit
 from fftnav.planning.policies import POLICIES
 from fftnav.validate import check_integer
 from fftnav.world import load_preset, world_kinds, world_parameters
-
-if sys.version_info >= (3, 11):
-    import tomllib
-else:  # pragma: no cover - Python 3.10
-    import tomli as tomllib
 
 __all__ = ["ExperimentConfig", "load_config", "parse_config"]
 
@@ -108,12 +104,11 @@ def load_config(path: str | Path) -> ExperimentConfig:
     OSError
         The file cannot be read.
     """
-    text = Path(path).read_text(encoding="utf-8")
+    data, text = read_toml(path)
     try:
-        data = tomllib.loads(text)
-    except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: invalid TOML: {exc}") from None
-    return parse_config(data, source=text)
+        return parse_config(data, source=text)
+    except ValueError as exc:
+        raise ValueError(f"{path}: {exc}") from None
 
 
 def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
@@ -160,6 +155,13 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
         raise ValueError(f"experiment.out must be a non-empty string, got {out!r}")
 
     robots = check_integer("experiment.robots", exp["robots"], low=1)
+    map_seed = check_integer("experiment.map_seed", exp["map_seed"], low=0)
+    policies = _names("experiment.policies", exp["policies"], tuple(POLICIES))
+    check_limit("episodes (envs x maps x policies)", len(envs) * maps * len(policies),
+                MAX_TASKS, hint="lower experiment.maps")
+    swarm = SwarmConfig.from_sections({s: _table(data, s) for s in SwarmConfig.SECTIONS})
+    check_limit("lidar rays per control tick (experiment.robots x sensor.beams)",
+                robots * swarm.sensor.beams, MAX_RAYS_PER_TICK, hint="lower sensor.beams")
     world = _table(data, "world")
     common = {k: v for k, v in world.items() if not isinstance(v, dict)}
     by_env = {k: v for k, v in world.items() if isinstance(v, dict)}
@@ -169,20 +171,20 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
         _check_world_keys(f"world.{env}", env, table)
     for env in envs:
         _check_world_keys("world", env, common)
-        overrides = {**common, **by_env.get(env, {}), "robots": robots}
+        overrides = {"robot_radius_m": swarm.robot.r0_m, **common, **by_env.get(env, {}),
+                     "robots": robots}
         try:
             world_parameters(env, **overrides)
         except ValueError as exc:  # name the config section the bad value came from
             raise ValueError(f"[world] for env {env!r}: {exc}") from None
 
-    swarm = SwarmConfig.from_sections({s: _table(data, s) for s in SwarmConfig.SECTIONS})
     return ExperimentConfig(
         name=name,
         envs=envs,
         maps=maps,
-        map_seed=check_integer("experiment.map_seed", exp["map_seed"], low=0),
+        map_seed=map_seed,
         robots=robots,
-        policies=_names("experiment.policies", exp["policies"], tuple(POLICIES)),
+        policies=policies,
         trajectory_maps=trajectory_maps,
         out=out,
         world=common,

@@ -7,10 +7,17 @@ others: its outcome is a :class:`TaskError` (built inside the worker, so it pick
 
 from __future__ import annotations
 
+import ctypes
+import itertools
 import os
+import signal
+import sys
+import threading
+import time
 import traceback
-from collections.abc import Callable, Iterator, Sequence
-from concurrent.futures import ProcessPoolExecutor, as_completed
+from collections.abc import Callable, Iterable, Iterator
+from concurrent.futures import FIRST_COMPLETED, ProcessPoolExecutor, wait
+from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
 
@@ -24,6 +31,13 @@ __all__ = ["EXECUTORS", "TaskError", "TaskFunction", "check_options", "execute"]
 EXECUTORS: tuple[str, ...] = ("local", "dask")
 
 TaskFunction = Callable[[ExperimentConfig, Task], TaskResult]
+
+#: Tasks in flight per worker (bounded memory however many tasks an experiment has).
+_WINDOW_PER_WORKER = 4
+#: prctl option: signal sent to this process when its parent dies (linux/prctl.h).
+_PR_SET_PDEATHSIG = 1
+#: Seconds between the parent checks of a worker (where PR_SET_PDEATHSIG does not exist).
+_PARENT_POLL_S = 1.0
 
 
 @dataclass(frozen=True)
@@ -65,7 +79,7 @@ def check_options(*, executor: str, workers: int | None, scheduler: str | None) 
 def execute(
     fn: TaskFunction,
     config: ExperimentConfig,
-    tasks: Sequence[Task],
+    tasks: Iterable[Task],
     *,
     executor: str = "local",
     workers: int | None = None,
@@ -73,14 +87,19 @@ def execute(
 ) -> Iterator[tuple[Task, TaskResult | TaskError]]:
     """Run ``fn(config, task)`` for every task; yield ``(task, outcome)`` as they complete.
 
+    Tasks are taken from the iterable lazily, a few per worker at a time, so an experiment of
+    millions of episodes costs memory for the episodes in flight only.
+
     Parameters
     ----------
     fn : callable
         The task function (module-level, so that it pickles), e.g. :func:`run_task`.
     config : ExperimentConfig
-    tasks : sequence of Task
+    tasks : iterable of Task
     executor : {"local", "dask"}
-        ``local``: a ``ProcessPoolExecutor`` (``workers=1`` runs in this process).
+        ``local``: a process pool (``workers=1`` runs in this process). Its workers die with
+        this process (``PR_SET_PDEATHSIG`` on Linux, a parent check elsewhere), ignore Ctrl-C
+        (the parent handles it) and are killed at once when the iteration is interrupted.
         ``dask``: a ``distributed.Client`` on ``scheduler`` (e.g. ``tcp://host:8786``), or on a
         ``LocalCluster`` of ``workers`` single-threaded processes when ``scheduler`` is None.
     workers : int, optional
@@ -93,23 +112,91 @@ def execute(
     (Task, TaskResult or TaskError)
     """
     workers = check_options(executor=executor, workers=workers, scheduler=scheduler)
+    tasks = iter(tasks)
+    first = list(itertools.islice(tasks, 2))
+    tasks = itertools.chain(first, tasks)
     if executor == "dask":
         yield from _dask(fn, config, tasks, workers, scheduler)
-    elif workers == 1 or len(tasks) <= 1:
+    elif workers == 1 or len(first) <= 1:
         for task in tasks:
             yield task, guarded(fn, config, task)
     else:
-        with ProcessPoolExecutor(max_workers=min(workers, len(tasks))) as pool:
-            futures = {pool.submit(guarded, fn, config, t): t for t in tasks}
-            try:
-                for future in as_completed(futures):
-                    yield futures[future], _outcome(future)
-            finally:  # on interruption, do not start what is still queued
-                for future in futures:
-                    future.cancel()
+        yield from _pool(fn, config, tasks, workers)
 
 
-def _dask(fn: TaskFunction, config: ExperimentConfig, tasks: Sequence[Task], workers: int,
+def _worker_init(parent_pid: int) -> None:
+    """Initializer of pool workers: die with the parent, leave Ctrl-C to the parent."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_DFL)
+    if sys.platform.startswith("linux"):
+        try:
+            libc = ctypes.CDLL(None, use_errno=True)
+            libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL, 0, 0, 0)
+        except (OSError, AttributeError):  # pragma: no cover - no libc prctl
+            pass
+    if os.getppid() != parent_pid:  # the parent died before prctl took effect
+        os._exit(1)
+    threading.Thread(target=_watch_parent, args=(parent_pid,), daemon=True).start()
+
+
+def _watch_parent(parent_pid: int) -> None:
+    """Fallback where PR_SET_PDEATHSIG does not exist: exit once the parent is gone."""
+    while True:
+        time.sleep(_PARENT_POLL_S)
+        if os.getppid() != parent_pid:
+            os._exit(1)
+
+
+def _kill_pool(pool: ProcessPoolExecutor) -> None:
+    """Stop a pool now: kill its workers (running episodes are lost; a rerun redoes them)."""
+    processes = list((getattr(pool, "_processes", None) or {}).values())
+    for process in processes:
+        if process.is_alive():
+            process.kill()
+    pool.shutdown(wait=False, cancel_futures=True)
+    for process in processes:
+        process.join(timeout=5)
+
+
+def _pool(fn: TaskFunction, config: ExperimentConfig, tasks: Iterator[Task],
+          workers: int) -> Iterator[tuple[Task, TaskResult | TaskError]]:
+    window = _WINDOW_PER_WORKER * workers
+    pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
+                               initargs=(os.getpid(),))
+    pending: dict[Any, Task] = {}
+    clean = False
+    try:
+        exhausted = False
+        while True:
+            while not exhausted and len(pending) < window:
+                task = next(tasks, None)
+                if task is None:
+                    exhausted = True
+                    break
+                try:
+                    pending[pool.submit(guarded, fn, config, task)] = task
+                except BrokenProcessPool:  # a worker died: what is in flight is lost
+                    for future, lost in pending.items():
+                        yield lost, _outcome(future)
+                    pending.clear()
+                    _kill_pool(pool)
+                    pool = ProcessPoolExecutor(max_workers=workers, initializer=_worker_init,
+                                               initargs=(os.getpid(),))
+                    pending[pool.submit(guarded, fn, config, task)] = task
+            if not pending:
+                break
+            done, _ = wait(pending, return_when=FIRST_COMPLETED)
+            for future in done:
+                yield pending.pop(future), _outcome(future)
+        clean = True
+    finally:
+        if clean:
+            pool.shutdown(wait=True)
+        else:  # interrupted (Ctrl-C, SIGTERM, the consumer stopped): do not wait for episodes
+            _kill_pool(pool)
+
+
+def _dask(fn: TaskFunction, config: ExperimentConfig, tasks: Iterator[Task], workers: int,
           scheduler: str | None) -> Iterator[tuple[Task, TaskResult | TaskError]]:
     from distributed import Client, LocalCluster, as_completed
 
@@ -120,10 +207,22 @@ def _dask(fn: TaskFunction, config: ExperimentConfig, tasks: Sequence[Task], wor
         cluster = scheduler
     try:
         with Client(cluster) as client:
-            futures = {client.submit(guarded, fn, config, t, pure=False): t for t in tasks}
+            futures: dict[Any, Task] = {}
+
+            def submit(count: int) -> list[Any]:
+                batch = []
+                for task in itertools.islice(tasks, count):
+                    future = client.submit(guarded, fn, config, task, pure=False)
+                    futures[future] = task
+                    batch.append(future)
+                return batch
+
+            window = _WINDOW_PER_WORKER * max(workers, len(client.nthreads()) or 1)
+            completed = as_completed(submit(window))
             try:
-                for future in as_completed(futures):
-                    yield futures[future], _outcome(future)
+                for future in completed:
+                    yield futures.pop(future), _outcome(future)
+                    completed.update(submit(1))
             finally:
                 client.cancel(list(futures))
     finally:

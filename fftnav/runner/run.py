@@ -2,11 +2,13 @@
 
 Layout of the output folder ``DIR``:
 
-- ``episodes/<env>-<map_seed>-<policy>.csv``: one file per finished task (its existence marks
-  the task done; a rerun skips it), ``trajectories/<same>.npz`` for the figure maps;
-- ``episodes.csv``: all finished tasks, rebuilt atomically after every completion, sorted by
-  (env, map_seed, policy, robot), so it is byte-identical whatever the completion order, the
-  worker count or the executor;
+- ``episodes/<env>-<map_seed>-<policy>.csv``: one file per finished task (a rerun skips a task
+  whose file passes :func:`fftnav.runner.resume.task_file_problem`, and reruns it otherwise),
+  ``trajectories/<same>.npz`` for the figure maps;
+- ``episodes.csv``: all finished tasks, rebuilt atomically now and then during the run, on
+  interruption and at the end, sorted by (env, map_seed, policy, robot), so it is
+  byte-identical whatever the completion order, the worker count or the executor;
+- ``.lock`` (one run at a time), ``.invocation-PID.json`` (the wall time of a killed run);
 - ``errors.csv`` (only if some tasks failed in this run), ``summary.csv``, ``paired_tests.csv``,
   ``config.toml`` (verbatim copy), ``config.json`` (canonical form: a rerun into the folder
   must have the same), ``run_info.json`` (versions, git revision, workers, wall time).
@@ -21,6 +23,7 @@ import platform
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import asdict, dataclass, field
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
@@ -31,10 +34,17 @@ from tqdm import tqdm
 
 from fftnav import __version__
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
+from fftnav.files import atomic_writer, write_atomic
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
+from fftnav.runner.resume import (
+    FolderLock,
+    InvocationClock,
+    remove_stale_temporaries,
+    task_file_problem,
+)
 from fftnav.runner.summary import paired_tests, summarize
-from fftnav.runner.tasks import Task, TaskResult, make_tasks, run_task
+from fftnav.runner.tasks import Task, TaskResult, iter_tasks, run_task, task_count
 
 __all__ = ["CSV_COLUMNS", "RunOutcome", "run_experiment", "write_atomic"]
 
@@ -55,13 +65,6 @@ class RunOutcome:
     completed: int
     failed: list[tuple[Task, TaskError]] = field(default_factory=list)
     wall_time_s: float = 0.0
-
-
-def write_atomic(path: Path, data: str | bytes) -> None:
-    """Write ``data`` to a temporary file beside ``path``, then rename it over ``path``."""
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
-    tmp.write_bytes(data.encode() if isinstance(data, str) else data)
-    os.replace(tmp, path)
 
 
 def run_experiment(
@@ -102,18 +105,66 @@ def run_experiment(
     start = time.perf_counter()
     check_options(executor=executor, workers=workers, scheduler=scheduler)
     out = Path(out_dir)
-    _check_same_experiment(config, out)
+    if out.exists() and not out.is_dir():
+        raise ValueError(f"--out must be a folder, got {str(out)!r}, a file")
+    out.mkdir(parents=True, exist_ok=True)
+    with FolderLock(out):
+        remove_stale_temporaries(out)
+        _check_same_experiment(config, out, fresh=fresh)
+        clock = InvocationClock(out)
+        earlier_killed = clock.begin()
+        outcome = _run_tasks(config, out, workers=workers, executor=executor,
+                             scheduler=scheduler, task_fn=task_fn, progress=progress,
+                             fresh=fresh, clock=clock)
+        _write_errors(out, outcome.failed)
+        episodes = read_episodes(out / "episodes.csv")
+        write_atomic(out / "summary.csv", summarize(episodes).to_csv(
+            index=False, float_format=FLOAT_FORMAT))
+        write_atomic(out / "paired_tests.csv", paired_tests(episodes).to_csv(
+            index=False, float_format="%.6g"))  # p-values can be far below 1e-6
+        outcome.wall_time_s = time.perf_counter() - start
+        info = run_info(outcome, workers=workers, executor=executor, scheduler=scheduler)
+        previous = out / "run_info.json"
+        earlier = 0.0
+        if not fresh and previous.exists():
+            try:
+                earlier = float(json.loads(previous.read_text()).get("wall_time_total_s", 0.0))
+            except (ValueError, AttributeError, TypeError):
+                earlier = 0.0  # a damaged run_info.json: its time is lost, nothing else
+        if fresh:
+            earlier_killed = 0.0
+        info["wall_time_total_s"] = round(earlier + earlier_killed + outcome.wall_time_s, 3)
+        write_atomic(previous, json.dumps(info, indent=2))
+        clock.end()
+    return outcome
+
+
+def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, executor: str,
+               scheduler: str | None, task_fn: TaskFunction, progress: bool, fresh: bool,
+               clock: InvocationClock) -> RunOutcome:
+    """Run the unfinished tasks (enumerated lazily, O(1) bookkeeping per finished episode);
+    ``episodes.csv`` is rebuilt now and then (at most ~5 % of the time) and at the end, even
+    on interruption."""
     for sub in ("episodes", "trajectories"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     write_atomic(out / "config.toml", config.source)
-    tasks = make_tasks(config)
-    todo = [t for t in tasks if fresh or not _task_csv(out, t).exists()]
-    outcome = RunOutcome(total=len(tasks), skipped=len(tasks) - len(todo), completed=0)
-    bar = tqdm(total=len(tasks), initial=outcome.skipped, unit="episode", desc=config.name,
-               file=sys.stderr, disable=not progress, dynamic_ncols=True)
+    outcome = RunOutcome(total=task_count(config), skipped=0, completed=0)
+    bar = tqdm(total=outcome.total, unit="episode", desc=config.name, file=sys.stderr,
+               disable=not progress, dynamic_ncols=True)
+
+    def todo() -> Iterator[Task]:
+        for task in iter_tasks(config):
+            if not fresh and _trusted(out, config, task):
+                outcome.skipped += 1
+                bar.update()
+            else:
+                yield task
+
+    rebuilt = _EpisodesRebuild(out, config)
+    results = execute(task_fn, config, todo(), executor=executor, workers=workers,
+                      scheduler=scheduler)
     try:
-        for task, result in execute(task_fn, config, todo, executor=executor, workers=workers,
-                                    scheduler=scheduler):
+        for task, result in results:
             if isinstance(result, TaskResult):
                 result = guarded(_save_task, out, task, result)
             if isinstance(result, TaskError):
@@ -121,25 +172,57 @@ def run_experiment(
                 bar.set_postfix(failed=len(outcome.failed))
             else:
                 outcome.completed += 1
-                _write_episodes(out, tasks)
+                clock.tick()
+                rebuilt.maybe()
             bar.update()
     finally:
+        results.close()  # stops the workers now if interrupted
         bar.close()
-        _write_episodes(out, tasks)
-    _write_errors(out, outcome.failed)
-    episodes = pd.read_csv(out / "episodes.csv")
-    write_atomic(out / "summary.csv", summarize(episodes).to_csv(index=False,
-                                                                  float_format=FLOAT_FORMAT))
-    write_atomic(out / "paired_tests.csv", paired_tests(episodes).to_csv(
-        index=False, float_format="%.6g"))  # p-values can be far below 1e-6
-    outcome.wall_time_s = time.perf_counter() - start
-    info = run_info(outcome, workers=workers, executor=executor, scheduler=scheduler)
-    previous = out / "run_info.json"
-    earlier = 0.0 if fresh or not previous.exists() else json.loads(
-        previous.read_text()).get("wall_time_total_s", 0.0)
-    info["wall_time_total_s"] = round(earlier + outcome.wall_time_s, 3)
-    write_atomic(previous, json.dumps(info, indent=2))
+        clock.tick()
+        rebuilt.now()
     return outcome
+
+
+class _EpisodesRebuild:
+    """Rebuilds ``episodes.csv`` (O(tasks)) only when the time since the last rebuild is 20
+    times what the last one took (and at least 2 s): at most ~5 % of the run's time."""
+
+    def __init__(self, out: Path, config: ExperimentConfig) -> None:
+        self.out, self.config = out, config
+        self.last, self.cost = time.perf_counter(), 0.0
+
+    def maybe(self) -> None:
+        if time.perf_counter() - self.last >= max(2.0, 20 * self.cost):
+            self.now()
+
+    def now(self) -> None:
+        begin = time.perf_counter()
+        _write_episodes(self.out, self.config)
+        self.last = time.perf_counter()
+        self.cost = self.last - begin
+
+
+def _trusted(out: Path, config: ExperimentConfig, task: Task) -> bool:
+    """Whether a finished task's files pass the check; a file that fails is reported once (one
+    line on stderr) and the task rerun."""
+    path = _task_csv(out, task)
+    if not path.exists():
+        return False
+    npz = out / "trajectories" / f"{task.task_id}.npz" if task.keep_trajectories else None
+    problem = task_file_problem(path, npz, task, robots=config.robots, columns=CSV_COLUMNS)
+    if problem is None:
+        return True
+    sys.stderr.write(f"fftnav run: rerunning {task.task_id}: {path} cannot be trusted "
+                     f"({problem})\n")
+    return False
+
+
+def read_episodes(path: Path) -> pd.DataFrame:
+    """``episodes.csv`` as a table; a damaged file is a ValueError naming it."""
+    try:
+        return pd.read_csv(path)
+    except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
+        raise ValueError(f"{path}: damaged CSV: {str(exc).strip().splitlines()[0]}") from None
 
 
 def run_info(outcome: RunOutcome, *, workers: int | None, executor: str,
@@ -195,16 +278,23 @@ def git_revision() -> str:
     return head + ("-dirty" if dirty else "")
 
 
-def _check_same_experiment(config: ExperimentConfig, out: Path) -> None:
+def _check_same_experiment(config: ExperimentConfig, out: Path, *, fresh: bool = False) -> None:
     """Refuse a folder whose ``config.json`` (canonical config without ``out``, the fftnav
     version and the CSV columns that wrote it) differs: resuming must not mix configs, code
-    versions or columns. A folder written with other columns is refused naming them."""
+    versions or columns. A folder written with other columns is refused naming them; a folder
+    holding episode files but no ``config.json`` is refused unless ``fresh``."""
     record = out / "config.json"
+    if not record.exists() and not fresh and any((out / "episodes").glob("*.csv")):
+        raise ValueError(f"{out} holds episode files but no config.json ({record}): they cannot "
+                         "be told apart from another experiment's; use another --out or --fresh")
     canonical = json.dumps({**asdict(config), "out": None, "source": None,
                             "fftnav_version": __version__, "csv_columns": list(CSV_COLUMNS)},
                            indent=1, sort_keys=True)
     if record.exists():
-        text = record.read_text()
+        try:
+            text = record.read_text(encoding="utf-8")
+        except UnicodeDecodeError:
+            text = ""
         try:
             columns = json.loads(text).get("csv_columns")
         except (ValueError, AttributeError):
@@ -248,11 +338,16 @@ def _save_task(out: Path, task: Task, result: TaskResult) -> TaskResult:
     return result
 
 
-def _write_episodes(out: Path, tasks: list[Task]) -> None:
-    """Rebuild ``episodes.csv`` from the finished tasks' files, in task order."""
-    parts = [",".join(CSV_COLUMNS) + "\n"]
-    parts += [p.read_text() for p in (_task_csv(out, t) for t in tasks) if p.exists()]
-    write_atomic(out / "episodes.csv", "".join(parts))
+def _write_episodes(out: Path, config: ExperimentConfig) -> None:
+    """Rebuild ``episodes.csv`` from the finished tasks' files that pass the check, in task
+    order (streamed into a temporary file, renamed over the old one)."""
+    with atomic_writer(out / "episodes.csv") as fh:
+        fh.write((",".join(CSV_COLUMNS) + "\n").encode())
+        for task in iter_tasks(config):
+            path = _task_csv(out, task)
+            if path.exists() and task_file_problem(path, None, task, robots=config.robots,
+                                                   columns=CSV_COLUMNS) is None:
+                fh.write(path.read_bytes())
 
 
 def _write_errors(out: Path, failed: list[tuple[Task, TaskError]]) -> None:

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 
@@ -19,7 +20,8 @@ from fftnav.episode import EpisodeRow, run_episode
 from fftnav.runner.config import ExperimentConfig
 from fftnav.world import World, generate_world
 
-__all__ = ["Task", "TaskResult", "episode_seed", "make_tasks", "run_task", "task_world"]
+__all__ = ["Task", "TaskResult", "episode_seed", "iter_tasks", "make_tasks", "run_task",
+           "task_count", "task_world"]
 
 
 @dataclass(frozen=True, order=True)
@@ -52,27 +54,26 @@ def episode_seed(env: str, map_seed: int) -> int:
     return int(seq.generate_state(1)[0])
 
 
+def iter_tasks(config: ExperimentConfig) -> Iterator[Task]:
+    """The tasks of an experiment one by one, sorted (env, map_seed, policy), never all in
+    memory: ``len(envs) * maps * len(policies)`` (:func:`task_count`) tasks; the first
+    ``trajectory_maps`` maps of each env keep their trajectories."""
+    for env in sorted(config.envs):
+        for i in range(config.maps):
+            seed = episode_seed(env, config.map_seed + i)
+            for policy in sorted(config.policies):
+                yield Task(env, config.map_seed + i, policy, seed, i < config.trajectory_maps)
+
+
+def task_count(config: ExperimentConfig) -> int:
+    """Number of tasks of an experiment."""
+    return len(config.envs) * config.maps * len(config.policies)
+
+
 def make_tasks(config: ExperimentConfig) -> list[Task]:
-    """All tasks of an experiment, sorted (env, map_seed, policy).
-
-    Parameters
-    ----------
-    config : ExperimentConfig
-
-    Returns
-    -------
-    list of Task
-        ``len(envs) * maps * len(policies)`` tasks; the first ``trajectory_maps`` maps of each
-        env keep their trajectories.
-    """
-    tasks = [
-        Task(env, config.map_seed + i, policy, episode_seed(env, config.map_seed + i),
-             i < config.trajectory_maps)
-        for env in config.envs
-        for i in range(config.maps)
-        for policy in config.policies
-    ]
-    return sorted(tasks)
+    """All tasks of an experiment as a list, sorted (env, map_seed, policy) (see
+    :func:`iter_tasks`, which the runner uses)."""
+    return list(iter_tasks(config))
 
 
 def run_task(config: ExperimentConfig, task: Task) -> TaskResult:

@@ -17,9 +17,10 @@ import numpy as np
 import pybullet as p
 
 from fftnav.observe.spherical import SphericalGrid
+from fftnav.sim.mesh import static_meshes
 from fftnav.sim.rays import cast_rays
 from fftnav.validate import check_number
-from fftnav.world.obstacles import Circle, combined_mesh
+from fftnav.world.obstacles import Circle
 
 __all__ = ["Forest3D", "make_forest3d", "DroneSim"]
 
@@ -148,11 +149,11 @@ class DroneSim:
             for x, y, radius, height in forest.trunks:
                 col = shape(p.GEOM_CYLINDER, radius=radius, height=height, physicsClientId=c)
                 p.createMultiBody(0, col, basePosition=[x, y, height / 2], physicsClientId=c)
-        elif len(forest.trunks):
-            verts, triangles = combined_mesh(
-                [Circle((x, y), radius, height) for x, y, radius, height in forest.trunks])
-            col = shape(p.GEOM_MESH, vertices=verts, indices=triangles, physicsClientId=c)
-            p.createMultiBody(0, col, physicsClientId=c)
+        else:
+            for verts, triangles in static_meshes(
+                    [Circle((x, y), radius, height) for x, y, radius, height in forest.trunks]):
+                col = shape(p.GEOM_MESH, vertices=verts, indices=triangles, physicsClientId=c)
+                p.createMultiBody(0, col, physicsClientId=c)
         for x, y, z, radius in forest.canopies:
             col = shape(p.GEOM_SPHERE, radius=radius, physicsClientId=c)
             p.createMultiBody(0, col, basePosition=[x, y, z], physicsClientId=c)

@@ -10,6 +10,8 @@ first observation; ``step(commands)`` applies (v, w) commands for one control pe
 
 from __future__ import annotations
 
+import os
+import sys
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -18,10 +20,11 @@ import numpy as np
 import pybullet as p
 
 from fftnav.config import EpisodeConfig, RobotConfig, SensorConfig, SwarmConfig
+from fftnav.limits import MAX_RAYS_PER_TICK, check_limit
 from fftnav.sim.lidar import Lidar
+from fftnav.sim.mesh import MAX_MESH_INDICES, MAX_MESH_VERTICES, static_meshes
 from fftnav.validate import check_integer, check_number
 from fftnav.world import World
-from fftnav.world.obstacles import combined_mesh
 
 __all__ = ["SimConfig", "Observation", "SwarmSim"]
 
@@ -70,6 +73,9 @@ class SimConfig:
         Gravity magnitude (m/s^2) along -z, for the wheeled embodiment.
     solver_iterations : int
         Bullet constraint-solver iterations per physics step.
+    mesh_max_vertices, mesh_max_indices : int
+        Size limit of one static obstacle mesh (default: Bullet's own, :mod:`fftnav.sim.mesh`);
+        a world that needs more is split into tiles of several meshes.
     """
 
     robot: RobotConfig = field(default_factory=RobotConfig)
@@ -80,6 +86,8 @@ class SimConfig:
     robot_mass_kg: float = 5.0
     gravity_mps2: float = 9.81
     solver_iterations: int = 10
+    mesh_max_vertices: int = MAX_MESH_VERTICES
+    mesh_max_indices: int = MAX_MESH_INDICES
 
     def __post_init__(self) -> None:
         EpisodeConfig(control_hz=self.control_hz, physics_hz=self.physics_hz)  # the same rules
@@ -88,6 +96,8 @@ class SimConfig:
         check_number("robot_mass_kg", self.robot_mass_kg, low=0, low_open=True)
         check_number("gravity_mps2", self.gravity_mps2, low=0)
         check_integer("solver_iterations", self.solver_iterations, low=1)
+        check_integer("mesh_max_vertices", self.mesh_max_vertices, low=3, high=MAX_MESH_VERTICES)
+        check_integer("mesh_max_indices", self.mesh_max_indices, low=3, high=MAX_MESH_INDICES)
 
     @classmethod
     def for_swarm(cls, config: SwarmConfig, **sim_only: Any) -> SimConfig:
@@ -158,7 +168,20 @@ class SwarmSim:
     def __init__(self, world: World, *, config: SimConfig | None = None, gui: bool = False) -> None:
         self.world = world
         self.config = config or SimConfig()
-        self._client = p.connect(p.GUI if gui else p.DIRECT)
+        check_limit(f"lidar rays per control tick ({len(world.starts)} robots x beams)",
+                    len(world.starts) * self.config.sensor.beams, MAX_RAYS_PER_TICK,
+                    hint="lower sensor.beams or the number of robots")
+        if gui and sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
+            # PyBullet's GUI would print "cannot connect to X server" and exit the process
+            raise ValueError("gui needs a display, got DISPLAY unset (run without --gui, or "
+                             "with a virtual display such as xvfb-run)")
+        try:
+            self._client = p.connect(p.GUI if gui else p.DIRECT)
+        except p.error:
+            self._client = -1
+        if self._client < 0:
+            raise ValueError("gui: cannot open the PyBullet GUI (is a display available? "
+                             "DISPLAY is " + repr(os.environ.get("DISPLAY")) + ")")
         self._build()
         self._built_state = p.saveState(physicsClientId=self._client)
         self._reset_state(np.random.default_rng(0))
@@ -180,10 +203,14 @@ class SwarmSim:
                 0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
             self._filter(self._ground, _GROUND, _ROBOT)  # invisible to rays
             p.changeDynamics(self._ground, -1, lateralFriction=1.0, physicsClientId=cid)
-        # All obstacles form ONE static triangle mesh: Bullet updates every body's bounding box
-        # every step, so one body instead of 80 makes a physics step several times cheaper.
-        verts, triangles = combined_mesh(self.world.obstacles)
-        if verts:
+        # All obstacles form ONE static triangle mesh where Bullet's mesh limits allow (Bullet
+        # updates every body's bounding box every step, so one body instead of 80 makes a
+        # physics step several times cheaper), else tiles of as few meshes as they need.
+        meshes = static_meshes(self.world.obstacles, max_vertices=cfg.mesh_max_vertices,
+                               max_indices=cfg.mesh_max_indices)
+        #: Number of static obstacle meshes built (1 unless Bullet's limits split the world).
+        self.static_meshes = len(meshes)
+        for verts, triangles in meshes:
             shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
                                            physicsClientId=cid)
             body = p.createMultiBody(0, shape, physicsClientId=cid)

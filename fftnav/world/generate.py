@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.limits import MAX_GRID_CELLS, MAX_MAP_SIDE_M, MAX_OBSTACLES, check_limit, grid_cells
 from fftnav.validate import check_integer, check_number, is_integer, is_number
 from fftnav.world.grid import unreachable_robots
 from fftnav.world.kinds import DECIMALS, Params, get_world_kind, load_preset
@@ -23,15 +24,26 @@ __all__ = ["generate_world", "world_parameters"]
 
 def _check_common(p: Params) -> None:
     """The parameters every kind shares, checked together."""
-    w, h = (check_number(f"size_m[{i}]", v, low=0, low_open=True)
+    w, h = (check_number(f"size_m[{i}]", v, low=0, low_open=True, high=MAX_MAP_SIDE_M)
             for i, v in enumerate(p["size_m"]))
-    check_number("density_per_m2", p["density_per_m2"], low=0, high=1)
+    density = check_number("density_per_m2", p["density_per_m2"], low=0, high=1)
+    check_limit("obstacles (density_per_m2 x area)", round(density * w * h), MAX_OBSTACLES,
+                hint="lower density_per_m2 or size_m")
+    resolution = check_number("reachability_resolution_m", p["reachability_resolution_m"],
+                              low=0, low_open=True, high=min(w, h))
+    check_limit("reachability grid cells (size_m / reachability_resolution_m)",
+                grid_cells(w, h, resolution), MAX_GRID_CELLS,
+                hint="raise reachability_resolution_m")
+    check_number("obstacle_height_m", p["obstacle_height_m"], low=0, low_open=True)
+    check_number("min_gap_m", p["min_gap_m"], low=0)
+    check_integer("placement_tries", p["placement_tries"], low=1)
+    check_integer("max_attempts", p["max_attempts"], low=1)
     n = check_integer("robots", p["robots"], low=1)
     radius = check_number("robot_radius_m", p["robot_radius_m"], low=0)
     if w / n < 2.5 * radius:
         raise ValueError(f"robots={n} robots of radius {radius} m do not fit side by "
                          f"side in a {w:g} m wide world")
-    clear = p["strip_half_width_m"]
+    clear = check_number("strip_half_width_m", p["strip_half_width_m"], low=0)
     if not (clear <= p["start_y_m"] < p["goal_y_m"] - 2 * clear and p["goal_y_m"] + clear <= h):
         raise ValueError(f"start_y_m={p['start_y_m']} and goal_y_m={p['goal_y_m']} with "
                          f"strip_half_width_m={clear} must leave both strips inside the world")

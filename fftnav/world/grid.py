@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from fftnav.limits import MAX_GRID_CELLS, check_limit, grid_cells
 from fftnav.validate import check_number
 from fftnav.world.model import World
 
@@ -65,9 +66,11 @@ def occupancy_grid(world: World, *, resolution_m: float = 0.05,
     OccupancyGrid
         ``ceil(h / res)`` rows by ``ceil(w / res)`` columns.
     """
-    check_number("resolution_m", resolution_m, low=0, low_open=True)
-    check_number("inflate_m", inflate_m, low=0)
     w, h = world.size_m
+    check_number("resolution_m", resolution_m, low=0, low_open=True, high=min(w, h))
+    check_number("inflate_m", inflate_m, low=0, high=max(w, h))
+    check_limit("grid cells (world size / resolution_m)", grid_cells(w, h, resolution_m),
+                MAX_GRID_CELLS, hint="raise resolution_m")
     shape = (math.ceil(h / resolution_m - 1e-9), math.ceil(w / resolution_m - 1e-9))
     grid = np.zeros(shape, dtype=bool)
     for obstacle in world.obstacles:

@@ -22,6 +22,8 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.files import parse_json, read_text, write_atomic
+from fftnav.limits import MAX_MAP_SIDE_M, MAX_OBSTACLES, check_limit
 from fftnav.validate import check_number, check_vector, is_integer
 from fftnav.world.obstacles import SHAPES, Obstacle
 
@@ -55,13 +57,16 @@ class World:
         })
 
     @classmethod
-    def from_json(cls, text: str) -> World:
-        """Parse and validate a world's JSON text; errors name the offending entry."""
+    def from_json(cls, text: str, *, where: str = "world file") -> World:
+        """Parse and validate a world's JSON text; errors name ``where`` (the file) and the
+        offending entry."""
+        data = parse_json(text, where=where)
         try:
-            data = json.loads(text)
-        except json.JSONDecodeError as exc:
-            raise ValueError(f"world file is not valid JSON: {exc}") from None
-        return _parse_world(data)
+            return _parse_world(data)
+        except ValueError as exc:
+            if where == "world file":
+                raise
+            raise ValueError(f"{where}: {exc}") from None
 
     def obstacle_distance(self, points: np.ndarray) -> np.ndarray:
         """Euclidean distance (m) from each point ``(P, 2)`` to the nearest obstacle, 0 inside
@@ -131,9 +136,10 @@ def _parse_world(data: Any) -> World:
         raise ValueError(f"seed must be an integer, got seed={data['seed']!r}")
     size = check_vector("size", data["size"], 2)
     for i, side in enumerate(size):
-        check_number(f"size[{i}]", side, low=0, low_open=True)
+        check_number(f"size[{i}]", side, low=0, low_open=True, high=MAX_MAP_SIDE_M)
     if not isinstance(data["obstacles"], list):
         raise ValueError(f"obstacles must be a list, got {data['obstacles']!r:.80}")
+    check_limit("obstacles", len(data["obstacles"]), MAX_OBSTACLES)
     obstacles = tuple(
         _parse_obstacle(o, f"obstacles[{i}]", size) for i, o in enumerate(data["obstacles"])
     )
@@ -149,10 +155,11 @@ def _parse_world(data: Any) -> World:
 
 def save_world(world: World, path: str | Path) -> None:
     """Write ``world`` to ``path`` as the documented JSON."""
-    Path(path).write_text(world.to_json() + "\n")
+    write_atomic(path, world.to_json() + "\n")
 
 
 def load_world(path: str | Path) -> World:
-    """Read and fully validate a world file; ``ValueError`` names the problem, ``OSError`` if
-    the file cannot be read."""
-    return World.from_json(Path(path).read_text())
+    """Read and fully validate a world file; ``ValueError`` names the file and the problem
+    (damaged text or JSON too, and sizes above :mod:`fftnav.limits`), ``OSError`` if the file
+    cannot be read."""
+    return World.from_json(read_text(path), where=str(path))

@@ -73,7 +73,8 @@ def test_ctrl_c_then_rerun_ends_with_the_rows_of_an_uninterrupted_run(smoke_run,
     out = tmp_path / "interrupted"
     proc = subprocess.Popen([sys.executable, "-m", "fftnav", "run", str(SMOKE), "--out",
                              str(out), "--workers", "1", "--quiet"], cwd=ROOT,
-                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+                            stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+                            preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL))
     deadline = time.monotonic() + 120
     while not list((out / "episodes").glob("*.csv")) and time.monotonic() < deadline:
         time.sleep(0.005)
@@ -119,7 +120,7 @@ def test_an_episode_that_raises_gives_exit_status_1(tmp_path, monkeypatch, capsy
     (["CONFIG", "--executor", "spark"], r"argument --executor: invalid choice: 'spark'"),
     (["CONFIG", "--scheduler", "tcp://127.0.0.1:1"],
      r"fftnav run: error: scheduler needs executor='dask', got executor='local'"),
-    (["BAD"], r"fftnav run: error: experiment\.maps must be an integer >= 1, got experiment\.maps=0"),
+    (["BAD"], r"fftnav run: error: .*bad\.toml: experiment\.maps must be an integer >= 1, got experiment\.maps=0"),
 ])
 def test_bad_input_is_one_line_and_exit_2(args, match, tmp_path):
     bad = tmp_path / "bad.toml"

@@ -82,7 +82,7 @@ def test_npy_defaults_are_the_simulated_robot(tmp_path):
             "r_m must be finite and > r0_m=0.3, got r_m=0.2",
         ),
         (["{tmp}/s.npy", "--fov", "400"], r"fov_rad must be in \(0, 2\*pi\]"),
-        (["{tmp}/s.npy", "--format", "csv"], "cannot read"),
+        (["{tmp}/s.npy", "--format", "csv"], r"s\.npy:1: not utf-8 text"),
         (["{tmp}/s.txt"], "cannot tell the format"),
         (["{tmp}/s.npy", "--format", "xml"], "invalid choice"),
     ],

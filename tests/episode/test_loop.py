@@ -168,7 +168,7 @@ def test_cli_full_15_robot_forest_episode_writes_a_well_formed_csv(tmp_path):
 
 @pytest.mark.parametrize(("pair", "message"), [
     ("beams=abc", "sensor.beams must be an integer, got sensor.beams='abc'"),
-    ("sensor.range_m=-1", "sensor.range_m must be a finite number > 0, got sensor.range_m=-1.0"),
+    ("sensor.range_m=-1", "sensor.range_m must be a finite number in (0, 1000], got sensor.range_m=-1.0"),
     ("colour=red", "unknown key 'colour'; expected one of ['robot.r0_m', "),
     ("packet_loss", "--set expects KEY=VALUE"),
 ])

@@ -123,3 +123,49 @@ def test_nearest_safe_headings_match_a_brute_force_walk(fov):
 def test_safe_sectors_error():
     with pytest.raises(ValueError, match=r"mask must be 1-D \(one scan\), got shape=\(2, 3\)"):
         safe_sectors_rad(np.ones((2, 3), bool), fov_rad=math.pi)
+
+
+def scaled_robot(range_m, l_th_m):
+    """A robot of l_th = min(l_th_m, range_m) (the pipelines refuse R < l_th): r = 2 r0."""
+    l_th = min(l_th_m, range_m)
+    return RobotGeometry(r0_m=l_th / 4, r_m=l_th / 2)
+
+
+@settings(max_examples=60, deadline=None)
+@given(log_r=st.floats(-3.0, 12.0), frac=st.floats(0.0, 0.99), seed=st.integers(0, 2**16))
+def test_safety_is_scale_free_over_the_range(log_r, frac, seed):
+    """Relative tolerance: a scan blocked everywhere (every beam below l_th = 0.6 m, or R when
+    R is smaller) is never safe and an open one (every beam "no return") is safe everywhere, at
+    any R from 1 mm to 1e12 m; a random scan agrees with the metre-level oracle at every R."""
+    range_m = 10.0**log_r
+    geom = scaled_robot(range_m, 0.6)
+    pipe = Pipeline(geom, beams=360, range_m=range_m, mode="circular")
+    assert not pipe.safe_mask(np.full((1, 360), frac * geom.l_th_m)).any()
+    assert pipe.safe_mask(np.full((1, 360), np.inf)).all()
+    d = piecewise_scan(np.random.default_rng(seed), 360, range_m)
+    gap = np.abs(d - geom.l_th_m)
+    assume(not np.any((gap > 0) & (gap < 1e-6 * geom.l_th_m)))
+    expected = oracle_mask(d[None], l_th=geom.l_th_m, range_m=range_m,
+                           window=pipe.bank.window_beams, circular=True)
+    np.testing.assert_array_equal(pipe.safe_mask(d[None]), expected)
+
+
+def test_every_beam_at_a_third_of_l_th_is_unsafe_at_a_billion_metres():
+    """The reported case: 0.2 m everywhere, l_th = 0.6 m, R = 1e9 m (was 360 of 360 safe)."""
+    pipe = Pipeline(RobotGeometry(r0_m=0.15, r_m=0.3), beams=360, range_m=1e9)
+    assert pipe.safe_mask(np.full((1, 360), 0.2)).sum() == 0
+
+
+@settings(max_examples=25, deadline=None)
+@given(log_r=st.floats(-3.0, 12.0), frac=st.floats(0.0, 0.99))
+def test_scan3d_safety_is_scale_free_over_the_range(log_r, frac):
+    """The spherical filter likewise: a wall closer than l_th in every direction is never safe,
+    open space everywhere is safe away from the poles."""
+    from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
+
+    range_m = 10.0**log_r
+    grid = SphericalGrid(18, 72, math.radians(90), 2 * math.pi)
+    geom = scaled_robot(range_m / 1.01, 2.82)  # the filter wants R > l_th
+    bank = DiscFilterBank(grid, geometry=geom, range_m=range_m)
+    assert not bank.safe_mask(np.full((18, 72), frac * geom.l_th_m)).any()
+    assert bank.safe_mask(np.full((18, 72), np.inf)).any()

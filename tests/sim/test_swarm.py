@@ -167,10 +167,10 @@ def test_parked_robot_leaves_the_world():
 
 @pytest.mark.parametrize(("make", "message"), [
     (lambda: RobotConfig(r0_m=0.0), r"r0_m must be a finite number > 0, got r0_m=0\.0"),
-    (lambda: RobotConfig(v_max_mps=-1.0), "v_max_mps must be a finite number > 0, got v_max_mps=-1.0"),
+    (lambda: RobotConfig(v_max_mps=-1.0), r"v_max_mps must be a finite number in \(0, 100\], got v_max_mps=-1.0"),
     (lambda: SimConfig(physics_hz=100.0, control_hz=30.0),
      "physics_hz must be an integer multiple of control_hz=30.0, got physics_hz=100.0"),
-    (lambda: SensorConfig(beams=1), "beams must be an integer >= 2, got beams=1"),
+    (lambda: SensorConfig(beams=1), r"beams must be an integer in \[2, 100000\], got beams=1"),
     (lambda: SensorConfig(blind_deg=400.0), "blind_deg must be < fov_deg=360.0, got blind_deg=400.0"),
     (lambda: SensorConfig(dropout=1.5), r"dropout must be a finite number in \[0, 1\), got dropout=1.5"),
     (lambda: RobotConfig(embodiment="legs"),

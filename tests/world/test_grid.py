@@ -56,9 +56,13 @@ def test_ros_map_pair(tmp_path):
 
 def test_errors_name_the_parameter():
     world = _world()
-    with pytest.raises(ValueError, match="resolution_m must be a finite number > 0, got "
+    with pytest.raises(ValueError, match=r"resolution_m must be a finite number in \(0, 2\], got "
                                          "resolution_m=0"):
         occupancy_grid(world, resolution_m=0)
-    with pytest.raises(ValueError, match="inflate_m must be a finite number >= 0, got "
+    with pytest.raises(ValueError, match=r"inflate_m must be a finite number in \[0, 4\], got "
                                          "inflate_m=-1"):
         occupancy_grid(world, inflate_m=-1)
+    with pytest.raises(ValueError, match=r"grid cells \(world size / resolution_m\): "
+                                         "8,000,000,000,000 estimated, above the limit of "
+                                         "100,000,000; raise resolution_m"):
+        occupancy_grid(world, resolution_m=1e-6)

@@ -160,7 +160,7 @@ def test_malformed_world_files_are_refused(path, value, message):
 
 
 def test_not_json_and_clockwise_polygons():
-    with pytest.raises(ValueError, match="world file is not valid JSON"):
+    with pytest.raises(ValueError, match="world file: not valid JSON"):
         World.from_json("{")
     world = World.from_json(_with(["obstacles", 1, "vertices"], [[1, 1], [1, 2], [2, 2], [2, 1]]))
     assert world.obstacles[1].vertices == ((2.0, 1.0), (2.0, 2.0), (1.0, 2.0), (1.0, 1.0))

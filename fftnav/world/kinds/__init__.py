@@ -33,7 +33,7 @@ except ModuleNotFoundError:  # Python 3.10
     import tomli as tomllib
 
 __all__ = ["DECIMALS", "WORLD_KINDS", "WorldKind", "get_world_kind", "load_preset",
-           "register_world_kind", "scatter_obstacles", "world_kinds"]
+           "max_obstacle_radius", "register_world_kind", "scatter_obstacles", "world_kinds"]
 
 #: Decimals of generated coordinates (0.1 mm).
 DECIMALS = 4
@@ -110,6 +110,14 @@ def load_preset(env_or_path: str | Path) -> Params:
                          f"got env_or_path={str(env_or_path)!r}")
     with path.open("rb") as fh:
         return tomllib.load(fh)
+
+
+def max_obstacle_radius(params: Params) -> float:
+    """Largest bounding radius (m) of an obstacle that fits between the start and goal strips
+    and across the world's width (kinds refuse larger obstacles at validation)."""
+    clear = params["strip_half_width_m"]
+    band = params["goal_y_m"] - params["start_y_m"] - 2 * clear
+    return min(float(params["size_m"][0]), band) / 2
 
 
 def scatter_obstacles(params: Params, rng: np.random.Generator,

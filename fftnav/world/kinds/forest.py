@@ -8,14 +8,20 @@ from __future__ import annotations
 import numpy as np
 
 from fftnav.validate import check_number
-from fftnav.world.kinds import DECIMALS, Params, register_world_kind, scatter_obstacles
+from fftnav.world.kinds import (
+    DECIMALS,
+    Params,
+    max_obstacle_radius,
+    register_world_kind,
+    scatter_obstacles,
+)
 from fftnav.world.obstacles import Circle, Obstacle
 
 
 def _check(params: Params) -> None:
     low, high = params["trunk_radius_m"]
     check_number("trunk_radius_m[0]", low, low=0, low_open=True)
-    check_number("trunk_radius_m[1]", high, low=low)
+    check_number("trunk_radius_m[1]", high, low=low, high=max_obstacle_radius(params))
 
 
 def _trunk(params: Params, rng: np.random.Generator) -> tuple[Obstacle, float]:

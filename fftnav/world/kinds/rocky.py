@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from fftnav.validate import check_integer, check_number
-from fftnav.world.kinds import Params, register_world_kind, scatter_obstacles
+from fftnav.world.kinds import Params, max_obstacle_radius, register_world_kind, scatter_obstacles
 from fftnav.world.obstacles import Obstacle, Polygon
 
 
@@ -23,7 +23,14 @@ def _check(params: Params) -> None:
     for key in ("rock_size_m", "rock_aspect", "wall_length_m", "wall_thickness_m"):
         low, high = params[key]
         check_number(f"{key}[0]", low, low=0, low_open=True)
-        check_number(f"{key}[1]", high, low=low)
+        check_number(f"{key}[1]", high, low=low, high=1.0 if key == "rock_aspect" else None)
+    fit = max_obstacle_radius(params)
+    check_number("rock_size_m[1]", params["rock_size_m"][1], high=2 * fit)
+    wall = math.hypot(params["wall_length_m"][1], params["wall_thickness_m"][1]) / 2
+    if wall > fit:
+        raise ValueError(f"wall_length_m[1] must leave walls (bounding radius {wall:g} m) "
+                         f"room between the strips (<= {fit:g} m), got wall_length_m[1]="
+                         f"{params['wall_length_m'][1]!r}")
 
 
 def _rock_or_wall(params: Params, rng: np.random.Generator) -> tuple[Obstacle, float]:

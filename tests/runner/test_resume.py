@@ -1,0 +1,140 @@
+"""A results folder is trusted only for files that pass a check; one run per folder; no stale
+temporaries; killed runs' time counted; tasks enumerated lazily with O(1) bookkeeping."""
+
+from __future__ import annotations
+
+import json
+import os
+import time
+import tracemalloc
+
+import pandas as pd
+import pytest
+
+import fftnav.runner.run as run_module
+from fftnav.runner import parse_config, run_experiment
+from fftnav.runner.resume import FolderLock, InvocationClock
+from fftnav.runner.tasks import iter_tasks, make_tasks, task_count
+from tests.runner.test_run import CONFIG, N_TASKS, Interrupt, fake_task, files
+
+
+@pytest.fixture
+def full(tmp_path):
+    out = tmp_path / "full"
+    run_experiment(CONFIG, out, workers=1, task_fn=fake_task, progress=False)
+    return out
+
+
+@pytest.mark.parametrize(("name", "damage", "why"), [
+    ("forest-6-fusion.csv", b"", "empty"),
+    ("forest-6-fusion.csv", b"\x93garbage\n", "not UTF-8 text"),
+    ("forest-6-fusion.csv", b"a,b,c\n", "1 rows, expected 3"),
+    ("forest-6-fusion.csv", "TRUNCATE", "its last line is incomplete"),
+    ("forest-6-fusion.csv", "OTHER", "row 1 belongs to another episode or robot"),
+])
+def test_a_damaged_episode_file_is_rerun_naming_it(full, tmp_path, capsys, name, damage, why):
+    out = tmp_path / "damaged"
+    run_experiment(CONFIG, out, workers=1, task_fn=fake_task, progress=False)
+    path = out / "episodes" / name
+    if damage == "TRUNCATE":
+        damage = path.read_bytes()[:-40]
+    elif damage == "OTHER":
+        damage = (out / "episodes" / "forest-7-fusion.csv").read_bytes()
+    path.write_bytes(damage)
+    capsys.readouterr()
+    outcome = run_experiment(CONFIG, out, workers=1, task_fn=fake_task, progress=False)
+    err = capsys.readouterr().err
+    assert (outcome.skipped, outcome.completed) == (N_TASKS - 1, 1)
+    assert f"rerunning forest-6-fusion: {path} cannot be trusted ({why}" in err
+    assert files(out) == files(full)
+
+
+def test_damaged_trajectories_are_rerun(full, tmp_path, capsys):
+    out = tmp_path / "npz"
+    run_experiment(CONFIG, out, workers=1, task_fn=fake_task, progress=False)
+    npz = out / "trajectories" / "rocky-5-random.npz"
+    npz.write_bytes(npz.read_bytes()[:100])
+    outcome = run_experiment(CONFIG, out, workers=1, task_fn=fake_task, progress=False)
+    assert outcome.completed == 1 and "rocky-5-random.npz are damaged" in capsys.readouterr().err
+    assert files(out) == files(full)
+
+
+def test_a_folder_with_episodes_but_no_config_json_is_refused(full):
+    (full / "config.json").unlink()
+    other = parse_config({"experiment": {"name": "other", "envs": ["forest"], "maps": 1,
+                                         "map_seed": 5, "robots": 3, "policies": ["fusion"]}})
+    with pytest.raises(ValueError, match=r"holds episode files but no config\.json"):
+        run_experiment(other, full, workers=1, task_fn=fake_task, progress=False)
+    run_experiment(other, full, workers=1, task_fn=fake_task, progress=False, fresh=True)
+
+
+def test_one_run_per_folder(tmp_path):
+    with FolderLock(tmp_path):
+        with pytest.raises(ValueError, match=rf"{tmp_path} is in use by another fftnav run "
+                                             rf"\(pid {os.getpid()}\)"):
+            run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
+    run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
+    assert not (tmp_path / ".lock").exists()
+
+
+def test_stale_temporaries_are_removed_and_none_is_left(full, tmp_path):
+    for sub in ("", "episodes", "trajectories"):
+        (full / sub / ".x.csv.123.tmp").write_text("half")
+    run_experiment(CONFIG, full, workers=1, task_fn=fake_task, progress=False)
+    assert not list(full.rglob("*.tmp"))
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(CONFIG, tmp_path / "i", workers=1, task_fn=Interrupt(3), progress=False)
+    assert not list((tmp_path / "i").rglob("*.tmp"))
+
+
+def test_killed_runs_time_is_counted(tmp_path):
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(CONFIG, tmp_path, workers=1, task_fn=Interrupt(5), progress=False)
+    marker, = tmp_path.glob(".invocation-*.json")
+    start = json.loads(marker.read_text())["start"]
+    os.utime(marker, (start + 100.0, start + 100.0))  # as if it had run 100 s
+    outcome = run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
+    info = json.loads((tmp_path / "run_info.json").read_text())
+    assert info["wall_time_total_s"] == pytest.approx(100.0 + outcome.wall_time_s, abs=0.01)
+    assert not list(tmp_path.glob(".invocation-*"))
+    # a clean clock: no marker means nothing to add
+    clock = InvocationClock(tmp_path)
+    assert clock.begin() == 0.0
+    clock.end()
+
+
+def test_tasks_are_enumerated_lazily_in_the_sorted_order():
+    assert list(iter_tasks(CONFIG)) == sorted(make_tasks(CONFIG))
+    assert task_count(CONFIG) == N_TASKS
+    huge = parse_config({"experiment": {"name": "huge", "envs": ["forest", "rocky"],
+                                        "maps": 1_000_000, "map_seed": 0, "robots": 3,
+                                        "policies": ["fusion", "bug-left"]}})
+    tic = time.perf_counter()
+    first = next(iter_tasks(huge))
+    assert time.perf_counter() - tic < 0.5 and first.task_id == "forest-0-bug-left"
+    assert task_count(huge) == 4_000_000
+    with pytest.raises(ValueError, match=r"episodes \(envs x maps x policies\): 20,000,000 "
+                                         r"estimated, above the limit of 10,000,000"):
+        parse_config({"experiment": {"name": "h", "envs": ["forest", "rocky"],
+                                     "maps": 10_000_000, "map_seed": 0, "robots": 3,
+                                     "policies": ["fusion"]}})
+
+
+def test_bookkeeping_per_finished_episode_is_constant(tmp_path, monkeypatch):
+    """200,000 maps, interrupted after 60 episodes: tasks are never all in memory and
+    episodes.csv is not rebuilt after every episode (the old runner did both)."""
+    big = parse_config({"experiment": {"name": "big", "envs": ["forest"], "maps": 200_000,
+                                       "map_seed": 0, "robots": 3, "policies": ["fusion"],
+                                       "trajectory_maps": 0}})
+    rebuilds = []
+    real = run_module._write_episodes
+    monkeypatch.setattr(run_module, "_write_episodes",
+                        lambda out, config: rebuilds.append(1) or real(out, config))
+    tracemalloc.start()
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(big, tmp_path, workers=1, task_fn=Interrupt(61), progress=False)
+    peak = tracemalloc.get_traced_memory()[1]
+    tracemalloc.stop()
+    assert len(pd.read_csv(tmp_path / "episodes.csv")) == 60 * 3
+    assert len(rebuilds) <= 3  # the final one, and one per 2 s at most
+    assert peak < 20e6  # 200,000 Task objects alone would take more
