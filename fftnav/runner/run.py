@@ -31,6 +31,7 @@ from tqdm import tqdm
 
 from fftnav import __version__
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
+from fftnav.plugins import file_sha256
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
 from fftnav.runner.summary import paired_tests, summarize
@@ -201,8 +202,8 @@ def _check_same_experiment(config: ExperimentConfig, out: Path) -> None:
     versions or columns. A folder written with other columns is refused naming them."""
     record = out / "config.json"
     canonical = json.dumps({**asdict(config), "out": None, "source": None,
-                            "fftnav_version": __version__, "csv_columns": list(CSV_COLUMNS)},
-                           indent=1, sort_keys=True)
+                            "fftnav_version": __version__, "csv_columns": list(CSV_COLUMNS),
+                            **_plugin_files(config)}, indent=1, sort_keys=True)
     if record.exists():
         text = record.read_text()
         try:
@@ -224,6 +225,14 @@ def _check_same_experiment(config: ExperimentConfig, out: Path) -> None:
                              f"version ({record}); use another --out")
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(record, canonical)
+
+
+def _plugin_files(config: ExperimentConfig) -> dict[str, dict[str, str]]:
+    """``{"plugin_sha256": {file: sha256}}`` of the plugins named by file path (none: ``{}``,
+    so configs without them keep their canonical form): resuming with a changed plugin file
+    is refused like a changed config."""
+    files = {str(f.file): file_sha256(f.file) for f in config.resolved.values() if f.file}
+    return {"plugin_sha256": files} if files else {}
 
 
 def _task_csv(out: Path, task: Task) -> Path:

@@ -24,7 +24,8 @@ __all__ = ["Task", "TaskResult", "episode_seed", "make_tasks", "run_task", "task
 
 @dataclass(frozen=True, order=True)
 class Task:
-    """One episode to run. Ordering (env, map_seed, policy) is the order of rows in the CSVs."""
+    """One episode to run. Ordering (env, map_seed, policy) is the order of rows in the CSVs;
+    ``policy`` is the name the rows carry (:attr:`ExperimentConfig.policy_names`)."""
 
     env: str
     map_seed: int
@@ -70,7 +71,7 @@ def make_tasks(config: ExperimentConfig) -> list[Task]:
              i < config.trajectory_maps)
         for env in config.envs
         for i in range(config.maps)
-        for policy in config.policies
+        for policy in config.policy_names
     ]
     return sorted(tasks)
 
@@ -88,7 +89,8 @@ def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
     TaskResult
     """
     world = task_world(config, task.env, task.map_seed)
-    result = run_episode(world, task.policy, seed=task.episode_seed, config=config.swarm)
+    reference = config.resolved[task.policy].reference
+    result = run_episode(world, reference, seed=task.episode_seed, config=config.swarm)
     return TaskResult(result.rows, result.trajectories if task.keep_trajectories else None)
 
 
