@@ -278,17 +278,21 @@ class FFTGoController(_Reactive):
 
     The paper's observation (Sec. III-C: the safe mask of the FFT-filtered scan, with the Bug
     planner's clearance guard) without its planner: each tick the robot steers to the goal
-    bearing if it is safe, else to the nearest safe beam on either side (the smaller turn),
-    with the Bug planner's motion (rotate in place, drive straight when within 3 deg). Near the
+    bearing if it is safe, else to the safe beam nearest the goal bearing on either side, ties
+    (within ``turn_weight`` times the turn) going to the smaller turn: without that rule a
+    robot facing an obstacle straight on turns back and forth between two equally good beams.
+    It uses the Bug planner's motion (rotate in place, drive straight when within 3 deg). Near the
     goal (closer than l_th) the goal counts as reachable when the three beams around it reach
     past it, as in the planner. With no safe beam it heads for the most open drivable beam
     (largest y1) or rotates in place. It is the ablation "FFT mask, no Bug state machine":
     no follow mode, no leave rule, no loop detection.
 
-    Parameters (class attributes): ``heading_tol_deg`` = 3.
+    Parameters (class attributes): ``heading_tol_deg`` = 3, ``turn_weight`` = 0.1 (cost of a
+    beam: its angle to the goal plus ``turn_weight`` times its angle to the heading).
     """
 
     heading_tol_deg: float = 3.0
+    turn_weight: float = 0.1
     uses_pipeline = True
 
     def act(self, obs: RobotObservation) -> tuple[float, float]:
@@ -304,8 +308,9 @@ class FFTGoController(_Reactive):
             clear = bool(free[goal_beam]) and float(around.min()) > dist
         if clear:
             target = beta
-        elif safe.any():
-            target = float(obs.angles_rad[int(np.argmin(np.where(safe, diff, np.inf)))])
+        elif safe.any():  # nearest the goal; the smaller turn breaks (near) ties
+            cost = diff + self.turn_weight * np.abs(obs.angles_rad)
+            target = float(obs.angles_rad[int(np.argmin(np.where(safe, cost, np.inf)))])
         else:
             drivable = free & (obs.ranges_m > self.config.geometry.l_th_m / 2.0)
             if not drivable.any():
