@@ -1,4 +1,4 @@
-"""``fftnav bench {pipeline,sim}``: measured latency and simulation speed."""
+"""``fftnav bench {pipeline,sim,env,planning}``: measured latency and simulation speed."""
 
 from __future__ import annotations
 
@@ -34,6 +34,14 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
     return _report(result, args, format_sim(result))
 
 
+def cmd_bench_env(args: argparse.Namespace) -> int:
+    """Random-rollout speed of the PettingZoo environment beside ``fftnav bench sim``."""
+    from fftnav.bench.env import bench_env, format_env
+
+    result = bench_env(env=args.env, seconds=args.seconds, seed=args.seed)
+    return _report(result, args, format_env(result))
+
+
 def cmd_bench_planning(args: argparse.Namespace) -> int:
     """Time the optimal-path reference (heapq A* vs batched Dijkstra) on a generated world."""
     from fftnav.bench.planning import bench_optimal_paths, format_optimal_paths
@@ -57,13 +65,20 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--seed", type=int, default=0)
     s.set_defaults(func=cmd_bench_sim)
 
+    e = benches.add_parser("env", help="speed of the PettingZoo environment beside bench sim "
+                           "(needs fftnav[marl])")
+    e.add_argument("--env", choices=world_kinds(), default="forest")
+    e.add_argument("--seconds", type=float, default=60.0, help="simulated seconds (default 60)")
+    e.add_argument("--seed", type=int, default=0)
+    e.set_defaults(func=cmd_bench_env)
+
     g = benches.add_parser("planning", help="time of the optimal-path reference (A*, geodesic)")
     g.add_argument("--env", choices=world_kinds(), default="forest")
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--r0", type=float, default=0.15, help="inflation radius r0, m (default 0.15)")
     g.set_defaults(func=cmd_bench_planning)
 
-    for q in (b, s, g):
+    for q in (b, s, e, g):
         q.add_argument("--json", action="store_true", help="print one JSON object")
         q.add_argument("--csv", metavar="PATH", help="also record the run in this CSV")
         q.add_argument("--append", action="store_true", help="append to --csv instead of replacing")
