@@ -41,6 +41,7 @@ def test_the_readme_controller_runs_into_the_summary_and_the_report(project):
     episodes = pd.read_csv(out / "episodes.csv")
     mine = episodes[episodes.policy == "safe-greedy"]
     assert len(mine) == 2 * 3 and (mine.bytes_sent == 0).all()
+    assert mine.arrived.sum() == 2  # as the README says: a naive controller
     assert summary.set_index("policy").spl["safe-greedy"] == pytest.approx(mine.spl.mean(),
                                                                            abs=1e-6)
     assert "| forest | safe-greedy |" in (out / "report.md").read_text()
