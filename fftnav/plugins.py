@@ -24,10 +24,11 @@ reference, so the CLI prints it and exits 2 before any episode starts.
 
 >>> load_reference("math:pi")
 3.141592653589793
->>> load_reference("math:tau_not_there")
-Traceback (most recent call last):
-...
-fftnav.plugins.PluginError: cannot load 'math:tau_not_there': module 'math' has no attribute 'tau_not_there'
+>>> try:
+...     load_reference("math:nope")
+... except PluginError as exc:
+...     print(exc)
+cannot load 'math:nope': module 'math' has no attribute 'nope'
 """
 
 from __future__ import annotations

@@ -22,8 +22,8 @@ from fftnav.episode.bugcontrol import BugController
 from fftnav.episode.comms import Channel, Packet
 from fftnav.episode.record import EpisodeResult, EpisodeRow
 from fftnav.planning.controllers import Controller, ControllerSetup, SwarmStep
-from fftnav.planning.resolve import Resolved, resolve
 from fftnav.planning.reference import optimal_lengths
+from fftnav.planning.resolve import Resolved, resolve
 from fftnav.sim.swarm import Observation, SimConfig, SwarmSim
 from fftnav.validate import check_integer
 from fftnav.world.model import World

@@ -26,6 +26,7 @@ import re
 import sys
 from collections.abc import Mapping, Sequence
 from pathlib import Path
+
 import numpy as np
 
 from fftnav.validate import check_choice, check_number, check_vector

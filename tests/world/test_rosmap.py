@@ -9,7 +9,7 @@ import sys
 import numpy as np
 import pytest
 
-from fftnav.world import generate_world, load_world, occupancy_grid, save_world, write_ros_map
+from fftnav.world import generate_world, load_world, occupancy_grid, save_world
 from fftnav.world.rosmap import grid_rectangles, import_ros_map, read_pgm, read_ros_map
 
 
