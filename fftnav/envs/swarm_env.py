@@ -20,7 +20,9 @@ Agents ``robot_0 .. robot_{K-1}``, one per start of the world. Every step each l
 Rewards (:class:`Rewards`, configurable): ``progress`` times the decrease of the distance to the
 goal over the step (m), plus ``arrival`` once on arrival (within ``success_radius_m``), plus
 ``collision`` (negative) once on touching an obstacle, plus ``step`` every step. An agent
-terminates on arrival or collision (it is then parked out of the world); all live agents are
+terminates on arrival or collision (it is then parked out of the world;
+``terminate_on_collision=False`` keeps it driving, with the collision reward on every step in
+contact); all live agents are
 truncated at the time limit (``episode.time_limit_s``). ``render_mode="rgb_array"`` returns a
 top-down frame (obstacles dark, robots blue, goals green).
 
@@ -107,6 +109,9 @@ class SwarmNavEnv(ParallelEnv):
         Add the FFT safe mask to the observations.
     max_neighbours : int
         Message slots per observation (0: no messages, nothing is broadcast).
+    terminate_on_collision : bool
+        End an agent when it touches an obstacle (default, as in the benchmark); with False it
+        keeps driving and gets the collision reward on every step in contact.
     render_mode : {None, "rgb_array"}
     """
 
@@ -116,7 +121,8 @@ class SwarmNavEnv(ParallelEnv):
     def __init__(self, *, world_kind: str = "forest", map_seed: int = 0, robots: int = 15,
                  world: World | None = None, config: SwarmConfig | None = None,
                  rewards: Rewards | None = None, observe_safe_mask: bool = False,
-                 max_neighbours: int = 0, render_mode: str | None = None) -> None:
+                 max_neighbours: int = 0, terminate_on_collision: bool = True,
+                 render_mode: str | None = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise ValueError(f"render_mode must be None or 'rgb_array', got "
                              f"render_mode={render_mode!r}")
@@ -124,6 +130,7 @@ class SwarmNavEnv(ParallelEnv):
         self.rewards = rewards or Rewards()
         self.observe_safe_mask = bool(observe_safe_mask)
         self.max_neighbours = check_integer("max_neighbours", max_neighbours, low=0)
+        self.terminate_on_collision = bool(terminate_on_collision)
         self._fixed_world = world
         self._kind, self._map_seed = world_kind, check_integer("map_seed", map_seed, low=0)
         self._robots = check_integer("robots", robots, low=1)
@@ -245,7 +252,8 @@ class SwarmNavEnv(ParallelEnv):
         for agent in agents:
             i = self._index[agent]
             rewards[agent] = float(reward[i])
-            terminations[agent] = bool(arrived[i] or collided[i])
+            terminations[agent] = bool(arrived[i]
+                                       or (collided[i] and self.terminate_on_collision))
             truncations[agent] = bool(truncated and not terminations[agent])
             infos[agent] = {"arrived": bool(arrived[i]), "collided": bool(collided[i]),
                             "goal_distance_m": float(dist[i])}

@@ -82,3 +82,17 @@ def test_reset_options_and_render():
     with pytest.raises(ValueError, match=r"sensor\.range_m must be a finite number > 0"):
         env.reset(seed=1, options={"sensor.range_m": -1})
     env.close()
+
+
+def test_collisions_need_not_terminate():
+    world = _world([Circle((6.0, 5.0), 0.5, 1.0)], [[6, 3.5, UP]], [[6, 9]])
+    env = SwarmNavEnv(world=world, rewards=Rewards(progress=0.0, collision=-1.0),
+                      terminate_on_collision=False)
+    env.reset(seed=0, options={"time_limit_s": 3.0})
+    hits = []
+    for _ in range(30):
+        _, rew, term, trunc, info = env.step({"robot_0": np.array([0.5, 0.0], np.float32)})
+        hits.append(info["robot_0"]["collided"])
+        assert rew["robot_0"] == (-1.0 if hits[-1] else 0.0) and not term["robot_0"]
+    assert sum(hits) >= 5 and trunc["robot_0"]  # pressed against the trunk until the limit
+    env.close()
