@@ -35,6 +35,14 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
     return _report(result, args, format_sim(result))
 
 
+def cmd_bench_env(args: argparse.Namespace) -> int:
+    """Random-rollout speed of the PettingZoo environment beside ``fftnav bench sim``."""
+    from fftnav.bench.env import bench_env, format_env
+
+    result = bench_env(env=args.env, seconds=args.seconds, seed=args.seed)
+    return _report(result, args, format_env(result))
+
+
 def cmd_bench_planning(args: argparse.Namespace) -> int:
     """Time the optimal-path reference (heapq A* vs batched Dijkstra) on a generated world."""
     from fftnav.bench.planning import bench_optimal_paths, format_optimal_paths
@@ -71,6 +79,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--seconds", type=float, default=20.0, help="simulated seconds (default 20)")
     s.add_argument("--seed", type=int, default=0)
     s.set_defaults(func=cmd_bench_sim)
+
+    e = benches.add_parser("env", help="speed of the PettingZoo environment beside bench sim "
+                           "(needs fftnav[marl])")
+    e.add_argument("--env", choices=world_kinds(), default="forest")
+    e.add_argument("--seconds", type=float, default=60.0, help="simulated seconds (default 60)")
+    e.add_argument("--seed", type=int, default=0)
+    e.set_defaults(func=cmd_bench_env)
 
     g = benches.add_parser("planning", help="time of the optimal-path reference (A*, geodesic)")
     g.add_argument("--env", choices=world_kinds(), default="forest")

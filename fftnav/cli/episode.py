@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from fftnav.cli import CliError
-from fftnav.planning.policies import POLICIES
+from fftnav.planning.resolve import registered_names, resolve
 
 
 def _overrides(pairs: list[str]) -> dict[str, str]:
@@ -28,6 +28,7 @@ def cmd_episode(args: argparse.Namespace) -> int:
     from fftnav.episode import SwarmConfig, episode_csv, run_episode
     from fftnav.world import load_world
 
+    resolve(args.policy)  # an unknown name or a plugin that does not load: refused first
     config = SwarmConfig().replace(_overrides(args.set or []))
     world = load_world(args.world)
     result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui)
@@ -49,8 +50,9 @@ def cmd_episode(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("episode", help="run one episode of all robots of a world file")
     p.add_argument("--world", required=True, metavar="W.json", help="world file")
-    p.add_argument("--policy", required=True, choices=tuple(POLICIES), metavar="NAME",
-                   help=f"decision policy: {', '.join(POLICIES)}")
+    p.add_argument("--policy", required=True, metavar="NAME",
+                   help=f"decision policy or controller: {', '.join(registered_names())}, "
+                   "or module:attr, path/to/file.py:attr, an entry point of 'fftnav.policies'")
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
     p.add_argument("--out", metavar="E.csv", help="per-robot CSV (default: stdout)")
     p.add_argument("--trajectories", metavar="T.npz",

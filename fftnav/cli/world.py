@@ -1,4 +1,5 @@
-"""``fftnav world {generate,render,grid,scan}``: world files, pictures, grids and lidar scans."""
+"""``fftnav world {generate,render,grid,import,scan}``: world files, pictures, grids, ROS maps and
+lidar scans."""
 
 from __future__ import annotations
 
@@ -64,6 +65,26 @@ def cmd_grid(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_import(args: argparse.Namespace) -> int:
+    """A world file from a ROS map_server map and starts/goals (options or a TOML file)."""
+    from fftnav.cli import CliError
+    from fftnav.world import save_world
+    from fftnav.world.rosmap import import_ros_map, map_extent_text, read_robots_toml
+
+    starts, goals = list(args.start or []), list(args.goal or [])
+    if args.robots:
+        s, g = read_robots_toml(args.robots)
+        starts += s.tolist()
+        goals += g.tolist()
+    if not starts or len(starts) != len(goals):
+        raise CliError(f"give as many --start X Y YAW_DEG as --goal X Y (or --robots R.toml), "
+                       f"got {len(starts)} starts and {len(goals)} goals")
+    world = import_ros_map(args.map, starts, goals, unknown=args.unknown)
+    save_world(world, args.out)
+    print(f"{args.out}: {map_extent_text(world)}")
+    return 0
+
+
 def cmd_scan(args: argparse.Namespace) -> int:
     """Print the PyBullet lidar scan of a robot at a pose as JSON."""
     from fftnav.config import SensorConfig
@@ -113,6 +134,21 @@ def register(sub: argparse._SubParsersAction) -> None:
     q.add_argument("--out", required=True, help=".npy file to write")
     q.add_argument("--ros-map", metavar="PREFIX", help="also write PREFIX.yaml + PREFIX.pgm")
     q.set_defaults(func=cmd_grid)
+
+    m = cmds.add_parser("import", help="a world file from a ROS map_server map (YAML + image)")
+    m.add_argument("map", metavar="MAP.yaml", help="map_server YAML (image, resolution, origin, "
+                   "negate, occupied_thresh, free_thresh, mode)")
+    m.add_argument("--out", required=True, metavar="W.json", help="world JSON file to write")
+    m.add_argument("--start", type=float, nargs=3, action="append", metavar=("X", "Y", "YAW"),
+                   help="a robot's start in the map frame: metres, metres, degrees (repeatable)")
+    m.add_argument("--goal", type=float, nargs=2, action="append", metavar=("X", "Y"),
+                   help="its goal in the map frame, metres (repeatable, in --start order)")
+    m.add_argument("--robots", metavar="R.toml",
+                   help="starts and goals from [[robot]] tables: start = [x, y, yaw_deg], "
+                   "goal = [x, y]")
+    m.add_argument("--unknown", choices=("occupied", "free"), default="occupied",
+                   help="what unknown cells become (default: occupied)")
+    m.set_defaults(func=cmd_import)
 
     s = cmds.add_parser("scan", help="print the PyBullet lidar scan at a pose as JSON")
     s.add_argument("world", help="world JSON file")

@@ -1,8 +1,9 @@
 """One swarm episode: a world, a decision policy and a seed -> one row per robot.
 
 Each control tick ties the stages together: the PyBullet swarm's lidar scans (:mod:`fftnav.sim`)
--> the FFT pipeline (:mod:`fftnav.observe`) -> the Bug planner, which asks the decision policy
-for a side when a goal direction is blocked (:mod:`fftnav.planning`) -> swarm messages
+-> the FFT pipeline (:mod:`fftnav.observe`) -> the controller: by default the Bug planner, which
+asks the decision policy for a side when a goal direction is blocked (:mod:`fftnav.planning`),
+or any controller (:mod:`fftnav.planning.controllers`) -> swarm messages
 (:mod:`fftnav.episode.comms`) -> the simulator advances one control period. The metrics of the
 rows come from :mod:`fftnav.metrics` applied to the trajectories.
 """
@@ -10,18 +11,19 @@ rows come from :mod:`fftnav.metrics` applied to the trajectories.
 from __future__ import annotations
 
 import functools
+from collections.abc import Callable
 from dataclasses import dataclass, field
 
 import numpy as np
 
 from fftnav import metrics
 from fftnav.config import SwarmConfig
-from fftnav.episode.comms import Channel
-from fftnav.episode.decider import Decider
+from fftnav.episode.bugcontrol import BugController
+from fftnav.episode.comms import Channel, Packet
 from fftnav.episode.record import EpisodeResult, EpisodeRow
-from fftnav.planning.bug import BugPlanner
-from fftnav.planning.policies import DecisionContext, Policy, get_policy
+from fftnav.planning.controllers import Controller, ControllerSetup, SwarmStep
 from fftnav.planning.reference import optimal_lengths
+from fftnav.planning.resolve import Resolved, resolve
 from fftnav.sim.swarm import Observation, SimConfig, SwarmSim
 from fftnav.validate import check_integer
 from fftnav.world.model import World
@@ -62,45 +64,50 @@ class _Robots:
 
 
 class _Swarm:
-    """The robots' software: FFT pipeline, message channel, decider and planner."""
+    """The robots' software: FFT pipeline, message channel and the controller."""
 
-    def __init__(self, world: World, policy: Policy, config: SwarmConfig,
+    def __init__(self, world: World, policy: Resolved, config: SwarmConfig,
                  rng: np.random.Generator) -> None:
-        self.config, self.policy, self.rng = config, policy, rng
+        self.config, self.rng = config, rng
         self.pipe = config.pipeline()
         n = len(world.starts)
         self.goals = np.asarray(world.goals, dtype=np.float64)
         self.channel = Channel(n, range_m=config.comms.comm_range_m,
                                loss=config.comms.packet_loss,
                                delay_ticks=config.comms.delay_ticks, rng=rng)
-        self.decider = Decider(config, self.channel, rng, full_circle=self.pipe.bank.full_circle)
-        self.planner = BugPlanner.for_swarm(n, config, self._decide)
+        setup = ControllerSetup(n, config, rng)
+        if policy.policy is not None:
+            self.controller: Controller = BugController(setup, policy.policy, self.channel,
+                                                        full_circle=self.pipe.bank.full_circle)
+        else:
+            assert policy.controller is not None
+            self.controller = policy.controller(setup)
+        self.max_age_ticks = int(config.episode.control_hz)
 
-    def _decide(self, i: int) -> int:
-        ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
-                              lambda: self.decider.fused_probability(i), self.rng)
-        return self.policy.decide(ctx)
+    def _inbox(self, tick: int) -> Callable[[int], list[Packet]]:
+        return lambda i: self.channel.inbox(i, tick=tick, max_age_ticks=self.max_age_ticks)
 
     def commands(self, tick: int, obs: Observation, active: np.ndarray) -> np.ndarray:
-        """One control tick of every active robot: observe, decide, plan, broadcast."""
+        """One control tick of every active robot: observe, control, broadcast."""
         n, beams, range_m = len(active), self.config.sensor.beams, self.config.sensor.range_m
         idx = np.flatnonzero(active)
-        res = self.pipe.process(obs.scans[idx], with_p_s=False)
-        safe = np.zeros((n, beams), dtype=bool)
-        y1 = np.zeros((n, beams))
         ranges = np.zeros((n, beams))
-        safe[idx], y1[idx] = res.safe_mask, res.y1
         ranges[idx] = self.pipe.normalise(obs.scans[idx]) * range_m
+        safe = y1 = messages = sigma = None
+        if self.controller.uses_pipeline:
+            res = self.pipe.process(obs.scans[idx], with_p_s=False)
+            safe = np.zeros((n, beams), dtype=bool)
+            y1 = np.zeros((n, beams))
+            safe[idx], y1[idx] = res.safe_mask, res.y1
+            messages, sigma = res.messages, res.sigma
         self.channel.deliver(tick)
-        self.decider.observe(tick, obs.poses, self.goals, idx, res.sigma)
-        commands, blocked = self.planner.step(obs.time_s, obs.poses, self.goals, safe, ranges, y1)
-        if self.policy.uses_messages:
-            every_tick = self.config.comms.broadcast == "every_tick"
-            senders = idx if every_tick else idx[blocked[idx]]
-            for j, i in enumerate(idx):
-                if i in senders:
-                    self.channel.broadcast(int(i), res.messages[j], tick=tick, poses=obs.poses,
-                                           active=active)
+        step = SwarmStep(tick=tick, time_s=obs.time_s, poses=obs.poses, goals=self.goals,
+                         active=idx, ranges_m=ranges, angles_rad=self.pipe.angles_rad, safe=safe,
+                         y1=y1, messages=messages, inbox=self._inbox(tick), sigma=sigma)
+        commands, outgoing = self.controller.step(step)
+        for i in sorted(outgoing):
+            self.channel.broadcast(int(i), outgoing[i], tick=tick, poses=obs.poses,
+                                   active=active)
         return commands
 
     def advance(self, sim: SwarmSim, commands: np.ndarray, robots: _Robots) -> Observation:
@@ -118,7 +125,7 @@ class _Swarm:
             if hit or home:
                 robots.collided[i] = hit
                 robots.active[i] = False
-                self.planner.finish(int(i))
+                self.controller.finish(int(i))
                 sim.park(int(i))
         return obs
 
@@ -138,7 +145,10 @@ def run_episode(
     world : fftnav.world.World
         Obstacles, starts and goals (one robot per start).
     policy : str
-        A registered decision policy (:data:`fftnav.planning.policies.POLICIES`).
+        A decision policy (run by the Bug planner) or a controller: a registered name
+        (``fusion``, ``vfh``, ...), ``module:attr``, ``path/to/file.py:attr`` or an entry point
+        of group ``fftnav.policies`` (:func:`fftnav.planning.resolve.resolve`). The rows carry
+        its name.
     seed : int
         Episode seed: sensor noise, packet loss, pose noise and the ``random`` policy all derive
         from it. The world has its own seed.
@@ -156,14 +166,16 @@ def run_episode(
     Notes
     -----
     Each control tick: the lidar scans of the active robots go through the FFT pipeline in one
-    batched call; the Bug planner (``docs/planner.md``) turns safe masks into commands and asks
-    the policy for a side when a goal direction is blocked; robots that met an obstacle broadcast
-    their compact message (``fusion`` only); the simulator advances one control period. A robot
+    batched call (unless a controller does without it); the controller turns them into commands
+    (by default the Bug planner, ``docs/planner.md``, which asks the decision policy for a side
+    when a goal direction is blocked) and messages, broadcast through the channel (robots that
+    met an obstacle send their compact message with ``fusion``); the simulator advances one
+    control period. A robot
     within ``success_radius_m`` of its goal has arrived, one touching an obstacle has failed;
     either is parked (taken out of the world).
     """
     cfg = config or SwarmConfig()
-    pol = get_policy(policy)
+    pol = resolve(policy)
     sim_seed, rng = _seeds(seed)
     swarm = _Swarm(world, pol, cfg, rng)
     optimal, geodesic = _reference_lengths(world.to_json(), cfg.robot.r0_m)  # unreachable: fail
@@ -175,7 +187,7 @@ def run_episode(
                 break
             obs = swarm.advance(sim, swarm.commands(tick, obs, robots.active), robots)
     trajectories = [np.array(t) for t in robots.trajectories]
-    rows = [_row(i, policy, trajectories[i], swarm, robots, float(optimal[i]),
+    rows = [_row(i, pol.name, trajectories[i], swarm, robots, float(optimal[i]),
                  float(geodesic[i])) for i in range(len(trajectories))]
     return EpisodeResult(rows=rows, trajectories=trajectories)
 
@@ -203,9 +215,6 @@ def _row(i: int, policy: str, trajectory: np.ndarray, swarm: _Swarm, robots: _Ro
         if ok else float("nan"),
         bytes_sent=int(swarm.channel.bytes_sent[i]),
         messages_sent=int(swarm.channel.messages_sent[i]),
-        decisions_left=int(swarm.planner.decisions[i, 0]),
-        decisions_right=int(swarm.planner.decisions[i, 1]),
-        decisions_with_neighbours=swarm.decider.with_neighbours[i],
-        decisions_flipped_by_neighbours=swarm.decider.flipped[i],
+        **swarm.controller.counters(i),
         robot_contacts=int(robots.robot_contacts[i]),
     )

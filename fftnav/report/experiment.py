@@ -139,7 +139,7 @@ def draw_trajectories(config: ExperimentConfig, out: Path, env: str, episodes: p
     Arrived robots solid, failed ones dashed with a cross (:mod:`fftnav.report.trajectories`).
     """
     map_seed = config.map_seed
-    found = [(p, out / "trajectories" / f"{env}-{map_seed}-{p}.npz") for p in config.policies]
+    found = [(p, out / "trajectories" / f"{env}-{map_seed}-{p}.npz") for p in config.policy_names]
     found = [(p, f) for p, f in found if f.exists()]
     if not found:
         return None

@@ -19,7 +19,7 @@ from typing import Any
 from fftnav.config import SwarmConfig
 from fftnav.files import read_toml
 from fftnav.limits import MAX_RAYS_PER_TICK, MAX_TASKS, check_limit
-from fftnav.planning.policies import POLICIES
+from fftnav.planning.resolve import Resolved, resolve
 from fftnav.validate import check_integer
 from fftnav.world import load_preset, world_kinds, world_parameters
 
@@ -47,7 +47,10 @@ class ExperimentConfig:
     robots : int
         Robots per episode (the paper uses 15).
     policies : tuple of str
-        Decision policies, each run on every map (paired comparison).
+        Decision policies and controllers, each run on every map (paired comparison): registered
+        names, ``module:attr``, ``path/to/file.py:attr`` (relative paths are taken from the
+        config file's folder and stored absolute) or entry points
+        (:func:`fftnav.planning.resolve.resolve`).
     trajectory_maps : int
         How many maps per env keep their trajectories for the figures (first maps first).
     out : str
@@ -84,6 +87,16 @@ class ExperimentConfig:
         return {"robot_radius_m": self.swarm.robot.r0_m, **self.world,
                 **self.world_by_env.get(env, {})}
 
+    @property
+    def resolved(self) -> dict[str, Resolved]:
+        """The policies and controllers by the name their rows carry, in config order."""
+        return {found.name: found for found in map(resolve, self.policies)}
+
+    @property
+    def policy_names(self) -> tuple[str, ...]:
+        """The names the rows of ``policies`` carry (``policy`` column), in config order."""
+        return tuple(self.resolved)
+
 
 def load_config(path: str | Path) -> ExperimentConfig:
     """Read and validate an experiment TOML file.
@@ -106,12 +119,13 @@ def load_config(path: str | Path) -> ExperimentConfig:
     """
     data, text = read_toml(path)
     try:
-        return parse_config(data, source=text)
+        return parse_config(data, source=text, base=Path(path).parent)
     except ValueError as exc:
         raise ValueError(f"{path}: {exc}") from None
 
 
-def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
+def parse_config(data: dict[str, Any], *, source: str = "",
+                 base: str | Path | None = None) -> ExperimentConfig:
     """Validate a parsed TOML document.
 
     Parameters
@@ -120,6 +134,9 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
         The document, as ``tomllib`` returns it.
     source : str
         Its text, kept for the copy written into the output folder.
+    base : str or Path, optional
+        Folder against which relative plugin file paths of ``experiment.policies`` are taken
+        (the config file's folder; default: the current directory).
 
     Returns
     -------
@@ -156,7 +173,7 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
 
     robots = check_integer("experiment.robots", exp["robots"], low=1)
     map_seed = check_integer("experiment.map_seed", exp["map_seed"], low=0)
-    policies = _names("experiment.policies", exp["policies"], tuple(POLICIES))
+    policies = _policies(exp["policies"], base)
     check_limit("episodes (envs x maps x policies)", len(envs) * maps * len(policies),
                 MAX_TASKS, hint="lower experiment.maps")
     swarm = SwarmConfig.from_sections({s: _table(data, s) for s in SwarmConfig.SECTIONS})
@@ -194,6 +211,27 @@ def parse_config(data: dict[str, Any], *, source: str = "") -> ExperimentConfig:
     )
 
 
+def _policies(value: Any, base: str | Path | None) -> tuple[str, ...]:
+    """``experiment.policies``: each resolved now (a plugin that does not load is refused before
+    any episode), relative plugin files made absolute, names distinct."""
+    refs = _names("experiment.policies", value, None)
+    out, names = [], {}
+    for ref in refs:
+        head, sep, attr = ref.rpartition(":")
+        if sep and head.endswith(".py") and not Path(head).expanduser().is_absolute():
+            ref = f"{(Path(base or '.') / head).resolve()}:{attr}"
+        try:
+            found = resolve(ref)
+        except ValueError as exc:
+            raise ValueError(f"experiment.policies: {exc}") from None
+        if found.name in names:
+            raise ValueError(f"experiment.policies: {names[found.name]!r} and {ref!r} have the "
+                             f"same name {found.name!r}")
+        names[found.name] = ref
+        out.append(ref)
+    return tuple(out)
+
+
 def _table(data: dict[str, Any], name: str) -> dict[str, Any]:
     table = data.get(name, {})
     if not isinstance(table, dict):
@@ -217,11 +255,11 @@ def _check_world_keys(section: str, env: str, table: dict[str, Any]) -> None:
             raise ValueError(f"unknown key {section}.{key}; expected one of {sorted(preset)}")
 
 
-def _names(key: str, value: Any, known: tuple[str, ...]) -> tuple[str, ...]:
+def _names(key: str, value: Any, known: tuple[str, ...] | None) -> tuple[str, ...]:
     if (not isinstance(value, list) or not value
             or not all(isinstance(v, str) for v in value) or len(set(value)) != len(value)):
         raise ValueError(f"{key} must be a non-empty list of distinct strings, got {value!r}")
-    for v in value:
+    for v in value if known is not None else ():
         if v not in known:
             raise ValueError(f"{key}: unknown name {v!r}; expected some of {list(known)}")
     return tuple(value)

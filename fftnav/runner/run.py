@@ -35,6 +35,7 @@ from tqdm import tqdm
 from fftnav import __version__
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
 from fftnav.files import atomic_writer, write_atomic
+from fftnav.plugins import file_sha256
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
 from fftnav.runner.resume import (
@@ -288,8 +289,8 @@ def _check_same_experiment(config: ExperimentConfig, out: Path, *, fresh: bool =
         raise ValueError(f"{out} holds episode files but no config.json ({record}): they cannot "
                          "be told apart from another experiment's; use another --out or --fresh")
     canonical = json.dumps({**asdict(config), "out": None, "source": None,
-                            "fftnav_version": __version__, "csv_columns": list(CSV_COLUMNS)},
-                           indent=1, sort_keys=True)
+                            "fftnav_version": __version__, "csv_columns": list(CSV_COLUMNS),
+                            **_plugin_files(config)}, indent=1, sort_keys=True)
     if record.exists():
         try:
             text = record.read_text(encoding="utf-8")
@@ -314,6 +315,14 @@ def _check_same_experiment(config: ExperimentConfig, out: Path, *, fresh: bool =
                              f"version ({record}); use another --out")
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(record, canonical)
+
+
+def _plugin_files(config: ExperimentConfig) -> dict[str, dict[str, str]]:
+    """``{"plugin_sha256": {file: sha256}}`` of the plugins named by file path (none: ``{}``,
+    so configs without them keep their canonical form): resuming with a changed plugin file
+    is refused like a changed config."""
+    files = {str(f.file): file_sha256(f.file) for f in config.resolved.values() if f.file}
+    return {"plugin_sha256": files} if files else {}
 
 
 def _task_csv(out: Path, task: Task) -> Path:

@@ -26,7 +26,8 @@ __all__ = ["Task", "TaskResult", "episode_seed", "iter_tasks", "make_tasks", "ru
 
 @dataclass(frozen=True, order=True)
 class Task:
-    """One episode to run. Ordering (env, map_seed, policy) is the order of rows in the CSVs."""
+    """One episode to run. Ordering (env, map_seed, policy) is the order of rows in the CSVs;
+    ``policy`` is the name the rows carry (:attr:`ExperimentConfig.policy_names`)."""
 
     env: str
     map_seed: int
@@ -61,7 +62,7 @@ def iter_tasks(config: ExperimentConfig) -> Iterator[Task]:
     for env in sorted(config.envs):
         for i in range(config.maps):
             seed = episode_seed(env, config.map_seed + i)
-            for policy in sorted(config.policies):
+            for policy in sorted(config.policy_names):
                 yield Task(env, config.map_seed + i, policy, seed, i < config.trajectory_maps)
 
 
@@ -89,7 +90,8 @@ def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
     TaskResult
     """
     world = task_world(config, task.env, task.map_seed)
-    result = run_episode(world, task.policy, seed=task.episode_seed, config=config.swarm)
+    reference = config.resolved[task.policy].reference
+    result = run_episode(world, reference, seed=task.episode_seed, config=config.swarm)
     return TaskResult(result.rows, result.trajectories if task.keep_trajectories else None)
 
 

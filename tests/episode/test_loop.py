@@ -131,7 +131,7 @@ def test_bad_episode_parameters_are_named():
     with pytest.raises(ValueError, match=r"packet_loss must be a finite number in \[0, 1\), got "
                        r"packet_loss=1.5"):
         CommsConfig(packet_loss=1.5)
-    with pytest.raises(ValueError, match=r"unknown policy 'bug-up'"):
+    with pytest.raises(ValueError, match=r"unknown policy or controller 'bug-up'"):
         run_episode(_world([], [[4, 1, UP]], [[4, 9]]), "bug-up", seed=0)
     with pytest.raises(ValueError, match=r"seed must be an integer >= 0, got seed=-1"):
         run_episode(_world([], [[4, 1, UP]], [[4, 9]]), "bug-left", seed=-1)
@@ -194,7 +194,7 @@ def test_cli_bad_policy_exits_2_with_one_line(tmp_path):
     _fftnav("world", "generate", "--env", "forest", "--seed", "3", "--out", "w.json", cwd=tmp_path)
     run = _fftnav("episode", "--world", "w.json", "--policy", "nope", cwd=tmp_path)
     assert run.returncode == 2 and "Traceback" not in run.stderr
-    assert run.stderr.count("\n") == 1 and "invalid choice: 'nope'" in run.stderr
+    assert run.stderr.count("\n") == 1 and "unknown policy or controller 'nope'" in run.stderr
 
 
 @pytest.mark.parametrize("turn", [0.0, 0.7, 2.0, -2.9])

@@ -1,0 +1,269 @@
+"""Controllers: whole per-robot control laws, looked up by name like decision policies.
+
+A decision policy (:mod:`fftnav.planning.policies`) only picks the side on which the Bug planner
+passes an obstacle. A *controller* replaces the planner: every control tick, each active robot's
+:class:`RobotObservation` (its scan, the FFT pipeline's outputs, its pose and goal, its inbox of
+received messages) goes to :meth:`Controller.act`, which returns the velocity command
+``(v_mps, w_radps)`` or an :class:`Action` that may also carry a message. Messages travel
+through the episode's channel (:class:`fftnav.episode.comms.Channel`): the same lossy, delayed,
+range-limited broadcast ``fusion`` uses, with its bytes counted in ``bytes_sent``.
+
+A controller is a subclass of :class:`Controller`; the episode makes one instance per episode
+(``Controller(setup)``) and calls it for every robot, so per-robot memory is kept by robot index.
+Registered controllers (:data:`CONTROLLERS`) are the classic reactive baselines of
+:mod:`fftnav.planning.baselines`: ``vfh``, ``ftg`` and ``fft-go``. The Bug planner with a decision
+policy is itself a controller (:class:`fftnav.episode.bugcontrol.BugController`), which is how
+every policy and controller runs through the same loop, runner, metrics and reports.
+
+>>> class Straight(Controller):
+...     uses_pipeline = False
+...     def act(self, obs):
+...         return self.v_max_mps, 2.0 * obs.goal_bearing_rad
+>>> Straight.__name__, Controller.uses_pipeline
+('Straight', True)
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Callable, Sequence
+from dataclasses import dataclass
+from typing import Any, ClassVar
+
+import numpy as np
+
+from fftnav.config import SwarmConfig
+from fftnav.observe.scan import wrap_angle
+
+__all__ = [
+    "Action",
+    "CONTROLLERS",
+    "Controller",
+    "ControllerSetup",
+    "RobotObservation",
+    "SwarmStep",
+    "get_controller",
+    "register_controller",
+]
+
+#: Counters of a robot's row that a controller may fill (the Bug planner's decisions).
+COUNTERS = ("decisions_left", "decisions_right", "decisions_with_neighbours",
+            "decisions_flipped_by_neighbours")
+
+
+@dataclass(frozen=True)
+class ControllerSetup:
+    """What a controller knows when an episode starts.
+
+    Attributes
+    ----------
+    n_robots : int
+        Robots in the episode (indices ``0 .. n_robots - 1``).
+    config : SwarmConfig
+        Robot (r0, r, speed limits), sensor, comms and episode parameters.
+    rng : numpy.random.Generator
+        The episode's generator: the only source of randomness a controller may use.
+    """
+
+    n_robots: int
+    config: SwarmConfig
+    rng: np.random.Generator
+
+
+@dataclass(frozen=True)
+class RobotObservation:
+    """What one robot has at one control tick.
+
+    Attributes
+    ----------
+    robot, tick : int
+        Robot index and control tick.
+    time_s : float
+        Episode time (s).
+    pose : ndarray, shape (3,)
+        ``x_m, y_m, yaw_rad`` in the world frame.
+    goal : ndarray, shape (2,)
+        Goal position in the world frame.
+    ranges_m : ndarray, shape (M,)
+        The lidar scan, sanitised (no return reads R, blind and invalid beams read 0).
+    angles_rad : ndarray, shape (M,)
+        Beam angles, CCW from the heading.
+    safe_mask, y1 : ndarray or None
+        The FFT pipeline's safe beams and filtered scan (``y1``, normalised by R); None when the
+        controller sets ``uses_pipeline = False``.
+    message : bytes or None
+        The robot's own compressed observation (the 28-byte message ``fusion`` broadcasts),
+        ready to send; None without the pipeline.
+    inbox : sequence of Packet
+        The newest message of each neighbour received within the last second
+        (:class:`fftnav.episode.comms.Packet`: ``sender``, ``tick``, ``payload`` bytes,
+        ``sender_pose``).
+    """
+
+    robot: int
+    tick: int
+    time_s: float
+    pose: np.ndarray
+    goal: np.ndarray
+    ranges_m: np.ndarray
+    angles_rad: np.ndarray
+    safe_mask: np.ndarray | None
+    y1: np.ndarray | None
+    message: bytes | None
+    inbox: Sequence[Any]
+
+    @property
+    def goal_distance_m(self) -> float:
+        """Distance to the goal (m)."""
+        return float(math.hypot(*(self.goal - self.pose[:2])))
+
+    @property
+    def goal_bearing_rad(self) -> float:
+        """Goal direction in the robot frame, in (-pi, pi], CCW from the heading."""
+        d = self.goal - self.pose[:2]
+        return float(wrap_angle(math.atan2(d[1], d[0]) - self.pose[2]))
+
+
+@dataclass(frozen=True)
+class Action:
+    """A robot's command for one control period and an optional message to broadcast."""
+
+    v_mps: float
+    w_radps: float
+    message: bytes | None = None
+
+
+@dataclass(frozen=True)
+class SwarmStep:
+    """The whole swarm at one tick (what :meth:`Controller.step` receives).
+
+    ``active`` are the indices of the robots still driving; the arrays have one row per robot
+    (rows of inactive robots are meaningless). ``safe``, ``y1`` and ``messages`` (one per active
+    robot, in ``active`` order) and ``sigma`` (the extrema of each active robot's scan) are
+    None without the pipeline; ``inbox(i)`` returns robot
+    ``i``'s received packets.
+    """
+
+    tick: int
+    time_s: float
+    poses: np.ndarray
+    goals: np.ndarray
+    active: np.ndarray
+    ranges_m: np.ndarray
+    angles_rad: np.ndarray
+    safe: np.ndarray | None
+    y1: np.ndarray | None
+    messages: list[bytes] | None
+    inbox: Callable[[int], Sequence[Any]]
+    sigma: list[np.ndarray] | None = None
+
+
+class Controller:
+    """Base class of controllers: subclass it and write :meth:`act`.
+
+    Parameters
+    ----------
+    setup : ControllerSetup
+        Swarm size, configuration and the episode's generator (kept as ``self.setup``; the
+        speed limits as ``self.v_max_mps`` and ``self.w_max_radps``).
+
+    Attributes
+    ----------
+    name : str
+        The name its rows carry (``policy`` column); set by the registry or the resolver.
+    uses_pipeline : bool
+        Whether the episode runs the FFT pipeline for it (safe mask, y1, own message).
+    """
+
+    name: ClassVar[str] = ""
+    uses_pipeline: ClassVar[bool] = True
+
+    def __init__(self, setup: ControllerSetup) -> None:
+        self.setup = setup
+        self.config = setup.config
+        self.v_max_mps = setup.config.robot.v_max_mps
+        self.w_max_radps = setup.config.robot.w_max_radps
+
+    def act(self, obs: RobotObservation) -> Action | tuple[float, float]:
+        """The command of one robot for one control period."""
+        raise NotImplementedError(f"{type(self).__name__} must define act(obs)")
+
+    def step(self, swarm: SwarmStep) -> tuple[np.ndarray, dict[int, bytes]]:
+        """Commands ``(K, 2)`` of every robot and the messages to broadcast (robot -> bytes).
+
+        The default calls :meth:`act` for each active robot in index order; a controller that
+        works on the whole swarm at once (the Bug planner) overrides it.
+        """
+        commands = np.zeros((len(swarm.poses), 2))
+        outgoing: dict[int, bytes] = {}
+        for j, i in enumerate(swarm.active.tolist()):
+            obs = RobotObservation(
+                robot=i, tick=swarm.tick, time_s=swarm.time_s, pose=swarm.poses[i],
+                goal=swarm.goals[i], ranges_m=swarm.ranges_m[i], angles_rad=swarm.angles_rad,
+                safe_mask=None if swarm.safe is None else swarm.safe[i],
+                y1=None if swarm.y1 is None else swarm.y1[i],
+                message=None if swarm.messages is None else swarm.messages[j],
+                inbox=swarm.inbox(i))
+            action = self.act(obs)
+            if not isinstance(action, Action):
+                try:
+                    v, w = action
+                except (TypeError, ValueError):
+                    raise ValueError(f"{type(self).__name__}.act must return (v_mps, w_radps) or "
+                                     f"an Action, got {action!r:.80} for robot {i}") from None
+                action = Action(float(v), float(w))
+            if not (math.isfinite(action.v_mps) and math.isfinite(action.w_radps)):
+                raise ValueError(f"{type(self).__name__}.act must return finite commands, got "
+                                 f"({action.v_mps!r}, {action.w_radps!r}) for robot {i}")
+            commands[i] = (action.v_mps, action.w_radps)
+            if action.message is not None:
+                if not isinstance(action.message, (bytes, bytearray)):
+                    raise ValueError(f"{type(self).__name__}: a message must be bytes, got "
+                                     f"{type(action.message).__name__} for robot {i}")
+                outgoing[i] = bytes(action.message)
+        return commands, outgoing
+
+    def finish(self, robot: int) -> None:
+        """Robot ``robot`` arrived or failed and left the world (nothing by default)."""
+
+    def counters(self, robot: int) -> dict[str, int]:
+        """The decision counters of ``robot``'s row (all zero unless the controller has them)."""
+        return dict.fromkeys(COUNTERS, 0)
+
+
+@dataclass(frozen=True)
+class ControllerSpec:
+    """A named controller class and its description."""
+
+    name: str
+    factory: type[Controller]
+    description: str
+
+
+CONTROLLERS: dict[str, ControllerSpec] = {}
+
+
+def register_controller(name: str, *, description: str = ""
+                        ) -> Callable[[type[Controller]], type[Controller]]:
+    """Class decorator registering a :class:`Controller` subclass under ``name``."""
+
+    def wrap(cls: type[Controller]) -> type[Controller]:
+        if name in CONTROLLERS:
+            raise ValueError(f"controller name {name!r} is already registered")
+        if not (isinstance(cls, type) and issubclass(cls, Controller)):
+            raise ValueError(f"register_controller expects a Controller subclass, got {cls!r}")
+        cls.name = name
+        doc = (cls.__doc__ or "").strip().splitlines()
+        CONTROLLERS[name] = ControllerSpec(name, cls, description or (doc[0] if doc else ""))
+        return cls
+
+    return wrap
+
+
+def get_controller(name: str) -> ControllerSpec:
+    """The registered controller ``name``; ValueError listing the known names otherwise."""
+    try:
+        return CONTROLLERS[name]
+    except KeyError:
+        raise ValueError(f"unknown controller {name!r}; known controllers: "
+                         f"{sorted(CONTROLLERS)}") from None

@@ -1,0 +1,141 @@
+"""One name for every way to drive the robots: a decision policy or a controller, built in or not.
+
+:func:`resolve` turns what a config or the command line says (``policies = [...]`` of an
+experiment, ``fftnav episode --policy``) into a :class:`Resolved`:
+
+1. a registered name: a decision policy of :data:`~fftnav.planning.policies.POLICIES`
+   (``fusion``, ``bug-left``, ...; run by the Bug planner) or a controller of
+   :data:`~fftnav.planning.controllers.CONTROLLERS` (``vfh``, ``ftg``, ``fft-go``);
+2. ``module:attr`` or ``path/to/file.py:attr`` (:func:`fftnav.plugins.load_reference`);
+3. the name of an entry point in the group ``fftnav.policies`` of an installed package.
+
+The object found must be a :class:`~fftnav.planning.controllers.Controller` subclass (a
+controller), a :class:`~fftnav.planning.policies.Policy` or a plain function
+``(DecisionContext) -> +1 | -1`` (a decision policy). Its rows carry its ``name`` attribute if it
+has one, else the attribute's name (the entry point's name for an entry point). Anything else
+raises ``ValueError`` with one line, before any episode starts.
+
+>>> resolve("fusion").policy.name, resolve("vfh").controller.name
+('fusion', 'vfh')
+>>> try:
+...     resolve("nope")
+... except ValueError as exc:
+...     print(str(exc)[:60])
+unknown policy or controller 'nope': not a registered name (
+"""
+
+from __future__ import annotations
+
+import functools
+import inspect
+import re
+from dataclasses import dataclass
+from pathlib import Path
+
+from fftnav.planning import baselines  # noqa: F401  (registers vfh, ftg, fft-go)
+from fftnav.planning.controllers import CONTROLLERS, Controller, ControllerSpec
+from fftnav.planning.policies import POLICIES, Policy
+from fftnav.plugins import PluginError, entry_points, is_reference, load_reference, reference_file
+
+__all__ = ["ENTRY_POINT_GROUP", "Resolved", "registered_names", "resolve"]
+
+#: Entry-point group in which installed packages declare policies and controllers.
+ENTRY_POINT_GROUP = "fftnav.policies"
+_NAME = re.compile(r"^[A-Za-z0-9_.+-]+$")
+
+
+@dataclass(frozen=True)
+class Resolved:
+    """A policy or controller found by :func:`resolve`.
+
+    Attributes
+    ----------
+    name : str
+        The name its rows carry (``policy`` column, task file names).
+    reference : str
+        What was asked for.
+    policy : Policy or None
+        The decision policy (run by the Bug planner), or None for a controller.
+    controller : type[Controller] or None
+        The controller class, or None for a decision policy.
+    file : Path or None
+        The plugin's Python file for a ``file.py:attr`` reference.
+    """
+
+    name: str
+    reference: str
+    policy: Policy | None = None
+    controller: type[Controller] | None = None
+    file: Path | None = None
+
+
+def registered_names() -> tuple[str, ...]:
+    """The built-in decision policies, then the built-in controllers, in registration order."""
+    return (*POLICIES, *(n for n in CONTROLLERS if n not in POLICIES))
+
+
+def _wrap(obj: object, reference: str, default_name: str, file: Path | None) -> Resolved:
+    own = getattr(obj, "name", "")
+    name = own if isinstance(own, str) and own else default_name
+    if not _NAME.match(name):
+        raise PluginError(f"{reference!r}: its name must be letters, digits and '_.+-', got "
+                          f"name={name!r}; set a name attribute")
+    if isinstance(obj, ControllerSpec):
+        obj = obj.factory
+    if isinstance(obj, type) and issubclass(obj, Controller):
+        if obj is Controller:
+            raise PluginError(f"{reference!r} is the Controller base class; subclass it")
+        return Resolved(name, reference, controller=obj, file=file)
+    if isinstance(obj, Policy):
+        return Resolved(name, reference, policy=obj, file=file)
+    if inspect.isfunction(obj) or inspect.isbuiltin(obj):
+        return Resolved(name, reference, policy=Policy(name, obj, False, obj.__doc__ or ""),
+                        file=file)
+    raise PluginError(f"{reference!r} must be a Controller subclass, a Policy or a decision "
+                      f"function, got {type(obj).__name__}")
+
+
+@functools.lru_cache(maxsize=64)
+def resolve(reference: str) -> Resolved:
+    """The decision policy or controller that ``reference`` names.
+
+    Parameters
+    ----------
+    reference : str
+        A registered name, ``module:attr``, ``path/to/file.py:attr`` or an entry-point name.
+
+    Returns
+    -------
+    Resolved
+
+    Raises
+    ------
+    fftnav.plugins.PluginError
+        (a ``ValueError``) unknown name, import error, or an object of the wrong kind; one line.
+    """
+    if not isinstance(reference, str) or not reference:
+        raise PluginError(f"a policy or controller must be a non-empty string, got {reference!r}")
+    if reference in POLICIES:
+        return Resolved(reference, reference, policy=POLICIES[reference])
+    if reference in CONTROLLERS:
+        return Resolved(reference, reference, controller=CONTROLLERS[reference].factory)
+    if is_reference(reference):
+        obj = load_reference(reference)
+        file = reference_file(reference)
+        found = _wrap(obj, reference, reference.rpartition(":")[2].rsplit(".", 1)[-1], file)
+    elif reference in entry_points(ENTRY_POINT_GROUP):
+        obj = load_reference(reference, group=ENTRY_POINT_GROUP)
+        found = _wrap(obj, reference, reference, None)
+    else:
+        raise PluginError(
+            f"unknown policy or controller {reference!r}: not a registered name "
+            f"({', '.join(sorted(registered_names()))}), module:attr, file.py:attr or an entry "
+            f"point of group {ENTRY_POINT_GROUP!r}")
+    builtin = POLICIES.get(found.name) or CONTROLLERS.get(found.name)
+    if builtin is not None:
+        same = (found.policy is builtin) or (isinstance(builtin, ControllerSpec)
+                                            and found.controller is builtin.factory)
+        if not same:
+            raise PluginError(f"{reference!r} is named {found.name!r}, the name of a built-in "
+                              "policy or controller; give it another name attribute")
+    return found

@@ -1,0 +1,150 @@
+"""Load a plugin object named by a reference string: ``module:attr``, ``path/to/file.py:attr``
+or an entry point of an installed package.
+
+This module only finds and imports objects; what they must be (a decision policy, a
+controller) is checked by :mod:`fftnav.planning.resolve`. Standard library only.
+
+Reference forms:
+
+``package.module:attr``
+    ``importlib.import_module("package.module")``, then the attribute ``attr`` (dotted
+    attributes such as ``module:Class.factory`` are followed).
+``path/to/file.py:attr``
+    The Python file is executed as a fresh module (its name derived from its path, so it is
+    loaded once per process); relative paths are taken from the current directory.
+entry point
+    A bare name found in the entry-point group (``fftnav.policies`` for policies and
+    controllers), as an installed package declares it in its ``pyproject.toml``::
+
+        [project.entry-points."fftnav.policies"]
+        my-policy = "my_package.module:MyController"
+
+Every failure raises :class:`PluginError` (a ``ValueError``) with a one-line message naming the
+reference, so the CLI prints it and exits 2 before any episode starts.
+
+>>> load_reference("math:pi")
+3.141592653589793
+>>> try:
+...     load_reference("math:nope")
+... except PluginError as exc:
+...     print(exc)
+cannot load 'math:nope': module 'math' has no attribute 'nope'
+"""
+
+from __future__ import annotations
+
+import hashlib
+import importlib
+import importlib.metadata
+import importlib.util
+import re
+import sys
+from pathlib import Path
+from typing import Any
+
+__all__ = ["PluginError", "entry_points", "file_sha256", "is_reference", "load_reference",
+           "reference_file"]
+
+_ATTR = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+
+
+class PluginError(ValueError):
+    """A plugin reference that cannot be loaded (bad form, missing file, import error)."""
+
+
+def is_reference(text: str) -> bool:
+    """Whether ``text`` has the form ``something:attr`` (a module or file reference)."""
+    head, sep, attr = text.rpartition(":")
+    return bool(sep and head and _ATTR.match(attr))
+
+
+def reference_file(text: str) -> Path | None:
+    """The Python file of a ``path/to/file.py:attr`` reference (resolved), else None."""
+    head, sep, _ = text.rpartition(":")
+    if sep and head.endswith(".py"):
+        return Path(head).expanduser().resolve()
+    return None
+
+
+def file_sha256(path: Path) -> str:
+    """SHA-256 of a file's bytes, hex."""
+    return hashlib.sha256(Path(path).read_bytes()).hexdigest()
+
+
+def entry_points(group: str) -> dict[str, Any]:
+    """The entry points of ``group`` of the installed distributions, by name."""
+    return {ep.name: ep for ep in importlib.metadata.entry_points(group=group)}
+
+
+def _attribute(obj: Any, attr: str, where: str) -> Any:
+    for part in attr.split("."):
+        try:
+            obj = getattr(obj, part)
+        except AttributeError:
+            raise AttributeError(f"{where} has no attribute {attr!r}") from None
+    return obj
+
+
+def _load_file(path: Path) -> Any:
+    name = "fftnav_plugin_" + hashlib.sha1(str(path).encode()).hexdigest()[:12]
+    if name in sys.modules:
+        return sys.modules[name]
+    if not path.is_file():
+        raise FileNotFoundError(f"no such file {str(path)!r}")
+    spec = importlib.util.spec_from_file_location(name, path)
+    if spec is None or spec.loader is None:
+        raise ImportError(f"{str(path)!r} is not a Python file")
+    module = importlib.util.module_from_spec(spec)
+    sys.modules[name] = module
+    try:
+        spec.loader.exec_module(module)
+    except BaseException:
+        del sys.modules[name]
+        raise
+    return module
+
+
+def load_reference(text: str, *, group: str | None = None) -> Any:
+    """The object a reference names.
+
+    Parameters
+    ----------
+    text : str
+        ``module:attr``, ``path/to/file.py:attr`` or (with ``group``) an entry-point name.
+    group : str, optional
+        Entry-point group searched for a bare name.
+
+    Returns
+    -------
+    object
+
+    Raises
+    ------
+    PluginError
+        Malformed reference, missing module, file or attribute, or any exception raised while
+        importing the plugin (its type and message are kept, on one line).
+    """
+    if not isinstance(text, str) or not text:
+        raise PluginError(f"a plugin reference must be a non-empty string, got {text!r}")
+    try:
+        if is_reference(text):
+            head, _, attr = text.rpartition(":")
+            path = reference_file(text)
+            if path is not None:
+                module = _load_file(path)
+                return _attribute(module, attr, f"file {head!r}")
+            module = importlib.import_module(head)
+            return _attribute(module, attr, f"module {head!r}")
+        if group is not None:
+            points = entry_points(group)
+            if text in points:
+                return points[text].load()
+        raise PluginError(f"{text!r} is not a plugin reference (module:attr or file.py:attr)"
+                          + (f" nor an entry point of group {group!r}" if group else ""))
+    except PluginError:
+        raise
+    except Exception as exc:  # import errors of any kind, raised by third-party code
+        message = " ".join(str(exc).split()) or type(exc).__name__
+        if not isinstance(exc, (AttributeError, FileNotFoundError)):
+            message = f"{type(exc).__name__}: {message}"
+        raise PluginError(f"cannot load {text!r}: {message}") from None

@@ -1,0 +1,244 @@
+"""Worlds from ROS ``map_server`` maps: a YAML file and its image (PGM, PNG, ...) -> a world.
+
+The map is read as ROS ``map_server`` reads it (``map_server/src/image_loader.cpp``, mode
+``trinary``, the default): a pixel's value ``c`` is the mean of its colour channels, its
+occupancy probability is ``p = (255 - c) / 255`` (``p = c / 255`` with ``negate: 1``); the cell is
+occupied if ``p > occupied_thresh``, free if ``p < free_thresh``, unknown otherwise. ``mode:
+scale`` classifies cells the same way; ``mode: raw`` takes ``c`` as the occupancy in percent
+(occupied if ``c > 100 occupied_thresh``, free if ``c < 100 free_thresh``, ``c > 100``
+unknown). Unknown cells become obstacles by default (a robot must not plan through what was
+never seen), or free space with ``unknown="free"``. The image's first row is the top of the map;
+``origin`` is the pose of the lower-left pixel (its yaw must be 0) and ``resolution`` the cell
+size in metres.
+
+The occupied cells become axis-aligned rectangular prisms, exact to the cell: runs of occupied
+cells in each row, merged with the identical runs of the rows above, so a wall is one obstacle
+and rasterising the world at the map's resolution gives the map back. fftnav worlds start at
+(0, 0): the world frame is the map frame shifted by ``-origin``; starts and goals are given in the
+map frame (as read off RViz) and shifted too.
+
+PGM (P2 and P5, 8 and 16 bit) is read with numpy; other image formats with Pillow.
+"""
+
+from __future__ import annotations
+
+import re
+import sys
+from collections.abc import Mapping, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from fftnav.validate import check_choice, check_number, check_vector
+from fftnav.world.model import World
+from fftnav.world.obstacles import Polygon
+
+if sys.version_info >= (3, 11):
+    import tomllib
+else:  # pragma: no cover - Python 3.10
+    import tomli as tomllib
+
+__all__ = ["RosMap", "grid_rectangles", "import_ros_map", "read_pgm", "read_ros_map",
+           "read_robots_toml"]
+
+#: Height (m) of the imported obstacles' prisms.
+HEIGHT_M = 1.0
+
+
+class RosMap:
+    """A map as ``map_server`` loads it: ``occupancy`` (+1 occupied, 0 free, -1 unknown) with
+    row 0 at the **bottom** (the fftnav grid convention), ``resolution_m`` and ``origin_m``."""
+
+    def __init__(self, occupancy: np.ndarray, resolution_m: float,
+                 origin_m: tuple[float, float]) -> None:
+        self.occupancy, self.resolution_m, self.origin_m = occupancy, resolution_m, origin_m
+
+    def occupied(self, unknown: str = "occupied") -> np.ndarray:
+        """Boolean grid of obstacle cells (row 0 at the bottom); unknown cells per ``unknown``."""
+        check_choice("unknown", unknown, ("occupied", "free"))
+        return (self.occupancy == 1) | ((self.occupancy == -1) & (unknown == "occupied"))
+
+
+def read_pgm(path: str | Path) -> np.ndarray:
+    """A PGM image (``P5`` binary or ``P2`` text, maxval <= 65535) as ``(rows, cols)`` uint16,
+    first row = top of the image, values scaled to 0..255 if maxval is not 255."""
+    data = Path(path).read_bytes()
+    tokens: list[bytes] = []
+    pos = 0
+    header = re.compile(rb"\s*(?:#[^\n]*\n\s*)*(\S+)")
+    for _ in range(4):
+        m = header.match(data, pos)
+        if m is None:
+            raise ValueError(f"{path}: not a PGM file (truncated header)")
+        tokens.append(m.group(1))
+        pos = m.end()
+    magic, cols, rows, maxval = tokens[0], *(int(t) for t in tokens[1:])
+    if magic not in (b"P5", b"P2") or not 0 < maxval < 65536:
+        raise ValueError(f"{path}: not a grey PGM (P2/P5), got magic {magic!r}, maxval {maxval}")
+    if magic == b"P5":
+        dtype = np.uint8 if maxval < 256 else np.dtype(">u2")
+        raw = np.frombuffer(data, dtype=dtype, count=rows * cols, offset=pos + 1)
+    else:
+        raw = np.array(data[pos:].split()[: rows * cols], dtype=np.int64)
+    if raw.size != rows * cols:
+        raise ValueError(f"{path}: PGM holds {raw.size} pixels, expected {rows} x {cols}")
+    pixels = raw.reshape(rows, cols).astype(np.float64)
+    return pixels if maxval == 255 else pixels * (255.0 / maxval)
+
+
+def _read_image(path: Path) -> np.ndarray:
+    """Grey values 0..255 of an image, ``(rows, cols)``, first row = top."""
+    if path.suffix.lower() == ".pgm":
+        return read_pgm(path)
+    from PIL import Image  # only for non-PGM images
+
+    with Image.open(path) as img:
+        pixels = np.asarray(img.convert("RGBA") if img.mode in ("P", "LA", "PA") else img,
+                            dtype=np.float64)
+    if pixels.ndim == 3:  # map_server averages the colour channels, ignoring alpha
+        channels = 3 if pixels.shape[2] >= 3 else 1
+        pixels = pixels[..., :channels].mean(axis=2)
+    return pixels
+
+
+def read_ros_map(yaml_path: str | Path) -> RosMap:
+    """Read a ``map_server`` YAML file and its image.
+
+    Raises
+    ------
+    ValueError
+        A missing or invalid key (named), a rotated origin, an unreadable image.
+    """
+    import yaml  # pyyaml, only for ROS maps
+
+    yaml_path = Path(yaml_path)
+    try:
+        meta = yaml.safe_load(yaml_path.read_text())
+    except yaml.YAMLError as exc:
+        raise ValueError(f"{yaml_path}: invalid YAML: {' '.join(str(exc).split())}") from None
+    if not isinstance(meta, Mapping):
+        raise ValueError(f"{yaml_path}: a map YAML must be a mapping, got {meta!r:.80}")
+    for key in ("image", "resolution", "origin"):
+        if key not in meta:
+            raise ValueError(f"{yaml_path}: missing key {key!r}")
+    resolution = check_number("resolution", meta["resolution"], low=0, low_open=True)
+    origin = check_vector("origin", meta["origin"], 3)
+    if origin[2] != 0:
+        raise ValueError(f"origin yaw must be 0 (rotated maps are not supported), got "
+                         f"origin={list(meta['origin'])}")
+    negate = meta.get("negate", 0)
+    if negate not in (0, 1):
+        raise ValueError(f"negate must be 0 or 1, got negate={negate!r}")
+    occ = check_number("occupied_thresh", meta.get("occupied_thresh", 0.65), low=0, high=1)
+    free = check_number("free_thresh", meta.get("free_thresh", 0.196), low=0, high=occ)
+    mode = check_choice("mode", meta.get("mode", "trinary"), ("trinary", "scale", "raw"))
+    image = Path(str(meta["image"]))
+    image = image if image.is_absolute() else yaml_path.parent / image
+    grey = _read_image(image)
+    if mode == "raw":
+        p = grey / 100.0
+        unknown = grey > 100
+    else:
+        p = grey / 255.0 if negate else (255.0 - grey) / 255.0
+        unknown = np.zeros(grey.shape, dtype=bool)
+    occupancy = np.where(p > occ, 1, np.where(p < free, 0, -1))
+    occupancy[unknown] = -1
+    return RosMap(np.flipud(occupancy).astype(np.int8), float(resolution),
+                  (float(origin[0]), float(origin[1])))
+
+
+def grid_rectangles(grid: np.ndarray) -> list[tuple[int, int, int, int]]:
+    """Occupied cells of a boolean grid as disjoint rectangles ``(row0, row1, col0, col1)``
+    (half-open): runs of each row merged with identical runs of the next rows.
+
+    >>> g = np.array([[1, 1, 0], [1, 1, 0], [0, 0, 1]], dtype=bool)
+    >>> grid_rectangles(g)
+    [(0, 2, 0, 2), (2, 3, 2, 3)]
+    """
+    grid = np.asarray(grid, dtype=bool)
+    done: list[tuple[int, int, int, int]] = []
+    open_runs: dict[tuple[int, int], int] = {}  # (col0, col1) -> first row
+    for r in range(grid.shape[0] + 1):
+        runs: set[tuple[int, int]] = set()
+        if r < grid.shape[0]:
+            row = np.concatenate(([False], grid[r], [False])).astype(np.int8)
+            edges = np.flatnonzero(np.diff(row))
+            runs = {(int(a), int(b)) for a, b in zip(edges[::2], edges[1::2], strict=True)}
+        for run in [k for k in open_runs if k not in runs]:
+            done.append((open_runs.pop(run), r, *run))
+        for run in runs:
+            open_runs.setdefault(run, r)
+    return sorted(done)
+
+
+def read_robots_toml(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
+    """Starts and goals from a small TOML file, in the map frame::
+
+        [[robot]]
+        start = [1.0, 2.0, 90.0]   # x m, y m, yaw degrees
+        goal = [8.0, 2.0]          # x m, y m
+    """
+    data = tomllib.loads(Path(path).read_text())
+    unknown = [k for k in data if k != "robot"]
+    if unknown or not isinstance(data.get("robot"), list) or not data["robot"]:
+        raise ValueError(f"{path}: expected one or more [[robot]] tables with start and goal, "
+                         f"got keys {sorted(data)}")
+    starts, goals = [], []
+    for i, robot in enumerate(data["robot"]):
+        if not isinstance(robot, dict) or set(robot) != {"start", "goal"}:
+            raise ValueError(f"{path}: robot[{i}] must have exactly start and goal, got "
+                             f"{robot!r:.80}")
+        starts.append(check_vector(f"robot[{i}].start", robot["start"], 3))
+        goals.append(check_vector(f"robot[{i}].goal", robot["goal"], 2))
+    return np.array(starts, dtype=float), np.array(goals, dtype=float)
+
+
+def import_ros_map(yaml_path: str | Path, starts: Sequence[Sequence[float]],
+                   goals: Sequence[Sequence[float]], *, unknown: str = "occupied",
+                   name: str = "rosmap") -> World:
+    """A world from a ROS map, with robots.
+
+    Parameters
+    ----------
+    yaml_path : str or Path
+        The map's YAML file (its ``image`` relative to it).
+    starts : sequence of (x_m, y_m, yaw_deg)
+        Start poses in the map frame (yaw in degrees, as in configs).
+    goals : sequence of (x_m, y_m)
+        Goals in the map frame.
+    unknown : {"occupied", "free"}
+        What unknown cells become.
+    name : str
+        The world's ``env`` field.
+
+    Returns
+    -------
+    World
+        Size ``(cols res, rows res)``, one rectangular prism per merged block of occupied cells,
+        starts and goals shifted into the world frame; validated like a world file (a start or
+        goal outside the map or inside an obstacle is refused, naming it).
+    """
+    ros = read_ros_map(yaml_path)
+    grid = ros.occupied(unknown)
+    res = ros.resolution_m
+    obstacles = tuple(
+        Polygon(((c0 * res, r0 * res), (c1 * res, r0 * res), (c1 * res, r1 * res),
+                 (c0 * res, r1 * res)), HEIGHT_M)
+        for r0, r1, c0, c1 in grid_rectangles(grid))
+    s = np.array(starts, dtype=float).reshape(-1, 3)
+    g = np.array(goals, dtype=float).reshape(-1, 2)
+    if len(s) == 0:
+        raise ValueError("starts must be at least one start pose (x, y, yaw_deg), got none")
+    shift = np.asarray(ros.origin_m)
+    s = np.c_[s[:, :2] - shift, np.radians(s[:, 2])]
+    g = g - shift
+    rows, cols = grid.shape
+    world = World(name, 0, (cols * res, rows * res), obstacles, s, g)
+    return World.from_json(world.to_json())  # the world file's checks, with its messages
+
+
+def map_extent_text(world: World) -> str:
+    """One line describing an imported world."""
+    w, h = world.size_m
+    return (f"{w:g} m x {h:g} m, {len(world.obstacles)} rectangular obstacles, "
+            f"{len(world.starts)} robots")

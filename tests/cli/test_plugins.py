@@ -1,0 +1,77 @@
+"""Bring your own policy: the README's controller, written outside the repository and named in a
+TOML config by its file path, runs through ``fftnav run`` into summary.csv and report.md; bad
+names and changed plugins are refused in one line before any episode."""
+
+from __future__ import annotations
+
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pandas as pd
+import pytest
+
+ROOT = Path(__file__).resolve().parents[2]
+SECTION = re.search(r"### Benchmark your own method\n(.*?)\n### ",
+                    (ROOT / "README.md").read_text(), re.S).group(1)
+
+
+def fftnav(*args: str, cwd: Path) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "fftnav", *args], capture_output=True,
+                          text=True, cwd=cwd, timeout=600)
+
+
+@pytest.fixture(scope="module")
+def project(tmp_path_factory) -> Path:
+    """The README's plugin and config in a folder outside the repository."""
+    where = tmp_path_factory.mktemp("mine")
+    (where / "my_controller.py").write_text(re.search(r"```python\n(.*?)```", SECTION, re.S)[1])
+    (where / "mine.toml").write_text(re.search(r"```toml\n(.*?)```", SECTION, re.S)[1])
+    return where
+
+
+@pytest.mark.slow
+def test_the_readme_controller_runs_into_the_summary_and_the_report(project):
+    proc = fftnav("run", "mine.toml", "--out", "mine", "--workers", "1", "--quiet", cwd=project)
+    assert proc.returncode == 0, proc.stderr
+    out = project / "mine"
+    summary = pd.read_csv(out / "summary.csv")
+    assert list(summary.policy) == ["bug-left", "fusion", "safe-greedy"]
+    episodes = pd.read_csv(out / "episodes.csv")
+    mine = episodes[episodes.policy == "safe-greedy"]
+    assert len(mine) == 2 * 3 and (mine.bytes_sent == 0).all()
+    assert mine.arrived.sum() == 2  # as the README says: a naive controller
+    assert summary.set_index("policy").spl["safe-greedy"] == pytest.approx(mine.spl.mean(),
+                                                                           abs=1e-6)
+    assert "| forest | safe-greedy |" in (out / "report.md").read_text()
+    assert (out / "episodes" / "forest-7-safe-greedy.csv").exists()
+
+    # resuming with a changed plugin file is refused, naming the folder; nothing is rerun
+    plugin = project / "my_controller.py"
+    plugin.write_text(plugin.read_text().replace("0.05", "0.06"))
+    again = fftnav("run", "mine.toml", "--out", "mine", "--quiet", cwd=project)
+    assert again.returncode == 2
+    assert again.stderr.count("\n") == 1 and "different experiment config" in again.stderr
+
+
+@pytest.mark.parametrize(("reference", "match"), [
+    ("teleport", r"experiment\.policies: unknown policy or controller 'teleport'"),
+    ("missing.py:X", r"experiment\.policies: cannot load '.*missing\.py:X': no such file"),
+    ("my_controller.py:Nope", r"has no attribute 'Nope'"),
+])
+def test_bad_policies_are_refused_before_any_episode(project, reference, match):
+    config = (project / "mine.toml").read_text().replace('"my_controller.py:SafeGreedy"',
+                                                         f'"{reference}"')
+    (project / "bad.toml").write_text(config)
+    proc = fftnav("run", "bad.toml", "--out", "bad", "--quiet", cwd=project)
+    assert proc.returncode == 2 and not (project / "bad").exists()
+    assert proc.stderr.count("\n") == 1 and proc.stderr.startswith("fftnav run: error: ")
+    assert re.search(match, proc.stderr)
+
+
+def test_episode_refuses_a_bad_policy_before_reading_the_world(project):
+    proc = fftnav("episode", "--world", "no-such-world.json", "--policy", "nope.py:X",
+                  cwd=project)
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1
+    assert "cannot load 'nope.py:X': no such file" in proc.stderr

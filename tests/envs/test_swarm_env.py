@@ -1,0 +1,98 @@
+"""SwarmNavEnv: PettingZoo's own API and seed tests, rewards, terminations, truncation, render."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+pytest.importorskip("pettingzoo", reason="the optional extra fftnav[marl] is not installed")
+from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
+
+from fftnav.envs import Rewards, SwarmNavEnv  # noqa: E402
+from fftnav.world import Circle, World  # noqa: E402
+
+UP = math.pi / 2
+
+
+def _small(**kwargs):
+    return SwarmNavEnv(world_kind="forest", map_seed=3, robots=4, **kwargs)
+
+
+@pytest.mark.filterwarnings("ignore:SwarmNavEnv.reset ignores")
+def test_pettingzoo_parallel_api_test():
+    env = _small(observe_safe_mask=True, max_neighbours=2, render_mode="rgb_array")
+    parallel_api_test(env, num_cycles=60)
+    env.close()
+
+
+def test_pettingzoo_parallel_seed_test():
+    parallel_seed_test(lambda: _small(max_neighbours=2))
+
+
+def _world(obstacles, starts, goals):
+    return World("test", 0, (8.0, 10.0), tuple(obstacles), np.array(starts, float),
+                 np.array(goals, float))
+
+
+def test_rewards_terminations_and_truncation_by_hand():
+    world = _world([Circle((6.0, 5.0), 0.5, 1.0)],
+                   [[2, 1, UP], [6, 3.5, UP], [4, 1, 0.0]], [[2, 3], [6, 9], [4, 9]])
+    rewards = Rewards(progress=2.0, arrival=7.0, collision=-5.0, step=-0.01)
+    env = SwarmNavEnv(world=world, rewards=rewards)
+    obs, _ = env.reset(seed=0, options={"time_limit_s": 5.0})
+    assert env.agents == ["robot_0", "robot_1", "robot_2"]
+    assert obs["robot_0"]["goal"] == pytest.approx([2.0, 0.0], abs=1e-4)  # 2 m straight ahead
+    assert obs["robot_2"]["goal"] == pytest.approx([0.0, 8.0], abs=1e-4)  # facing +x: left
+    ahead = np.array([0.5, 0.0], np.float32)  # 5 cm per 0.1 s tick
+    done = {}
+    for tick in range(1, 51):
+        _, rew, term, trunc, info = env.step({a: ahead for a in env.agents})
+        if tick == 1:
+            assert rew["robot_0"] == pytest.approx(2.0 * 0.05 - 0.01, abs=1e-6)
+            assert rew["robot_2"] == pytest.approx(-0.01, abs=1e-3)  # sideways: no progress
+        for agent in term:
+            if term[agent] or trunc[agent]:
+                done[agent] = (tick, term[agent], trunc[agent], info[agent], rew[agent])
+    # robot 0: 2 m - 0.3 m success radius at 5 cm per tick -> arrives at tick 34
+    tick, term, trunc, info, rew = done["robot_0"]
+    assert term and info["arrived"] and tick == 34
+    assert rew == pytest.approx(2.0 * 0.05 - 0.01 + 7.0, abs=1e-3)
+    # robot 1 drives into the trunk: from y = 3.5 to its edge y = 4.5 minus r0 -> ~ tick 17
+    tick, term, trunc, info, rew = done["robot_1"]
+    assert term and info["collided"] and 15 <= tick <= 18 and rew < -4.0
+    tick, term, trunc, info, rew = done["robot_2"]  # 5 s limit: truncated at tick 50
+    assert trunc and not term and tick == 50
+    assert env.agents == []
+    env.close()
+
+
+def test_reset_options_and_render():
+    env = _small(render_mode="rgb_array")
+    env.reset(seed=1, options={"world_kind": "rocky", "map_seed": 5, "robots": 2,
+                               "sensor.beams": 180})
+    assert env.world.env == "rocky" and env.possible_agents == ["robot_0", "robot_1"]
+    assert env.observation_space("robot_0")["scan"].shape == (180,)
+    frame = env.render()
+    w, h = env.world.size_m
+    assert frame.shape == (round(h / 0.05), round(w / 0.05), 3) and frame.dtype == np.uint8
+    x, y = env.world.starts[0, :2]  # a robot is drawn blue at its start (first row = top)
+    assert tuple(frame[int((h - y) / 0.05), int(x / 0.05)]) == (30, 90, 220)
+    with pytest.raises(ValueError, match=r"sensor\.range_m must be a finite number > 0"):
+        env.reset(seed=1, options={"sensor.range_m": -1})
+    env.close()
+
+
+def test_collisions_need_not_terminate():
+    world = _world([Circle((6.0, 5.0), 0.5, 1.0)], [[6, 3.5, UP]], [[6, 9]])
+    env = SwarmNavEnv(world=world, rewards=Rewards(progress=0.0, collision=-1.0),
+                      terminate_on_collision=False)
+    env.reset(seed=0, options={"time_limit_s": 3.0})
+    hits = []
+    for _ in range(30):
+        _, rew, term, trunc, info = env.step({"robot_0": np.array([0.5, 0.0], np.float32)})
+        hits.append(info["robot_0"]["collided"])
+        assert rew["robot_0"] == (-1.0 if hits[-1] else 0.0) and not term["robot_0"]
+    assert sum(hits) >= 5 and trunc["robot_0"]  # pressed against the trunk until the limit
+    env.close()

@@ -1,0 +1,75 @@
+"""Controllers in the episode loop: rows carry their name, messages go through the channel,
+bad commands are refused, the baselines reach a goal behind an obstacle."""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+import pytest
+
+from fftnav.config import CommsConfig, EpisodeConfig, SwarmConfig
+from fftnav.episode import run_episode
+from fftnav.planning.controllers import Action, Controller
+from fftnav.world import Circle, World
+
+UP = math.pi / 2
+
+
+def _world(obstacles, starts, goals, size=(8.0, 14.0)):
+    return World("test", 0, size, tuple(obstacles), np.array(starts, float), np.array(goals, float))
+
+
+class Talker(Controller):
+    """Robot 0 says hello every tick; every robot stands still and logs its inbox."""
+
+    uses_pipeline = False
+    heard: list[tuple[int, int, int, bytes]] = []
+
+    def act(self, obs):
+        Talker.heard += [(obs.tick, obs.robot, p.sender, p.payload) for p in obs.inbox]
+        return Action(0.0, 0.0, b"hello" if obs.robot == 0 else None)
+
+
+class Wrong(Controller):
+    uses_pipeline = False
+
+    def act(self, obs):
+        return "fast"
+
+
+def test_messages_of_a_controller_travel_through_the_channel():
+    Talker.heard = []
+    world = _world([], [[1, 1, UP], [4, 1, UP], [1, 12, UP]], [[1, 5], [4, 5], [7, 12]])
+    cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=2.0),
+                      comms=CommsConfig(comm_range_m=6.0, delay_ticks=2))
+    res = run_episode(world, f"{__name__}:Talker", seed=0, config=cfg)
+    assert [r.policy for r in res.rows] == ["Talker"] * 3
+    assert [r.bytes_sent for r in res.rows] == [20 * 5, 0, 0]  # 20 ticks of 5 bytes
+    assert [r.messages_sent for r in res.rows] == [20, 0, 0]
+    # robot 1 (3 m away) hears robot 0 from tick 0 + 1 + delay on; robot 2 (11 m) never
+    ticks = sorted(t for t, robot, sender, payload in Talker.heard if robot == 1)
+    assert ticks == list(range(3, 20))
+    assert {(r, s, p) for _, r, s, p in Talker.heard} == {(1, 0, b"hello")}
+
+
+def test_a_controller_returning_no_command_is_refused():
+    world = _world([], [[1, 1, UP]], [[1, 5]])
+    with pytest.raises(ValueError, match=r"Wrong\.act must return \(v_mps, w_radps\) or an "
+                                         r"Action, got 'fast' for robot 0"):
+        run_episode(world, f"{__name__}:Wrong", seed=0,
+                    config=SwarmConfig(episode=EpisodeConfig(time_limit_s=1.0)))
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("name", ["vfh", "ftg", "fft-go"])
+def test_each_baseline_passes_a_trunk_on_its_straight_line(name):
+    """A trunk of radius 0.5 m at the middle of the straight start-goal line: the robot arrives
+    without collision, on a path at most 20 % longer than the straight line."""
+    world = _world([Circle((4.0, 7.0), 0.5, 1.0)], [[4, 1, UP]], [[4, 13]])
+    res = run_episode(world, name, seed=0,
+                      config=SwarmConfig(episode=EpisodeConfig(time_limit_s=60.0)))
+    row, path = res.rows[0], res.trajectories[0]
+    assert row.policy == name and row.arrived and not row.collided
+    assert row.path_length_m < 1.2 * 12.0
+    assert np.hypot(path[:, 0] - 4.0, path[:, 1] - 7.0).min() > 0.5 + 0.15

@@ -1,0 +1,99 @@
+"""One resolver for decision policies and controllers: names, module:attr, files, entry points."""
+
+from __future__ import annotations
+
+import textwrap
+
+import pytest
+
+from fftnav.planning.baselines import VFHController
+from fftnav.planning.controllers import CONTROLLERS, Controller
+from fftnav.planning.policies import LEFT, POLICIES, Policy
+from fftnav.planning.resolve import registered_names, resolve
+
+PLUGIN = textwrap.dedent("""\
+    from fftnav.planning.controllers import Controller
+    from fftnav.planning.policies import LEFT, Policy
+
+    class Spin(Controller):
+        uses_pipeline = False
+        def act(self, obs):
+            return 0.0, 1.0
+
+    class Named(Spin):
+        name = "my-spin"
+
+    def always_left(ctx):
+        return LEFT
+
+    FANCY = Policy("fancy-left", always_left, True, "left, and talk")
+    NUMBER = 3
+    class Vfh(Spin):
+        name = "vfh"
+    class BadName(Spin):
+        name = "has space"
+    """)
+
+
+@pytest.fixture(scope="module")
+def plugin(tmp_path_factory):
+    path = tmp_path_factory.mktemp("plugin") / "my_controllers.py"
+    path.write_text(PLUGIN)
+    return path
+
+
+def test_registered_names_are_policies_then_controllers():
+    assert registered_names() == (*POLICIES, *CONTROLLERS)
+    assert {"vfh", "ftg", "fft-go"} <= set(CONTROLLERS)
+    assert resolve("bug-left").policy is POLICIES["bug-left"]
+    assert resolve("ftg").controller is CONTROLLERS["ftg"].factory
+    assert resolve("vfh").controller is VFHController and resolve("vfh").file is None
+
+
+def test_module_reference_to_a_registered_class_keeps_its_name():
+    found = resolve("fftnav.planning.baselines:VFHController")
+    assert found.name == "vfh" and found.controller is VFHController
+
+
+def test_file_references_name_controllers_and_policies(plugin):
+    spin = resolve(f"{plugin}:Spin")
+    assert spin.name == "Spin" and issubclass(spin.controller, Controller)
+    assert spin.policy is None and spin.file == plugin.resolve()
+    assert resolve(f"{plugin}:Named").name == "my-spin"
+    left = resolve(f"{plugin}:always_left")  # a plain function is a decision policy
+    assert left.name == "always_left" and left.policy.decide(None) == LEFT
+    assert not left.policy.uses_messages
+    fancy = resolve(f"{plugin}:FANCY")
+    assert isinstance(fancy.policy, Policy) and fancy.name == "fancy-left"
+    assert fancy.policy.uses_messages
+
+
+@pytest.mark.parametrize(("attr", "match"), [
+    ("NUMBER", r"must be a Controller subclass, a Policy or a decision function, got int"),
+    ("Vfh", r"is named 'vfh', the name of a built-in policy or controller"),
+    ("BadName", r"its name must be letters, digits and '_\.\+-', got name='has space'"),
+    ("Missing", r"has no attribute 'Missing'"),
+])
+def test_wrong_objects_are_refused_in_one_line(plugin, attr, match):
+    with pytest.raises(ValueError, match=match) as info:
+        resolve(f"{plugin}:{attr}")
+    assert "\n" not in str(info.value)
+
+
+def test_unknown_name_lists_the_registered_ones():
+    with pytest.raises(ValueError, match=r"unknown policy or controller 'teleport': not a "
+                                         r"registered name \(bug-left, .*vfh\)"):
+        resolve("teleport")
+    with pytest.raises(ValueError, match="Controller base class"):
+        resolve("fftnav.planning.controllers:Controller")
+
+
+def test_an_installed_package_registers_a_controller_by_entry_point(tmp_path, monkeypatch):
+    (tmp_path / "epctl_pkg.py").write_text(PLUGIN)
+    info = tmp_path / "epctl-0.1.dist-info"
+    info.mkdir()
+    (info / "METADATA").write_text("Metadata-Version: 2.1\nName: epctl\nVersion: 0.1\n")
+    (info / "entry_points.txt").write_text("[fftnav.policies]\nspinner = epctl_pkg:Spin\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    found = resolve("spinner")
+    assert found.name == "spinner" and found.controller.__name__ == "Spin"

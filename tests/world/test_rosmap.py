@@ -1,0 +1,152 @@
+"""Worlds from ROS map_server maps: map_server's pixel semantics, exact rectangles, the round trip
+through ``fftnav world grid --ros-map``, and an episode on an imported map."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+from fftnav.world import generate_world, load_world, occupancy_grid, save_world
+from fftnav.world.rosmap import grid_rectangles, import_ros_map, read_pgm, read_ros_map
+
+
+def _yaml(path, image, *, resolution=0.1, origin=(0.0, 0.0, 0.0), **extra):
+    lines = [f"image: {image}", f"resolution: {resolution}", f"origin: {list(origin)}"]
+    lines += [f"{k}: {v}" for k, v in extra.items()]
+    path.write_text("\n".join(lines) + "\n")
+    return path
+
+
+def _pgm(path, pixels, *, ascii_=False):
+    rows, cols = pixels.shape
+    if ascii_:
+        body = "\n".join(" ".join(str(int(v)) for v in row) for row in pixels)
+        path.write_text(f"P2\n# a comment\n{cols} {rows}\n255\n{body}\n")
+    else:
+        path.write_bytes(f"P5\n# made by hand\n{cols} {rows}\n255\n".encode()
+                         + pixels.astype(np.uint8).tobytes())
+    return path
+
+
+# top image row first: 0 black (occupied), 254 free, 205 = ROS "unknown" grey, 100 (p = 0.61)
+PIXELS = np.array([[0, 254, 205],
+                   [100, 254, 0]])
+
+
+@pytest.mark.parametrize("ascii_", [False, True])
+def test_map_server_trinary_semantics(tmp_path, ascii_):
+    _pgm(tmp_path / "m.pgm", PIXELS, ascii_=ascii_)
+    assert np.array_equal(read_pgm(tmp_path / "m.pgm"), PIXELS)
+    ros = read_ros_map(_yaml(tmp_path / "m.yaml", "m.pgm"))
+    p = (255 - PIXELS) / 255  # map_server: occupied p > 0.65, free p < 0.196, else unknown
+    expect = np.where(p > 0.65, 1, np.where(p < 0.196, 0, -1))
+    assert np.array_equal(ros.occupancy, np.flipud(expect))  # row 0 = bottom of the map
+    ros = read_ros_map(_yaml(tmp_path / "n.yaml", "m.pgm", negate=1, occupied_thresh=0.5,
+                             free_thresh=0.1))
+    p = PIXELS / 255
+    assert np.array_equal(ros.occupancy, np.flipud(np.where(p > 0.5, 1, np.where(p < 0.1, 0, -1))))
+
+
+def test_png_colour_channels_are_averaged(tmp_path):
+    from PIL import Image
+
+    rgb = np.zeros((2, 2, 3), dtype=np.uint8)
+    rgb[0, 0] = (255, 255, 255)  # white: free
+    rgb[0, 1] = (255, 0, 0)  # mean 85: p = 0.67 > 0.65, occupied
+    rgb[1, 0] = (255, 255, 0)  # mean 170: p = 0.33, unknown
+    Image.fromarray(rgb).save(tmp_path / "m.png")
+    ros = read_ros_map(_yaml(tmp_path / "m.yaml", "m.png"))
+    assert ros.occupancy.tolist() == [[-1, 1], [0, 1]]
+
+
+def test_rectangles_cover_exactly_the_occupied_cells():
+    rng = np.random.default_rng(5)
+    grid = rng.random((40, 30)) < 0.3
+    rects = grid_rectangles(grid)
+    painted = np.zeros(grid.shape, dtype=int)
+    for r0, r1, c0, c1 in rects:
+        painted[r0:r1, c0:c1] += 1
+    assert np.array_equal(painted, grid.astype(int))  # exact and disjoint
+    runs = sum(np.count_nonzero(np.diff(np.r_[0, row.astype(int), 0]) == 1) for row in grid)
+    assert len(rects) < runs
+    block = np.zeros((20, 20), dtype=bool)
+    block[5:15, 3:18] = True  # a wall block is one obstacle, an L two
+    assert grid_rectangles(block) == [(5, 15, 3, 18)]
+    block[15:18, 3:6] = True
+    assert grid_rectangles(block) == [(5, 15, 3, 18), (15, 18, 3, 6)]
+
+
+@pytest.mark.parametrize("resolution", [0.05, 0.1])
+def test_round_trip_through_a_ros_map_gives_the_same_grid(tmp_path, resolution):
+    world = generate_world("forest", 4, robots=3, size_m=[8.0, 8.0], goal_y_m=7.0)
+    save_world(world, tmp_path / "w.json")
+    subprocess.run([sys.executable, "-m", "fftnav", "world", "grid", str(tmp_path / "w.json"),
+                    "--resolution", str(resolution), "--out", str(tmp_path / "g.npy"),
+                    "--ros-map", str(tmp_path / "map")], check=True, capture_output=True)
+    starts = np.c_[world.starts[:, :2], np.degrees(world.starts[:, 2])]
+    back = import_ros_map(tmp_path / "map.yaml", starts, world.goals)
+    original = occupancy_grid(world, resolution_m=resolution).grid
+    assert np.array_equal(original, np.load(tmp_path / "g.npy"))
+    assert np.array_equal(occupancy_grid(back, resolution_m=resolution).grid, original)
+    assert np.allclose(back.starts, world.starts) and np.allclose(back.goals, world.goals)
+
+
+def test_origin_shifts_the_map_into_the_world_frame(tmp_path):
+    pixels = np.full((20, 30), 254)
+    pixels[0:5, 10:12] = 0  # a wall at the top of the image
+    _pgm(tmp_path / "m.pgm", pixels)
+    yaml = _yaml(tmp_path / "m.yaml", "m.pgm", resolution=0.2, origin=(-3.0, 1.0, 0.0))
+    world = import_ros_map(yaml, [[-2.0, 2.0, 90.0]], [[2.0, 4.0]])
+    assert world.size_m == pytest.approx((6.0, 4.0))
+    assert world.starts[0] == pytest.approx([1.0, 1.0, np.pi / 2])
+    assert world.goals[0] == pytest.approx([5.0, 3.0])
+    assert len(world.obstacles) == 1
+    lo, hi = world.obstacles[0].bounds()
+    assert lo == pytest.approx([2.0, 3.0]) and hi == pytest.approx([2.4, 4.0])
+
+
+@pytest.mark.parametrize(("kwargs", "starts", "match"), [
+    ({"origin": (0.0, 0.0, 0.5)}, [[1, 1, 0]], r"origin yaw must be 0"),
+    ({"negate": 2}, [[1, 1, 0]], r"negate must be 0 or 1, got negate=2"),
+    ({"resolution": -1}, [[1, 1, 0]], r"resolution must be a finite number > 0"),
+    ({}, [[2.1, 1.8, 0]], r"starts\[0\] lies inside obstacles\[0\]"),
+])
+def test_bad_maps_and_robots_are_refused(tmp_path, kwargs, starts, match):
+    pixels = np.full((20, 30), 254)
+    pixels[0:5, 20:22] = 0
+    _pgm(tmp_path / "m.pgm", pixels)
+    yaml = _yaml(tmp_path / "m.yaml", "m.pgm", **{"resolution": 0.1, **kwargs})
+    with pytest.raises(ValueError, match=match):
+        import_ros_map(yaml, starts, [[0.5, 0.5]])
+
+
+@pytest.mark.slow
+def test_an_imported_map_runs_an_episode_from_the_command_line(tmp_path):
+    pixels = np.full((60, 40), 254)  # 4 m x 6 m room at 0.1 m, a wall across the middle
+    pixels[:, 0] = pixels[:, -1] = pixels[0, :] = pixels[-1, :] = 0
+    pixels[29:31, 0:26] = 0
+    _pgm(tmp_path / "room.pgm", pixels)
+    _yaml(tmp_path / "room.yaml", "room.pgm", origin=(-2.0, -3.0, 0.0))
+    (tmp_path / "robots.toml").write_text(
+        "[[robot]]\nstart = [-1.0, -2.0, 90.0]\ngoal = [-1.0, 2.0]\n")
+
+    def fftnav(*args):
+        return subprocess.run([sys.executable, "-m", "fftnav", *args], capture_output=True,
+                              text=True, cwd=tmp_path, timeout=300)
+
+    proc = fftnav("world", "import", "room.yaml", "--robots", "robots.toml", "--out", "w.json")
+    assert proc.returncode == 0, proc.stderr
+    world = load_world(tmp_path / "w.json")
+    assert world.size_m == pytest.approx((4.0, 6.0)) and len(world.obstacles) <= 6
+    proc = fftnav("episode", "--world", "w.json", "--policy", "bug-right", "--out", "e.csv",
+                  "--set", "time_limit_s=60")
+    assert proc.returncode == 0, proc.stderr
+    row = (tmp_path / "e.csv").read_text().splitlines()[1].split(",")
+    assert row[2] == "true" and row[3] == "false"  # arrived, no collision
+    assert float(row[5]) > 4.0  # the optimal path goes around the wall (A* on the import)
+    bad = fftnav("world", "import", "room.yaml", "--start", "0", "0", "0", "--out", "x.json")
+    assert bad.returncode == 2 and bad.stderr.count("\n") == 1
+    assert "as many --start X Y YAW_DEG as --goal X Y" in bad.stderr
