@@ -8,21 +8,33 @@ import json
 from fftnav.world.kinds import world_kinds
 
 
-def _report(result: dict, args: argparse.Namespace, table: str) -> int:
-    """Record ``result`` in ``--csv`` if asked, then print it as JSON or as a table."""
-    if args.csv:
-        from fftnav.bench.pipeline import record_csv
+def _report(result: dict, args: argparse.Namespace, table: str,
+            match: tuple[str, ...] = ()) -> int:
+    """Record ``result`` in ``--csv`` if asked, then print it as JSON or as a table followed by
+    the comparison with the paper and with the previous record (``--previous``, read before
+    ``--csv`` is written; rows of the same ``match`` keys)."""
+    from fftnav.bench.compare import format_comparison, previous_row
+    from fftnav.bench.pipeline import record_csv
 
+    source = args.previous or args.csv or _DEFAULT_PREVIOUS[args.bench]
+    previous = previous_row(source, {k: result[k] for k in match})
+    if args.csv:
         record_csv(result, args.csv, append=args.append)
-    print(json.dumps(result) if args.json else table)
+    print(json.dumps(result) if args.json else
+          f"{table}\n{format_comparison(result, previous, source)}")
     return 0
+
+
+#: The committed results each bench compares itself with by default (if present).
+_DEFAULT_PREVIOUS = {"pipeline": "results/pipeline_latency.csv", "sim": "results/sim_speed.csv",
+                     "planning": "results/planning.csv", "scale": "results/scale.csv"}
 
 
 def cmd_bench_pipeline(args: argparse.Namespace) -> int:
     """Time the observation pipeline per scan (single and batch of 15) and its alternatives."""
     from fftnav.bench.pipeline import bench_pipeline, format_pipeline
 
-    result = bench_pipeline(repeats=args.repeats)
+    result = bench_pipeline(repeats=args.repeats, runs=args.runs)
     return _report(result, args, format_pipeline(result))
 
 
@@ -49,6 +61,8 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     b = benches.add_parser("pipeline", help="latency of the FFT observation pipeline")
     b.add_argument("--repeats", type=int, default=2000, help="timed repetitions (default 2000)")
+    b.add_argument("--runs", type=int, default=1,
+                   help="independent runs; each figure is the best of them (default 1)")
     b.set_defaults(func=cmd_bench_pipeline)
 
     s = benches.add_parser("sim", help="real-time factor of the PyBullet swarm")
@@ -67,3 +81,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         q.add_argument("--json", action="store_true", help="print one JSON object")
         q.add_argument("--csv", metavar="PATH", help="also record the run in this CSV")
         q.add_argument("--append", action="store_true", help="append to --csv instead of replacing")
+        q.add_argument("--previous", metavar="PATH",
+                       help="CSV of the previous result to compare with (default: --csv, else "
+                            "the committed file under results/)")
