@@ -159,6 +159,8 @@ class SwarmSim:
         self.world = world
         self.config = config or SimConfig()
         self._client = p.connect(p.GUI if gui else p.DIRECT)
+        # the obstacles alone, for the lidar's rays that cannot hit a robot (faster there)
+        self._static_client = p.connect(p.DIRECT)
         self._build()
         self._built_state = p.saveState(physicsClientId=self._client)
         self._reset_state(np.random.default_rng(0))
@@ -184,11 +186,15 @@ class SwarmSim:
         # every step, so one body instead of 80 makes a physics step several times cheaper.
         verts, triangles = combined_mesh(self.world.obstacles)
         if verts:
-            shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
-                                           physicsClientId=cid)
-            body = p.createMultiBody(0, shape, physicsClientId=cid)
-            p.changeDynamics(body, -1, lateralFriction=0.0, physicsClientId=cid)
-            self._filter(body, _OBSTACLE, _ROBOT | _RAYS)
+            for client in (cid, self._static_client):  # the same mesh in both clients
+                shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
+                                               physicsClientId=client)
+                body = p.createMultiBody(0, shape, physicsClientId=client)
+                p.changeDynamics(body, -1, lateralFriction=0.0, physicsClientId=client)
+                p.setCollisionFilterGroupMask(body, -1, _OBSTACLE, _ROBOT | _RAYS,
+                                              physicsClientId=client)
+            # the static client's broadphase holds the mesh's bounding box from the start
+            p.performCollisionDetection(physicsClientId=self._static_client)
         self._robots = [self._add_robot(x, y, yaw) for x, y, yaw in self.world.starts]
         if wheeled and self._robots:
             body = self._robots[0]
@@ -203,7 +209,7 @@ class SwarmSim:
                             start_m=r0 + 0.005, mask=_OBSTACLE | _ROBOT,
                             bodies=[(o.bounding_circle(), o.cull_vertices())
                                     for o in self.world.obstacles],
-                            robot_radius_m=cfg.robot.r0_m)
+                            robot_radius_m=cfg.robot.r0_m, static_client=self._static_client)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client
@@ -363,6 +369,7 @@ class SwarmSim:
         """Disconnect from the physics server (idempotent)."""
         if self._client >= 0:
             p.disconnect(physicsClientId=self._client)
+            p.disconnect(physicsClientId=self._static_client)
             self._client = -1
 
     def __enter__(self) -> SwarmSim:

@@ -141,7 +141,8 @@ def test_reset_reuses_the_world_built_once_and_repeats_an_episode_bitwise(embodi
         again = episode(sim)  # same sim after a different episode with parked robots
         assert episode(sim) == again
     assert again == fresh
-    per_build = 1 + 15 + (embodiment == "wheeled")  # obstacle mesh, robots, ground plane
+    # obstacle mesh (in the full and the lidar's static client), robots, ground plane
+    per_build = 2 + 15 + (embodiment == "wheeled")
     assert len(built) == 2 * per_build  # two simulators, each built once
 
 
