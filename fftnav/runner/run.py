@@ -7,6 +7,8 @@ Layout of the output folder ``DIR``:
 - ``episodes.csv``: all finished tasks, rebuilt atomically after every completion, sorted by
   (env, map_seed, policy, robot), so it is byte-identical whatever the completion order, the
   worker count or the executor;
+- ``reference/<env>-<map_seed>.npy``: the map's reference lengths (grid A*, geodesic), computed
+  once per map before its episodes and shared by its policies;
 - ``errors.csv`` (only if some tasks failed in this run), ``summary.csv``, ``paired_tests.csv``,
   ``config.toml`` (verbatim copy), ``config.json`` (canonical form: a rerun into the folder
   must have the same), ``run_info.json`` (versions, git revision, workers, wall time).
@@ -21,7 +23,7 @@ import platform
 import subprocess
 import sys
 import time
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -34,7 +36,7 @@ from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
 from fftnav.runner.summary import paired_tests, summarize
-from fftnav.runner.tasks import Task, TaskResult, make_tasks, run_task
+from fftnav.runner.tasks import Task, TaskResult, make_tasks, map_reference, run_task
 
 __all__ = ["CSV_COLUMNS", "RunOutcome", "run_experiment", "write_atomic"]
 
@@ -108,6 +110,9 @@ def run_experiment(
     write_atomic(out / "config.toml", config.source)
     tasks = make_tasks(config)
     todo = [t for t in tasks if fresh or not _task_csv(out, t).exists()]
+    if task_fn is run_task:  # real episodes: each map's reference lengths computed once
+        todo = _with_references(config, out, todo, executor=executor, workers=workers,
+                                scheduler=scheduler, progress=progress)
     outcome = RunOutcome(total=len(tasks), skipped=len(tasks) - len(todo), completed=0)
     bar = tqdm(total=len(tasks), initial=outcome.skipped, unit="episode", desc=config.name,
                file=sys.stderr, disable=not progress, dynamic_ncols=True)
@@ -224,6 +229,41 @@ def _check_same_experiment(config: ExperimentConfig, out: Path) -> None:
                              f"version ({record}); use another --out")
     out.mkdir(parents=True, exist_ok=True)
     write_atomic(record, canonical)
+
+
+def _with_references(config: ExperimentConfig, out: Path, todo: list[Task], *,
+                     progress: bool, **options: object) -> list[Task]:
+    """``todo`` with every map's reference lengths attached.
+
+    The grid A* and geodesic lengths of a map are the same for all its policies and cost about
+    as much as an episode: they are computed once per map, in parallel on the executor
+    (:func:`fftnav.runner.tasks.map_reference`), before the episodes, and kept in
+    ``reference/<env>-<map_seed>.npy`` (a resumed run reuses them). A map whose lengths fail
+    (an unreachable goal) is left to its episodes, which fail with the same error.
+    """
+    folder = out / "reference"
+    folder.mkdir(exist_ok=True)
+
+    def path(env: str, map_seed: int) -> Path:
+        return folder / f"{env}-{map_seed}.npy"
+
+    maps = sorted({(t.env, t.map_seed) for t in todo})
+    missing = [Task(env, seed, "", 0, False) for env, seed in maps if not path(env, seed).exists()]
+    bar = tqdm(total=len(missing), unit="map", desc="reference lengths", file=sys.stderr,
+               disable=not progress or not missing, dynamic_ncols=True)
+    try:
+        for task, result in execute(map_reference, config, missing, **options):
+            if isinstance(result, np.ndarray):
+                buffer = io.BytesIO()
+                np.save(buffer, result)
+                write_atomic(path(task.env, task.map_seed), buffer.getvalue())
+            bar.update()
+    finally:
+        bar.close()
+    known = {m: np.load(path(*m)) for m in maps if path(*m).exists()}
+    return [t if (t.env, t.map_seed) not in known else
+            replace(t, reference=tuple(tuple(row.tolist()) for row in known[t.env, t.map_seed]))
+            for t in todo]
 
 
 def _task_csv(out: Path, task: Task) -> Path:
