@@ -1,4 +1,4 @@
-"""``fftnav bench {pipeline,sim}``: measured latency and simulation speed."""
+"""``fftnav bench {pipeline,sim,scale,planning}``: measured latency and simulation speed."""
 
 from __future__ import annotations
 
@@ -42,8 +42,37 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
     """Real-time factor of the 15-robot swarm and lidar cost per tick."""
     from fftnav.bench.sim import bench_sim, format_sim
 
-    result = bench_sim(env=args.env, seconds=args.seconds, seed=args.seed)
-    return _report(result, args, format_sim(result))
+    result = bench_sim(env=args.env, seconds=args.seconds, seed=args.seed, robots=args.robots,
+                       size_m=args.size, runs=args.runs)
+    return _report(result, args, format_sim(result), match=("env", "robots"))
+
+
+def cmd_bench_scale(args: argparse.Namespace) -> int:
+    """Real-time factor and cost per robot-second for growing swarms on grown maps."""
+    from fftnav.bench.compare import previous_row
+    from fftnav.bench.scale import bench_scale, format_scale, growth, write_scale_csv
+    from fftnav.report.scale_figure import draw_scale_figure
+
+    previous = args.previous or args.csv
+    rows = bench_scale(envs=args.env, robots=args.robots, seconds=args.seconds, seed=args.seed,
+                       runs=args.runs)
+    before = {(r["env"], r["robots"]): previous_row(previous, {"env": r["env"],
+                                                               "robots": r["robots"]})
+              for r in rows}
+    write_scale_csv(rows, args.csv)
+    figure = draw_scale_figure(rows, args.figure)
+    if args.json:
+        print(json.dumps({"rows": rows, "growth": {env: growth(rows, env) for env in args.env}}))
+        return 0
+    print(format_scale(rows))
+    for r in rows:
+        old = before[r["env"], r["robots"]]
+        if old is not None:
+            print(f"  {r['env']} N={r['robots']}: {r['ms_per_robot_s']:g} ms per robot-second, "
+                  f"previous {float(old['ms_per_robot_s']):g} in {previous} "
+                  f"(new/old x{r['ms_per_robot_s'] / float(old['ms_per_robot_s']):.2f})")
+    print(f"table: {args.csv}; figure: {figure}")
+    return 0
 
 
 def cmd_bench_planning(args: argparse.Namespace) -> int:
@@ -69,7 +98,27 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--env", choices=world_kinds(), default="forest")
     s.add_argument("--seconds", type=float, default=20.0, help="simulated seconds (default 20)")
     s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--robots", type=int, default=15, help="number of robots (default 15)")
+    s.add_argument("--size", type=float, default=None, metavar="M",
+                   help="side of the square map, m (default: the preset's robots per m^2, "
+                        "20 m for 15 robots)")
+    s.add_argument("--runs", type=int, default=1,
+                   help="independent runs; the best real-time factor is reported (default 1)")
     s.set_defaults(func=cmd_bench_sim)
+
+    c = benches.add_parser("scale", help="cost per robot-second for N = 15 ... 200 robots")
+    c.add_argument("--env", choices=world_kinds(), nargs="+", default=["forest", "rocky"])
+    c.add_argument("--robots", type=int, nargs="+", default=[15, 50, 100, 200])
+    c.add_argument("--seconds", type=float, default=20.0, help="simulated seconds (default 20)")
+    c.add_argument("--seed", type=int, default=0)
+    c.add_argument("--runs", type=int, default=1, help="best of this many runs (default 1)")
+    c.add_argument("--csv", default="results/scale.csv", help="table (default results/scale.csv)")
+    c.add_argument("--figure", default="results/figures/scale.png",
+                   help="plot (default results/figures/scale.png)")
+    c.add_argument("--json", action="store_true", help="print one JSON object")
+    c.add_argument("--previous", metavar="PATH",
+                   help="CSV of the previous result to compare with (default: --csv)")
+    c.set_defaults(func=cmd_bench_scale)
 
     g = benches.add_parser("planning", help="time of the optimal-path reference (A*, geodesic)")
     g.add_argument("--env", choices=world_kinds(), default="forest")

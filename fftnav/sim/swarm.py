@@ -10,6 +10,7 @@ first observation; ``step(commands)`` applies (v, w) commands for one control pe
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -21,7 +22,7 @@ from fftnav.config import EpisodeConfig, RobotConfig, SensorConfig, SwarmConfig
 from fftnav.sim.lidar import Lidar
 from fftnav.validate import check_integer, check_number
 from fftnav.world import World
-from fftnav.world.obstacles import combined_mesh
+from fftnav.world.obstacles import Obstacle, combined_mesh
 
 __all__ = ["SimConfig", "Observation", "SwarmSim"]
 
@@ -36,6 +37,24 @@ _URDF_R0_M = 0.15
 _WHEELS = (0, 1)  # left, right
 #: Maximum wheel motor torque (N m) of the velocity controllers.
 _WHEEL_TORQUE_NM = 0.5
+#: Most vertices and indices PyBullet takes for one mesh (B3_MAX_NUM_VERTICES / _INDICES).
+_MAX_MESH_VERTICES, _MAX_MESH_INDICES = 131072, 524288
+
+
+def _meshes(obstacles: Sequence[Obstacle]) -> list[tuple[list[list[float]], list[int]]]:
+    """The obstacles as few triangle meshes as PyBullet's size limits allow: one for every
+    map of the paper's size, consecutive groups of obstacles on very large maps."""
+    groups: list[list[Obstacle]] = [[]]
+    vertices = indices = 0
+    for obstacle in obstacles:
+        v, i = obstacle.mesh()
+        if groups[-1] and (vertices + len(v) > _MAX_MESH_VERTICES
+                           or indices + i.size > _MAX_MESH_INDICES):
+            groups.append([])
+            vertices = indices = 0
+        groups[-1].append(obstacle)
+        vertices, indices = vertices + len(v), indices + i.size
+    return [combined_mesh(group) for group in groups if group]
 
 
 @dataclass(frozen=True)
@@ -184,8 +203,8 @@ class SwarmSim:
             p.changeDynamics(self._ground, -1, lateralFriction=1.0, physicsClientId=cid)
         # All obstacles form ONE static triangle mesh: Bullet updates every body's bounding box
         # every step, so one body instead of 80 makes a physics step several times cheaper.
-        verts, triangles = combined_mesh(self.world.obstacles)
-        if verts:
+        # (A map too large for one Bullet mesh, beyond _MAX_MESH_VERTICES, gets several.)
+        for verts, triangles in _meshes(self.world.obstacles):
             for client in (cid, self._static_client):  # the same mesh in both clients
                 shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
                                                physicsClientId=client)
@@ -193,8 +212,8 @@ class SwarmSim:
                 p.changeDynamics(body, -1, lateralFriction=0.0, physicsClientId=client)
                 p.setCollisionFilterGroupMask(body, -1, _OBSTACLE, _ROBOT | _RAYS,
                                               physicsClientId=client)
-            # the static client's broadphase holds the mesh's bounding box from the start
-            p.performCollisionDetection(physicsClientId=self._static_client)
+        # the static client's broadphase holds the meshes' bounding boxes from the start
+        p.performCollisionDetection(physicsClientId=self._static_client)
         self._robots = [self._add_robot(x, y, yaw) for x, y, yaw in self.world.starts]
         if wheeled and self._robots:
             body = self._robots[0]
