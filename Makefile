@@ -28,6 +28,7 @@ bench: $(STAMP)
 	$(BIN)/fftnav bench pipeline --csv results/pipeline_latency.csv
 	$(BIN)/fftnav bench sim --env forest --csv results/sim_speed.csv
 	$(BIN)/fftnav bench sim --env rocky --csv results/sim_speed.csv --append
+	$(BIN)/fftnav bench scale
 
 figures: $(STAMP)
 	$(BIN)/fftnav figure filters --out results/figures
