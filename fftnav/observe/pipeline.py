@@ -10,6 +10,7 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from functools import cached_property
@@ -43,6 +44,21 @@ __all__ = ["Pipeline", "PipelineResult", "safe_limit"]
 
 #: The FFT ufuncs' axes argument: transform along axis 1 of (2, L) arrays.
 _AXES = [(1,), (), (1,)]
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+#: x0 and P_s of one scan processed without them (``with_p_s=False``): shared, read-only NaN.
+_NAN_X0, _NAN_P_S = _read_only(np.full((1, 4), np.nan)), _read_only(np.full(1, np.nan))
+
+
+@functools.lru_cache(maxsize=256)
+def _offsets(n: int) -> np.ndarray:
+    """``offsets`` of one scan with n extrema, ``[0, n]``: shared, read-only."""
+    return _read_only(np.array([0, n]))
 
 
 def safe_limit(threshold: float) -> float:
@@ -232,8 +248,16 @@ class Pipeline:
         else:  # float32 layout, or too many extrema (pack_messages raises)
             msgs = pack_messages(sigma, is_min, [n], layout=self.layout, range_m=b.range_m)
         rows = out[:, b.tau : b.tau + m] if linear else out
-        return self._result(mask[None], rows[:1], rows[1:], sigma, is_min, np.array([0, n]),
-                            msgs, with_p_s)
+        offsets = _offsets(n)
+        if with_p_s:
+            return self._result(mask[None], rows[:1], rows[1:], sigma, is_min, offsets, msgs,
+                                True)
+        # the fields set directly: the frozen dataclass's __init__ costs a microsecond here
+        result = object.__new__(PipelineResult)
+        result.__dict__.update(safe_mask=mask[None], y1=rows[:1], y2=rows[1:], sigma_flat=sigma,
+                               is_min_flat=is_min, offsets=offsets, messages=msgs,
+                               x0=_NAN_X0, p_s=_NAN_P_S)
+        return result
 
     def _result(self, mask: np.ndarray, y1: np.ndarray, y2: np.ndarray, flat: np.ndarray,
                 flat_min: np.ndarray, off: np.ndarray, msgs: list[bytes],

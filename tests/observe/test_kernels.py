@@ -35,13 +35,15 @@ def differences(fast: Pipeline, slow: Pipeline, scans: np.ndarray) -> list[str]:
     """Names of the outputs that differ between the two pipelines, with the first scan."""
     found = []
     for i, scan in enumerate(scans):
-        a, b = fast.process(scan), slow.process(scan)
-        found += [f"{name} (scan {i})" for name in FIELDS
-                  if not np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True)]
-        if a.messages != b.messages:
-            found.append(f"messages (scan {i})")
-        if found:
-            return found
+        for with_p_s in (True, False):
+            a, b = fast.process(scan, with_p_s=with_p_s), slow.process(scan, with_p_s=with_p_s)
+            found += [f"{name} (scan {i})" for name in FIELDS
+                      if not np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True)
+                      or getattr(a, name).shape != getattr(b, name).shape]
+            if a.messages != b.messages or a.sigma[0].tobytes() != b.sigma[0].tobytes():
+                found.append(f"messages or sigma (scan {i})")
+            if found:
+                return found
     return found
 
 
