@@ -32,6 +32,10 @@ def draw_scale_figure(rows: Sequence[dict[str, Any]], path: str | Path) -> Path:
     for ax in (rtf, cost):
         ax.grid(alpha=0.3)
         ax.legend()
+    loads = [float(r["load_avg_1min"]) for r in rows if "load_avg_1min" in r]
+    if loads:  # the machine's state is part of the measurement
+        fig.suptitle(f"1-min load average {min(loads):.1f} to {max(loads):.1f} during the runs",
+                     fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path, dpi=120)
