@@ -12,7 +12,7 @@ install: $(STAMP)
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,marl]'
+	$(BIN)/python -m pip install --quiet -e '.[test,marl,fast]'
 	touch $(STAMP)
 
 test: $(STAMP)
@@ -30,6 +30,7 @@ bench: $(STAMP)
 	$(BIN)/fftnav bench sim --env rocky --csv results/sim_speed.csv --append
 	$(BIN)/fftnav bench worlds --csv results/large_worlds.csv
 	$(BIN)/fftnav bench env --csv results/env_speed.csv
+	$(BIN)/fftnav bench scale
 
 figures: $(STAMP)
 	$(BIN)/fftnav figure filters --out results/figures

@@ -1,5 +1,5 @@
-"""``fftnav bench {pipeline,sim,planning,worlds}``: measured latency, simulation speed, large
-worlds."""
+"""``fftnav bench {pipeline,sim,scale,env,planning,worlds}``: measured latency, simulation speed,
+scale, the PettingZoo environment, large worlds."""
 
 from __future__ import annotations
 
@@ -9,21 +9,33 @@ import json
 from fftnav.world.kinds import world_kinds
 
 
-def _report(result: dict, args: argparse.Namespace, table: str) -> int:
-    """Record ``result`` in ``--csv`` if asked, then print it as JSON or as a table."""
-    if args.csv:
-        from fftnav.bench.pipeline import record_csv
+def _report(result: dict, args: argparse.Namespace, table: str,
+            match: tuple[str, ...] = ()) -> int:
+    """Record ``result`` in ``--csv`` if asked, then print it as JSON or as a table followed by
+    the comparison with the paper and with the previous record (``--previous``, read before
+    ``--csv`` is written; rows of the same ``match`` keys)."""
+    from fftnav.bench.compare import format_comparison, previous_row
+    from fftnav.bench.pipeline import record_csv
 
+    source = args.previous or args.csv or _DEFAULT_PREVIOUS[args.bench]
+    previous = previous_row(source, {k: result[k] for k in match})
+    if args.csv:
         record_csv(result, args.csv, append=args.append)
-    print(json.dumps(result) if args.json else table)
+    print(json.dumps(result) if args.json else
+          f"{table}\n{format_comparison(result, previous, source)}")
     return 0
+
+
+#: The committed results each bench compares itself with by default (if present).
+_DEFAULT_PREVIOUS = {"pipeline": "results/pipeline_latency.csv", "sim": "results/sim_speed.csv",
+                     "planning": "results/planning.csv", "scale": "results/scale.csv"}
 
 
 def cmd_bench_pipeline(args: argparse.Namespace) -> int:
     """Time the observation pipeline per scan (single and batch of 15) and its alternatives."""
     from fftnav.bench.pipeline import bench_pipeline, format_pipeline
 
-    result = bench_pipeline(repeats=args.repeats)
+    result = bench_pipeline(repeats=args.repeats, runs=args.runs)
     return _report(result, args, format_pipeline(result))
 
 
@@ -31,8 +43,37 @@ def cmd_bench_sim(args: argparse.Namespace) -> int:
     """Real-time factor of the 15-robot swarm and lidar cost per tick."""
     from fftnav.bench.sim import bench_sim, format_sim
 
-    result = bench_sim(env=args.env, seconds=args.seconds, seed=args.seed)
-    return _report(result, args, format_sim(result))
+    result = bench_sim(env=args.env, seconds=args.seconds, seed=args.seed, robots=args.robots,
+                       size_m=args.size, runs=args.runs)
+    return _report(result, args, format_sim(result), match=("env", "robots"))
+
+
+def cmd_bench_scale(args: argparse.Namespace) -> int:
+    """Real-time factor and cost per robot-second for growing swarms on grown maps."""
+    from fftnav.bench.compare import previous_row
+    from fftnav.bench.scale import bench_scale, format_scale, growth, write_scale_csv
+    from fftnav.report.scale_figure import draw_scale_figure
+
+    previous = args.previous or args.csv
+    rows = bench_scale(envs=args.env, robots=args.robots, seconds=args.seconds, seed=args.seed,
+                       runs=args.runs)
+    before = {(r["env"], r["robots"]): previous_row(previous, {"env": r["env"],
+                                                               "robots": r["robots"]})
+              for r in rows}
+    write_scale_csv(rows, args.csv)
+    figure = draw_scale_figure(rows, args.figure)
+    if args.json:
+        print(json.dumps({"rows": rows, "growth": {env: growth(rows, env) for env in args.env}}))
+        return 0
+    print(format_scale(rows))
+    for r in rows:
+        old = before[r["env"], r["robots"]]
+        if old is not None:
+            print(f"  {r['env']} N={r['robots']}: {r['ms_per_robot_s']:g} ms per robot-second, "
+                  f"previous {float(old['ms_per_robot_s']):g} in {previous} "
+                  f"(new/old x{r['ms_per_robot_s'] / float(old['ms_per_robot_s']):.2f})")
+    print(f"table: {args.csv}; figure: {figure}")
+    return 0
 
 
 def cmd_bench_env(args: argparse.Namespace) -> int:
@@ -72,12 +113,20 @@ def register(sub: argparse._SubParsersAction) -> None:
 
     b = benches.add_parser("pipeline", help="latency of the FFT observation pipeline")
     b.add_argument("--repeats", type=int, default=2000, help="timed repetitions (default 2000)")
+    b.add_argument("--runs", type=int, default=1,
+                   help="independent runs; each figure is the best of them (default 1)")
     b.set_defaults(func=cmd_bench_pipeline)
 
     s = benches.add_parser("sim", help="real-time factor of the PyBullet swarm")
     s.add_argument("--env", choices=world_kinds(), default="forest")
     s.add_argument("--seconds", type=float, default=20.0, help="simulated seconds (default 20)")
     s.add_argument("--seed", type=int, default=0)
+    s.add_argument("--robots", type=int, default=15, help="number of robots (default 15)")
+    s.add_argument("--size", type=float, default=None, metavar="M",
+                   help="side of the square map, m (default: the preset's robots per m^2, "
+                        "20 m for 15 robots)")
+    s.add_argument("--runs", type=int, default=1,
+                   help="independent runs; the best real-time factor is reported (default 1)")
     s.set_defaults(func=cmd_bench_sim)
 
     e = benches.add_parser("env", help="speed of the PettingZoo environment beside bench sim "
@@ -86,6 +135,19 @@ def register(sub: argparse._SubParsersAction) -> None:
     e.add_argument("--seconds", type=float, default=60.0, help="simulated seconds (default 60)")
     e.add_argument("--seed", type=int, default=0)
     e.set_defaults(func=cmd_bench_env)
+    c = benches.add_parser("scale", help="cost per robot-second for N = 15 ... 200 robots")
+    c.add_argument("--env", choices=world_kinds(), nargs="+", default=["forest", "rocky"])
+    c.add_argument("--robots", type=int, nargs="+", default=[15, 50, 100, 200])
+    c.add_argument("--seconds", type=float, default=20.0, help="simulated seconds (default 20)")
+    c.add_argument("--seed", type=int, default=0)
+    c.add_argument("--runs", type=int, default=1, help="best of this many runs (default 1)")
+    c.add_argument("--csv", default="results/scale.csv", help="table (default results/scale.csv)")
+    c.add_argument("--figure", default="results/figures/scale.png",
+                   help="plot (default results/figures/scale.png)")
+    c.add_argument("--json", action="store_true", help="print one JSON object")
+    c.add_argument("--previous", metavar="PATH",
+                   help="CSV of the previous result to compare with (default: --csv)")
+    c.set_defaults(func=cmd_bench_scale)
 
     g = benches.add_parser("planning", help="time of the optimal-path reference (A*, geodesic)")
     g.add_argument("--env", choices=world_kinds(), default="forest")
@@ -107,3 +169,6 @@ def register(sub: argparse._SubParsersAction) -> None:
         q.add_argument("--json", action="store_true", help="print one JSON object")
         q.add_argument("--csv", metavar="PATH", help="also record the run in this CSV")
         q.add_argument("--append", action="store_true", help="append to --csv instead of replacing")
+        q.add_argument("--previous", metavar="PATH",
+                       help="CSV of the previous result to compare with (default: --csv, else "
+                            "the committed file under results/)")

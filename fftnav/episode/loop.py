@@ -137,6 +137,7 @@ def run_episode(
     seed: int = 0,
     config: SwarmConfig | None = None,
     gui: bool = False,
+    reference: tuple[np.ndarray, np.ndarray] | None = None,
 ) -> EpisodeResult:
     """Run every robot of ``world`` to its goal under decision ``policy``.
 
@@ -156,6 +157,10 @@ def run_episode(
         Robot, sensor, communication and episode parameters (default: the paper's setting).
     gui : bool
         Open the PyBullet GUI.
+    reference : (ndarray, ndarray), optional
+        The robots' grid A* and geodesic lengths (m) if already known (an experiment computes
+        them once per map); default: computed here
+        (:func:`fftnav.planning.reference.optimal_lengths`, cached per process).
 
     Returns
     -------
@@ -178,7 +183,8 @@ def run_episode(
     pol = resolve(policy)
     sim_seed, rng = _seeds(seed)
     swarm = _Swarm(world, pol, cfg, rng)
-    optimal, geodesic = _reference_lengths(world.to_json(), cfg.robot.r0_m)  # unreachable: fail
+    optimal, geodesic = (_reference_lengths(world.to_json(), cfg.robot.r0_m)  # unreachable: fail
+                         if reference is None else reference)
     with SwarmSim(world, config=SimConfig.for_swarm(cfg), gui=gui) as sim:
         obs = sim.reset(seed=sim_seed)
         robots = _Robots.start(obs)

@@ -29,6 +29,8 @@ __all__ = [
     "encode_sigma",
     "encode_batch",
     "pack_messages",
+    "packed_message",
+    "codec_scales",
     "decode_sigma",
     "decode_message",
 ]
@@ -113,6 +115,18 @@ def encode_batch(
     return pack_messages(sig[rows], flags[rows], counts.tolist(), layout=layout, range_m=range_m)
 
 
+def codec_scales(range_m: float) -> tuple[float, float]:
+    """Factors of the compact layout's quantisation: angle (rad) and distance (m) to levels."""
+    return _ANGLE_LEVELS / _TWO_PI, _DIST_MAX / range_m
+
+
+def packed_message(part: bytes, n: int, layout: str = "compact") -> bytes:
+    """One message from its packed payload ``part`` of ``n`` extrema: header, payload, CRC."""
+    # the CRC runs on from the header's: crc(header + part) without building that body
+    return (_HEADS[layout][n] + part
+            + binascii.crc_hqx(part, _HEAD_CRCS[layout][n]).to_bytes(2, "big"))
+
+
 def pack_messages(
     sigma: np.ndarray, is_min: np.ndarray, counts: list[int], *, layout: str, range_m: float
 ) -> list[bytes]:
@@ -126,20 +140,18 @@ def pack_messages(
         dist = np.where(is_min, -sigma[:, 1], sigma[:, 1])
         payload = np.column_stack([sigma[:, 0], dist]).astype("<f4").tobytes()
     else:
-        q = np.rint(sigma * (_ANGLE_LEVELS / _TWO_PI, _DIST_MAX / range_m)).astype(np.int64)
+        q = np.rint(sigma * codec_scales(range_m)).astype(np.int64)
         word = q[:, 0] << 12
         word &= 0xFFF000  # the angle modulo 4096 (two's complement), in bits 23..12
         word |= q[:, 1]
         word |= is_min << 11  # the minimum bit
         payload = word.astype(">u4").view(np.uint8).reshape(-1, 4)[:, 1:].tobytes()
-    size, heads, head_crcs = _ITEM_BYTES[layout], _HEADS[layout], _HEAD_CRCS[layout]
+    size = _ITEM_BYTES[layout]
     out, a = [], 0
     for n in counts:
         z = a + n * size
-        part = payload[a:z]
+        out.append(packed_message(payload[a:z], n, layout))
         a = z
-        # the CRC runs on from the header's: crc(header + part) without building that body
-        out.append(heads[n] + part + binascii.crc_hqx(part, head_crcs[n]).to_bytes(2, "big"))
     return out
 
 

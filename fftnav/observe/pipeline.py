@@ -10,22 +10,62 @@
 
 from __future__ import annotations
 
+import functools
 import math
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
-from fftnav.observe.codec import LAYOUTS, pack_messages
-from fftnav.observe.compress import find_extrema_flat, quadrant_areas_batch
+from fftnav.observe import kernels
+from fftnav.observe.codec import LAYOUTS, codec_scales, pack_messages, packed_message
+from fftnav.observe.compress import EXTREMUM_EPS, find_extrema_flat, quadrant_areas_batch
 from fftnav.observe.filters import FilterBank
 from fftnav.observe.fusion import own_probability
 from fftnav.observe.geometry import RobotGeometry
-from fftnav.observe.safe import nearest_safe_headings, safe_mask
+from fftnav.observe.safe import SAFE_TOL, nearest_safe_headings, safe_mask
 from fftnav.observe.scan import as_scan_batch, beam_angles_rad, sanitize_ranges
 from fftnav.validate import check_choice
 
-__all__ = ["Pipeline", "PipelineResult"]
+# The single-scan path calls pocketfft without the Python wrappers of numpy.fft (a few
+# microseconds per call): scipy's binding (the fastest to call) or the ufuncs behind
+# numpy.fft.rfft / irfft (numpy >= 2), else numpy.fft itself. All run pocketfft; that the
+# results equal numpy.fft's bit for bit is tested (tests/observe/test_kernels.py).
+try:
+    from scipy.fft._pocketfft import pypocketfft as _pp
+except ImportError:  # pragma: no cover - other scipy layouts
+    _pp = None
+try:
+    from numpy.fft import _pocketfft_umath as _pfu
+except ImportError:  # pragma: no cover - numpy 1.x
+    _pfu = None
+
+__all__ = ["Pipeline", "PipelineResult", "safe_limit"]
+
+#: The FFT ufuncs' axes argument: transform along axis 1 of (2, L) arrays.
+_AXES = [(1,), (), (1,)]
+
+
+def _read_only(a: np.ndarray) -> np.ndarray:
+    a.flags.writeable = False
+    return a
+
+
+#: x0 and P_s of one scan processed without them (``with_p_s=False``): shared, read-only NaN.
+_NAN_X0, _NAN_P_S = _read_only(np.full((1, 4), np.nan)), _read_only(np.full(1, np.nan))
+
+
+@functools.lru_cache(maxsize=256)
+def _offsets(n: int) -> np.ndarray:
+    """``offsets`` of one scan with n extrema, ``[0, n]``: shared, read-only."""
+    return _read_only(np.array([0, n]))
+
+
+def safe_limit(threshold: float) -> float:
+    """The value ``y1`` must reach for a safe beam: :func:`fftnav.observe.safe.safe_mask`'s test
+    ``y1 >= threshold - tolerance``, for the compiled single-scan path (one place to change if
+    the tolerance does)."""
+    return threshold - SAFE_TOL
 
 
 @dataclass(frozen=True)
@@ -94,6 +134,10 @@ class Pipeline:
         M = 360, 360 degrees, R = 3 m, linear mode, 15 degree blind sector).
     layout : {"compact", "float32"}
         Message layout.
+    compiled : bool or None
+        Process single scans with the compiled kernels of :mod:`fftnav.observe.kernels`
+        (bit-identical results, several times faster): None (default) uses them when numba is
+        installed; False never does (the numpy path, the reference); True requires numba.
     """
 
     def __init__(
@@ -106,13 +150,31 @@ class Pipeline:
         mode: str = "linear",
         blind_rad: float | None = None,
         layout: str = "compact",
+        compiled: bool | None = None,
     ) -> None:
-        self.bank = FilterBank(
+        self.bank = b = FilterBank(
             geometry, beams=beams, fov_rad=fov_rad, range_m=range_m, mode=mode, blind_rad=blind_rad
         )
         check_choice("layout", layout, LAYOUTS)
+        if compiled and not kernels.AVAILABLE:
+            raise ValueError("compiled must be False or None without numba (pip install "
+                             "fftnav[fast]), got compiled=True")
         self.layout = layout
         self.angles_rad = beam_angles_rad(beams, fov_rad)
+        self.compiled = kernels.AVAILABLE if compiled is None else bool(compiled)
+        if self.compiled:  # workspaces of the single-scan path
+            circular = mode == "circular"
+            self._work = np.zeros((2, b.fft_size))  # columns M.. stay 0: the zero padding
+            self._spec = np.empty((2, b.fft_size // 2 + 1), dtype=complex)
+            self._inverse_scale = np.reciprocal(b.fft_size, dtype=np.float64)  # as numpy.fft
+            self._payload = np.empty(3 * beams, dtype=np.uint8)
+            # columns of the row that may hold an extremum, as find_extrema_flat
+            width = beams + 2 if circular else beams
+            self._valid = np.zeros(width, bool)
+            inner = self.angles_rad if circular else self.angles_rad[1:-1]
+            np.less_equal(np.abs(inner), math.pi - b.blind_rad / 2.0, out=self._valid[1:-1])
+            self._limit = safe_limit(b.threshold)
+            self._scales = codec_scales(range_m)
 
     def normalise(self, ranges: np.ndarray) -> np.ndarray:
         """Validated, sanitised ``(K, M)`` normalised scans ``d / R`` (a new array)."""
@@ -133,7 +195,13 @@ class Pipeline:
         the input is not modified. ``with_p_s=False`` skips the quadrant areas and P_s (NaN).
         """
         b = self.bank
-        y1, y2 = b.filter_ranges(as_scan_batch(ranges, beams=b.beams)[0])
+        if (self.compiled and type(ranges) is np.ndarray and ranges.dtype == np.float64
+                and ranges.shape == (b.beams,)):  # one scan, nothing to convert or check
+            return self._process_one(ranges, with_p_s)
+        batch = as_scan_batch(ranges, beams=b.beams)[0]
+        if self.compiled and batch.shape[0] == 1:
+            return self._process_one(batch[0], with_p_s)
+        y1, y2 = b.filter_ranges(batch)
         flat, flat_min, off = find_extrema_flat(
             y2,
             angles_rad=self.angles_rad,
@@ -144,6 +212,57 @@ class Pipeline:
         msgs = pack_messages(
             flat, flat_min, np.diff(off).tolist(), layout=self.layout, range_m=b.range_m
         )
+        return self._result(safe_mask(y1, threshold=b.threshold), y1, y2, flat, flat_min, off,
+                            msgs, with_p_s)
+
+    def _process_one(self, ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
+        """:meth:`process` of one scan by the compiled kernels around numpy's FFT (the same
+        FFT calls as :meth:`FilterBank.filter_ranges`, into preallocated arrays)."""
+        b, m = self.bank, self.bank.beams
+        kernels.prepare(ranges, b.range_m, b.threshold, self._work)
+        if _pp is not None:  # inorm=2: scaled by 1/n on the way back, as numpy.fft.irfft
+            spec, out = self._spec, np.empty((2, b.fft_size))
+            _pp.r2c(self._work, (1,), True, 0, spec, 1)
+            np.multiply(spec, b._spectra, out=spec)
+            _pp.c2r(spec, (1,), b.fft_size, False, 2, out, 1)
+        elif _pfu is not None:  # pragma: no cover - numpy.fft's ufuncs
+            spec, out = self._spec, np.empty((2, b.fft_size))
+            rfft = _pfu.rfft_n_even if b.fft_size % 2 == 0 else _pfu.rfft_n_odd
+            rfft(self._work, 1, axes=_AXES, out=spec)
+            np.multiply(spec, b._spectra, out=spec)
+            _pfu.irfft(spec, self._inverse_scale, axes=_AXES, out=out)
+        else:  # pragma: no cover - numpy 1.x
+            spec = np.fft.rfft(self._work, axis=1)
+            spec *= b._spectra
+            out = np.fft.irfft(spec, b.fft_size, axis=1)
+        mask = np.empty(m, dtype=bool)
+        sigma = np.empty((m, 2))
+        is_min = np.empty(m, dtype=bool)
+        linear = b.mode == "linear"
+        n = kernels.finish(out, b.tau if linear else 0, self._limit, self._valid, not linear,
+                           EXTREMUM_EPS, self.angles_rad, b.range_m, *self._scales, mask,
+                           sigma, is_min, self._payload)
+        sigma, is_min = sigma[:n], is_min[:n]
+        if self.layout == "compact" and n <= 255:
+            msgs = [packed_message(self._payload[: 3 * n].tobytes(), n)]
+        else:  # float32 layout, or too many extrema (pack_messages raises)
+            msgs = pack_messages(sigma, is_min, [n], layout=self.layout, range_m=b.range_m)
+        rows = out[:, b.tau : b.tau + m] if linear else out
+        offsets = _offsets(n)
+        if with_p_s:
+            return self._result(mask[None], rows[:1], rows[1:], sigma, is_min, offsets, msgs,
+                                True)
+        # the fields set directly: the frozen dataclass's __init__ costs a microsecond here
+        result = object.__new__(PipelineResult)
+        result.__dict__.update(safe_mask=mask[None], y1=rows[:1], y2=rows[1:], sigma_flat=sigma,
+                               is_min_flat=is_min, offsets=offsets, messages=msgs,
+                               x0=_NAN_X0, p_s=_NAN_P_S)
+        return result
+
+    def _result(self, mask: np.ndarray, y1: np.ndarray, y2: np.ndarray, flat: np.ndarray,
+                flat_min: np.ndarray, off: np.ndarray, msgs: list[bytes],
+                with_p_s: bool) -> PipelineResult:
+        b = self.bank
         if with_p_s:
             x0 = quadrant_areas_batch(
                 flat,
@@ -157,7 +276,7 @@ class Pipeline:
             nan = np.full((len(msgs), 5), np.nan)
             x0, p_s = nan[:, :4], nan[:, 4]
         return PipelineResult(
-            safe_mask=safe_mask(y1, threshold=b.threshold),
+            safe_mask=mask,
             y1=y1,
             y2=y2,
             sigma_flat=flat,

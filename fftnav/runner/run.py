@@ -9,6 +9,8 @@ Layout of the output folder ``DIR``:
   interruption and at the end, sorted by (env, map_seed, policy, robot), so it is
   byte-identical whatever the completion order, the worker count or the executor;
 - ``.lock`` (one run at a time), ``.invocation-PID.json`` (the wall time of a killed run);
+- ``reference/<env>-<map_seed>.npy``: the map's reference lengths (grid A*, geodesic), computed
+  once per map before its episodes and shared by its policies;
 - ``errors.csv`` (only if some tasks failed in this run), ``summary.csv``, ``paired_tests.csv``,
   ``config.toml`` (verbatim copy), ``config.json`` (canonical form: a rerun into the folder
   must have the same), ``run_info.json`` (versions, git revision, workers, wall time).
@@ -17,14 +19,16 @@ Layout of the output folder ``DIR``:
 from __future__ import annotations
 
 import io
+import itertools
 import json
 import os
 import platform
+import shutil
 import subprocess
 import sys
 import time
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass, field
+from dataclasses import asdict, dataclass, field, replace
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -45,7 +49,14 @@ from fftnav.runner.resume import (
     task_file_problem,
 )
 from fftnav.runner.summary import paired_tests, summarize
-from fftnav.runner.tasks import Task, TaskResult, iter_tasks, run_task, task_count
+from fftnav.runner.tasks import (
+    Task,
+    TaskResult,
+    iter_tasks,
+    map_reference,
+    run_task,
+    task_count,
+)
 
 __all__ = ["CSV_COLUMNS", "RunOutcome", "run_experiment", "write_atomic"]
 
@@ -149,6 +160,10 @@ def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, exec
     for sub in ("episodes", "trajectories"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     write_atomic(out / "config.toml", config.source)
+    real = task_fn is run_task  # real episodes: each map's reference lengths computed once
+    if real:
+        _compute_references(config, out, fresh=fresh, progress=progress, executor=executor,
+                            workers=workers, scheduler=scheduler)
     outcome = RunOutcome(total=task_count(config), skipped=0, completed=0)
     bar = tqdm(total=outcome.total, unit="episode", desc=config.name, file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
@@ -159,7 +174,7 @@ def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, exec
                 outcome.skipped += 1
                 bar.update()
             else:
-                yield task
+                yield _with_reference(out, task) if real else task
 
     rebuilt = _EpisodesRebuild(out, config)
     results = execute(task_fn, config, todo(), executor=executor, workers=workers,
@@ -323,6 +338,60 @@ def _plugin_files(config: ExperimentConfig) -> dict[str, dict[str, str]]:
     is refused like a changed config."""
     files = {str(f.file): file_sha256(f.file) for f in config.resolved.values() if f.file}
     return {"plugin_sha256": files} if files else {}
+def _reference_path(out: Path, env: str, map_seed: int) -> Path:
+    return out / "reference" / f"{env}-{map_seed}.npy"
+
+
+def _compute_references(config: ExperimentConfig, out: Path, *, fresh: bool, progress: bool,
+                        **options: object) -> None:
+    """Compute every map's reference lengths that some unfinished task needs.
+
+    The grid A* and geodesic lengths of a map are the same for all its policies and cost about
+    as much as an episode: they are computed once per map, in parallel on the executor
+    (:func:`fftnav.runner.tasks.map_reference`), before the episodes, and kept in
+    ``reference/<env>-<map_seed>.npy`` (a resumed run reuses them; ``fresh`` recomputes them).
+    Maps are enumerated lazily. A map whose lengths fail (an unreachable goal) is left to its
+    episodes, which fail with the same error.
+    """
+    folder = out / "reference"
+    if fresh and folder.exists():
+        shutil.rmtree(folder)
+    folder.mkdir(exist_ok=True)
+
+    def missing() -> Iterator[Task]:
+        for (env, map_seed), tasks in itertools.groupby(iter_tasks(config),
+                                                        key=lambda t: (t.env, t.map_seed)):
+            if _reference_path(out, env, map_seed).exists():
+                continue
+            if fresh or not all(_task_csv(out, t).exists() for t in tasks):
+                yield Task(env, map_seed, "", 0, False)
+
+    bar = tqdm(unit="map", desc="reference lengths", file=sys.stderr, disable=not progress,
+               dynamic_ncols=True)
+    results = execute(map_reference, config, missing(), **options)
+    try:
+        for task, result in results:
+            if isinstance(result, np.ndarray):
+                buffer = io.BytesIO()
+                np.save(buffer, result)
+                write_atomic(_reference_path(out, task.env, task.map_seed), buffer.getvalue())
+            bar.update()
+    finally:
+        results.close()
+        bar.close()
+
+
+def _with_reference(out: Path, task: Task) -> Task:
+    """``task`` with its map's reference lengths attached, if a trusted file holds them (a
+    damaged file is ignored: the episode computes the lengths itself)."""
+    path = _reference_path(out, task.env, task.map_seed)
+    try:
+        lengths = np.load(path, allow_pickle=False)
+    except (OSError, ValueError, EOFError):
+        return task
+    if lengths.ndim != 2 or lengths.shape[0] != 2 or lengths.dtype != np.float64:
+        return task
+    return replace(task, reference=tuple(tuple(row.tolist()) for row in lengths))
 
 
 def _task_csv(out: Path, task: Task) -> Path:

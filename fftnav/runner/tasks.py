@@ -11,17 +11,18 @@ from __future__ import annotations
 import json
 import zlib
 from collections.abc import Iterator
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from functools import lru_cache
 
 import numpy as np
 
 from fftnav.episode import EpisodeRow, run_episode
+from fftnav.planning.reference import optimal_lengths
 from fftnav.runner.config import ExperimentConfig
 from fftnav.world import World, generate_world
 
-__all__ = ["Task", "TaskResult", "episode_seed", "iter_tasks", "make_tasks", "run_task",
-           "task_count", "task_world"]
+__all__ = ["Task", "TaskResult", "episode_seed", "iter_tasks", "make_tasks", "map_reference",
+           "run_task", "task_count", "task_world"]
 
 
 @dataclass(frozen=True, order=True)
@@ -34,6 +35,10 @@ class Task:
     policy: str
     episode_seed: int
     keep_trajectories: bool
+    #: The map's reference lengths (grid A*, geodesic; metres, one per robot), computed once per
+    #: map by the runner (:func:`map_reference`); None: the episode computes them.
+    reference: tuple[tuple[float, ...], tuple[float, ...]] | None = field(default=None,
+                                                                            compare=False)
 
     @property
     def task_id(self) -> str:
@@ -90,9 +95,18 @@ def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
     TaskResult
     """
     world = task_world(config, task.env, task.map_seed)
-    reference = config.resolved[task.policy].reference
-    result = run_episode(world, reference, seed=task.episode_seed, config=config.swarm)
+    policy = config.resolved[task.policy].reference
+    lengths = None if task.reference is None else tuple(np.array(r) for r in task.reference)
+    result = run_episode(world, policy, seed=task.episode_seed, config=config.swarm,
+                         reference=lengths)
     return TaskResult(result.rows, result.trajectories if task.keep_trajectories else None)
+
+
+def map_reference(config: ExperimentConfig, task: Task) -> np.ndarray:
+    """The reference lengths of the task's map, ``(2, N)``: grid A* and geodesic (m) of every
+    robot (:func:`fftnav.planning.reference.optimal_lengths`), the same for all its policies."""
+    world = task_world(config, task.env, task.map_seed)
+    return np.array(optimal_lengths(world, r0_m=config.swarm.robot.r0_m))
 
 
 def task_world(config: ExperimentConfig, env: str, map_seed: int) -> World:

@@ -182,6 +182,8 @@ class SwarmSim:
         if self._client < 0:
             raise ValueError("gui: cannot open the PyBullet GUI (is a display available? "
                              "DISPLAY is " + repr(os.environ.get("DISPLAY")) + ")")
+        # the obstacles alone, for the lidar's rays that cannot hit a robot (faster there)
+        self._static_client = p.connect(p.DIRECT)
         self._build()
         self._built_state = p.saveState(physicsClientId=self._client)
         self._reset_state(np.random.default_rng(0))
@@ -205,17 +207,23 @@ class SwarmSim:
             p.changeDynamics(self._ground, -1, lateralFriction=1.0, physicsClientId=cid)
         # All obstacles form ONE static triangle mesh where Bullet's mesh limits allow (Bullet
         # updates every body's bounding box every step, so one body instead of 80 makes a
-        # physics step several times cheaper), else tiles of as few meshes as they need.
+        # physics step several times cheaper), else tiles of as few meshes as they need; the
+        # same meshes go into the static client, which the lidar uses for rays that cannot hit
+        # a robot (faster there).
         meshes = static_meshes(self.world.obstacles, max_vertices=cfg.mesh_max_vertices,
                                max_indices=cfg.mesh_max_indices)
         #: Number of static obstacle meshes built (1 unless Bullet's limits split the world).
         self.static_meshes = len(meshes)
         for verts, triangles in meshes:
-            shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
-                                           physicsClientId=cid)
-            body = p.createMultiBody(0, shape, physicsClientId=cid)
-            p.changeDynamics(body, -1, lateralFriction=0.0, physicsClientId=cid)
-            self._filter(body, _OBSTACLE, _ROBOT | _RAYS)
+            for client in (cid, self._static_client):
+                shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
+                                               physicsClientId=client)
+                body = p.createMultiBody(0, shape, physicsClientId=client)
+                p.changeDynamics(body, -1, lateralFriction=0.0, physicsClientId=client)
+                p.setCollisionFilterGroupMask(body, -1, _OBSTACLE, _ROBOT | _RAYS,
+                                              physicsClientId=client)
+        # the static client's broadphase holds the meshes' bounding boxes from the start
+        p.performCollisionDetection(physicsClientId=self._static_client)
         self._robots = [self._add_robot(x, y, yaw) for x, y, yaw in self.world.starts]
         if wheeled and self._robots:
             body = self._robots[0]
@@ -230,7 +238,7 @@ class SwarmSim:
                             start_m=r0 + 0.005, mask=_OBSTACLE | _ROBOT,
                             bodies=[(o.bounding_circle(), o.cull_vertices())
                                     for o in self.world.obstacles],
-                            robot_radius_m=cfg.robot.r0_m)
+                            robot_radius_m=cfg.robot.r0_m, static_client=self._static_client)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client
@@ -390,6 +398,7 @@ class SwarmSim:
         """Disconnect from the physics server (idempotent)."""
         if self._client >= 0:
             p.disconnect(physicsClientId=self._client)
+            p.disconnect(physicsClientId=self._static_client)
             self._client = -1
 
     def __enter__(self) -> SwarmSim:

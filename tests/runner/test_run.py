@@ -170,3 +170,34 @@ def test_fresh_reruns_and_replaces_every_task(tmp_path):
                              fresh=True)
     assert (outcome.skipped, outcome.completed) == (0, N_TASKS)
     assert files(out) == files(tmp_path / "full")
+
+
+def test_reference_lengths_are_computed_once_per_map_and_reused(tmp_path, monkeypatch):
+    from pathlib import Path
+
+    from fftnav.episode import loop
+    from fftnav.planning.reference import optimal_lengths
+    from fftnav.runner import load_config
+    from fftnav.runner.tasks import task_world
+
+    config = load_config(Path(__file__).parents[2] / "experiments" / "smoke.toml")
+    calls = []
+    real = loop.optimal_lengths
+    monkeypatch.setattr(loop, "optimal_lengths", lambda *a, **k: calls.append(1) or real(*a, **k))
+    loop._reference_lengths.cache_clear()
+    run_experiment(config, tmp_path, workers=1, progress=False)  # in-process: calls are seen
+    assert calls == []  # no episode computed its own reference lengths
+    episodes = pd.read_csv(tmp_path / "episodes.csv")
+    for seed in (7, 8):  # oracle: the lengths of the generated map, computed here
+        astar, geodesic = optimal_lengths(task_world(config, "forest", seed),
+                                          r0_m=config.swarm.robot.r0_m)
+        stored = np.load(tmp_path / "reference" / f"forest-{seed}.npy")
+        assert stored.tobytes() == np.array([astar, geodesic]).tobytes()
+        for policy in ("bug-left", "fusion"):
+            rows = episodes[(episodes.map_seed == seed) & (episodes.policy == policy)]
+            np.testing.assert_allclose(rows.optimal_length_m, astar, atol=5e-7)  # %.6f
+            np.testing.assert_allclose(rows.geodesic_length_m, geodesic, atol=5e-7)
+    before = files(tmp_path)
+    (tmp_path / "reference" / "forest-8.npy").unlink()
+    run_experiment(config, tmp_path, workers=1, progress=False, fresh=True)
+    assert files(tmp_path) == before and (tmp_path / "reference" / "forest-8.npy").exists()

@@ -52,11 +52,14 @@ def test_culled_scan_is_bitwise_equal_to_casting_every_ray(env):
         with SwarmSim(probe) as sim:
             obs = sim.reset(seed=0)
             lidar = sim.lidar
-            cast = lidar.rays_cast
+            cast, static = lidar.rays_cast, lidar.rays_cast_static
             lidar.cull = False
             full = lidar.scan(obs.poses)
+            assert lidar.rays_cast_static == static  # unculled: all in the full client
         culled = obs.scans
         assert culled.tobytes() == full.tobytes()
+        # both clients served rays: the static one those outside every robot's sector
+        assert 0.3 * cast < static < cast
         assert lidar.rays_cast - cast == 15 * lidar.live.sum() > 1.4 * cast  # culling culls
         assert (culled[:, lidar.live] < 3.0).sum() > 500  # with many returns
 

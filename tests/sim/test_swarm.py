@@ -141,7 +141,8 @@ def test_reset_reuses_the_world_built_once_and_repeats_an_episode_bitwise(embodi
         again = episode(sim)  # same sim after a different episode with parked robots
         assert episode(sim) == again
     assert again == fresh
-    per_build = 1 + 15 + (embodiment == "wheeled")  # obstacle mesh, robots, ground plane
+    # obstacle mesh (in the full and the lidar's static client), robots, ground plane
+    per_build = 2 + 15 + (embodiment == "wheeled")
     assert len(built) == 2 * per_build  # two simulators, each built once
 
 
@@ -182,3 +183,25 @@ def test_config_errors_name_the_parameter(make, message):
     assert SimConfig().substeps == 24
     with pytest.raises(ValueError, match=message):
         make()
+
+
+def test_obstacles_beyond_one_mesh_are_split_into_several(monkeypatch):
+    from fftnav.sim import swarm
+    from fftnav.world.obstacles import combined_mesh
+
+    world = generate_world("rocky", 3)
+    assert len(swarm._meshes(world.obstacles)) == 1  # a paper-size map: one mesh, as before
+    sizes = [len(o.mesh()[0]) for o in world.obstacles]
+    monkeypatch.setattr(swarm, "_MAX_MESH_VERTICES", 200)
+    meshes = swarm._meshes(world.obstacles)
+    assert len(meshes) >= sum(sizes) // 200 and all(len(v) <= 200 for v, _ in meshes)
+    # together, the same triangles in the same order
+    all_v, all_i = combined_mesh(world.obstacles)
+    tris = [np.array(v)[np.array(i).reshape(-1, 3)] for v, i in meshes]
+    np.testing.assert_array_equal(np.concatenate(tris),
+                                  np.array(all_v)[np.array(all_i).reshape(-1, 3)])
+    with SwarmSim(world) as sim:  # the simulator builds them all: rays see every obstacle
+        obs = sim.reset(seed=0)
+    monkeypatch.undo()
+    with SwarmSim(world) as sim:
+        assert sim.reset(seed=0).scans.tobytes() == obs.scans.tobytes()
