@@ -23,7 +23,7 @@ from fftnav.observe.compress import EXTREMUM_EPS, find_extrema_flat, quadrant_ar
 from fftnav.observe.filters import FilterBank
 from fftnav.observe.fusion import own_probability
 from fftnav.observe.geometry import RobotGeometry
-from fftnav.observe.safe import SAFE_TOL, nearest_safe_headings, safe_mask
+from fftnav.observe.safe import nearest_safe_headings, safe_mask, safe_tolerance
 from fftnav.observe.scan import as_scan_batch, beam_angles_rad, sanitize_ranges
 from fftnav.validate import check_choice
 
@@ -65,7 +65,7 @@ def safe_limit(threshold: float) -> float:
     """The value ``y1`` must reach for a safe beam: :func:`fftnav.observe.safe.safe_mask`'s test
     ``y1 >= threshold - tolerance``, for the compiled single-scan path (one place to change if
     the tolerance does)."""
-    return threshold - SAFE_TOL
+    return threshold - safe_tolerance(threshold)
 
 
 @dataclass(frozen=True)
