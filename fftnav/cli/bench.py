@@ -165,7 +165,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="time limit of the fusion episode, simulated seconds (default 20)")
     w.set_defaults(func=cmd_bench_worlds)
 
-    for q in (b, s, g, w):
+    for q in (b, s, e, g, w):
         q.add_argument("--json", action="store_true", help="print one JSON object")
         q.add_argument("--csv", metavar="PATH", help="also record the run in this CSV")
         q.add_argument("--append", action="store_true", help="append to --csv instead of replacing")

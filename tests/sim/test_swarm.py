@@ -183,25 +183,3 @@ def test_config_errors_name_the_parameter(make, message):
     assert SimConfig().substeps == 24
     with pytest.raises(ValueError, match=message):
         make()
-
-
-def test_obstacles_beyond_one_mesh_are_split_into_several(monkeypatch):
-    from fftnav.sim import swarm
-    from fftnav.world.obstacles import combined_mesh
-
-    world = generate_world("rocky", 3)
-    assert len(swarm._meshes(world.obstacles)) == 1  # a paper-size map: one mesh, as before
-    sizes = [len(o.mesh()[0]) for o in world.obstacles]
-    monkeypatch.setattr(swarm, "_MAX_MESH_VERTICES", 200)
-    meshes = swarm._meshes(world.obstacles)
-    assert len(meshes) >= sum(sizes) // 200 and all(len(v) <= 200 for v, _ in meshes)
-    # together, the same triangles in the same order
-    all_v, all_i = combined_mesh(world.obstacles)
-    tris = [np.array(v)[np.array(i).reshape(-1, 3)] for v, i in meshes]
-    np.testing.assert_array_equal(np.concatenate(tris),
-                                  np.array(all_v)[np.array(all_i).reshape(-1, 3)])
-    with SwarmSim(world) as sim:  # the simulator builds them all: rays see every obstacle
-        obs = sim.reset(seed=0)
-    monkeypatch.undo()
-    with SwarmSim(world) as sim:
-        assert sim.reset(seed=0).scans.tobytes() == obs.scans.tobytes()
