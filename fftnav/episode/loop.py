@@ -46,19 +46,26 @@ def _reference_lengths(world_json: str, r0_m: float) -> tuple[np.ndarray, np.nda
 
 @dataclass
 class _Robots:
-    """Per-robot state of a running episode."""
+    """Per-robot state of a running episode: ``active`` robots are in the world (waiting at
+    their start until their departure tick, or moving); the others arrived or failed."""
 
     active: np.ndarray
     collided: np.ndarray
     robot_contacts: np.ndarray
     in_contact: np.ndarray
+    departure: np.ndarray
     trajectories: list[list[np.ndarray]] = field(default_factory=list)
 
     @classmethod
-    def start(cls, obs: Observation) -> _Robots:
+    def start(cls, obs: Observation, departure: list[int]) -> _Robots:
         n = len(obs.poses)
         return cls(np.ones(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64),
-                   np.zeros(n, dtype=bool), [[obs.poses[i].copy()] for i in range(n)])
+                   np.zeros(n, dtype=bool), np.asarray(departure, dtype=np.int64),
+                   [[obs.poses[i].copy()] for i in range(n)])
+
+    def moving(self, tick: int) -> np.ndarray:
+        """Active robots that have departed by ``tick``."""
+        return self.active & (self.departure <= tick)
 
 
 class _Swarm:
@@ -81,10 +88,12 @@ class _Swarm:
                               lambda: self.decider.fused_probability(i), self.rng)
         return self.policy.decide(ctx)
 
-    def commands(self, tick: int, obs: Observation, active: np.ndarray) -> np.ndarray:
-        """One control tick of every active robot: observe, decide, plan, broadcast."""
-        n, beams, range_m = len(active), self.config.sensor.beams, self.config.sensor.range_m
-        idx = np.flatnonzero(active)
+    def commands(self, tick: int, obs: Observation, moving: np.ndarray,
+                 active: np.ndarray) -> np.ndarray:
+        """One control tick of every moving robot: observe, decide, plan, broadcast (to the
+        active robots in range, moving or waiting)."""
+        n, beams, range_m = len(moving), self.config.sensor.beams, self.config.sensor.range_m
+        idx = np.flatnonzero(moving)
         res = self.pipe.process(obs.scans[idx], with_p_s=False)
         safe = np.zeros((n, beams), dtype=bool)
         y1 = np.zeros((n, beams))
@@ -103,10 +112,11 @@ class _Swarm:
                                            active=active)
         return commands
 
-    def advance(self, sim: SwarmSim, commands: np.ndarray, robots: _Robots) -> Observation:
+    def advance(self, sim: SwarmSim, commands: np.ndarray, robots: _Robots,
+                tick: int) -> Observation:
         """Drive the swarm one control period; count robot contacts; park robots that arrived
         or touched an obstacle."""
-        idx = np.flatnonzero(robots.active)
+        idx = np.flatnonzero(robots.moving(tick))
         obs = sim.step(commands)
         robots.robot_contacts += obs.robot_contact & robots.active & ~robots.in_contact  # onsets
         robots.in_contact = obs.robot_contact & robots.active
@@ -160,7 +170,9 @@ def run_episode(
     the policy for a side when a goal direction is blocked; robots that met an obstacle broadcast
     their compact message (``fusion`` only); the simulator advances one control period. A robot
     within ``success_radius_m`` of its goal has arrived, one touching an obstacle has failed;
-    either is parked (taken out of the world).
+    either is parked (taken out of the world). With ``episode.departure`` other than
+    ``together`` a robot waits at its start until its departure tick; its trajectory and time
+    limit start then, and it is parked when its time is up.
     """
     cfg = config or SwarmConfig()
     pol = get_policy(policy)
@@ -169,11 +181,21 @@ def run_episode(
     optimal, geodesic = _reference_lengths(world.to_json(), cfg.robot.r0_m)  # unreachable: fail
     with SwarmSim(world, config=SimConfig.for_swarm(cfg), gui=gui) as sim:
         obs = sim.reset(seed=sim_seed)
-        robots = _Robots.start(obs)
-        for tick in range(cfg.episode.max_ticks):
+        robots = _Robots.start(obs, cfg.episode.departure_ticks(len(world.starts)))
+        for i in np.flatnonzero(robots.departure > 0):
+            swarm.planner.hold(int(i))
+        for tick in range(cfg.episode.max_ticks + int(robots.departure.max())):
+            for i in np.flatnonzero(robots.active & (robots.departure == tick) & (tick > 0)):
+                swarm.planner.release(int(i))
+            out_of_time = tick - robots.departure >= cfg.episode.max_ticks  # waves, staggered
+            for i in np.flatnonzero(robots.active & out_of_time):
+                robots.active[i] = False
+                swarm.planner.finish(int(i))
+                sim.park(int(i))
             if not robots.active.any():
                 break
-            obs = swarm.advance(sim, swarm.commands(tick, obs, robots.active), robots)
+            commands = swarm.commands(tick, obs, robots.moving(tick), robots.active)
+            obs = swarm.advance(sim, commands, robots, tick)
     trajectories = [np.array(t) for t in robots.trajectories]
     rows = [_row(i, policy, trajectories[i], swarm, robots, float(optimal[i]),
                  float(geodesic[i])) for i in range(len(trajectories))]

@@ -67,6 +67,7 @@ class Mode(IntEnum):
     GO_TO_GOAL = 0
     FOLLOW = 1
     DONE = 2
+    WAIT = 3  # not departed yet
 
 
 @dataclass(frozen=True)
@@ -167,6 +168,14 @@ class BugPlanner:
         """Mark a robot as done (arrived or failed): it gets zero commands from now on."""
         self.memory[robot].mode = Mode.DONE
 
+    def hold(self, robot: int) -> None:
+        """Keep a robot at its start (zero commands) until :meth:`release`."""
+        self.memory[robot].mode = Mode.WAIT
+
+    def release(self, robot: int) -> None:
+        """Let a held robot depart toward its goal."""
+        self.memory[robot].mode = Mode.GO_TO_GOAL
+
     def step(
         self,
         time_s: float,
@@ -225,7 +234,7 @@ class BugPlanner:
         commands = np.zeros((k, 2))
         for i in range(k):
             mem = self.memory[i]
-            if mem.mode == Mode.DONE:
+            if mem.mode in (Mode.DONE, Mode.WAIT):
                 continue
             if not visible[i] and mem.mode == Mode.GO_TO_GOAL:
                 commands[i] = self._command(float(beta[i]))

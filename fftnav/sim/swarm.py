@@ -1,11 +1,11 @@
 """PyBullet swarm of differential-drive robots with lidars: a Gymnasium-style many-robot API.
 
-``SwarmSim(world)`` builds the world file's obstacles as one static triangle mesh of vertical
-prisms (rocks and walls over their polygons, trunks over 64-gons circumscribing their circles:
-Bullet ray-casts triangle meshes exactly and faster than convex hulls or capsules) and one robot
-per start pose (a planar sphere, or optionally a wheeled URDF). ``reset(seed=...)`` returns the
-first observation; ``step(commands)`` applies (v, w) commands for one control period. Only
-``fftnav.sim`` imports pybullet.
+``SwarmSim(world)`` builds the world's solids (obstacles and boundary walls) as one static
+triangle mesh of vertical prisms (rocks and walls over their polygons, trunks over 64-gons
+circumscribing their circles: Bullet ray-casts triangle meshes exactly and faster than convex
+hulls or capsules) and one robot per start pose (a planar sphere, or optionally a wheeled
+URDF). ``reset(seed=...)`` returns the first observation; ``step(commands)`` applies (v, w)
+commands for one control period. Only ``fftnav.sim`` imports pybullet.
 """
 
 from __future__ import annotations
@@ -182,7 +182,7 @@ class SwarmSim:
             p.changeDynamics(self._ground, -1, lateralFriction=1.0, physicsClientId=cid)
         # All obstacles form ONE static triangle mesh: Bullet updates every body's bounding box
         # every step, so one body instead of 80 makes a physics step several times cheaper.
-        verts, triangles = combined_mesh(self.world.obstacles)
+        verts, triangles = combined_mesh(self.world.solids)
         if verts:
             shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
                                            physicsClientId=cid)
@@ -202,7 +202,7 @@ class SwarmSim:
                             height_m=r0 if cfg.lidar_height_m is None else cfg.lidar_height_m,
                             start_m=r0 + 0.005, mask=_OBSTACLE | _ROBOT,
                             bodies=[(o.bounding_circle(), o.cull_vertices())
-                                    for o in self.world.obstacles],
+                                    for o in self.world.solids],
                             robot_radius_m=cfg.robot.r0_m)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
