@@ -101,7 +101,7 @@ class _Swarm:
         safe[idx], y1[idx] = res.safe_mask, res.y1
         ranges[idx] = self.pipe.normalise(obs.scans[idx]) * range_m
         self.channel.deliver(tick)
-        self.decider.observe(tick, obs.poses, self.goals, idx, res.sigma)
+        self.decider.observe(tick, obs.poses, self.goals, idx, res.sigma, present=active)
         commands, blocked = self.planner.step(obs.time_s, obs.poses, self.goals, safe, ranges, y1)
         if self.policy.uses_messages:
             every_tick = self.config.comms.broadcast == "every_tick"
@@ -230,4 +230,6 @@ def _row(i: int, policy: str, trajectory: np.ndarray, swarm: _Swarm, robots: _Ro
         decisions_with_neighbours=swarm.decider.with_neighbours[i],
         decisions_flipped_by_neighbours=swarm.decider.flipped[i],
         robot_contacts=int(robots.robot_contacts[i]),
+        **{f"neighbours_{reason}": swarm.decider.neighbour_reasons[i][reason]
+           for reason in metrics.NEIGHBOUR_REASONS},
     )

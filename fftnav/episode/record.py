@@ -46,6 +46,12 @@ class EpisodeRow:
         from the robot's own (P_s) side.
     robot_contacts : int
         Contact onsets with other robots (not fatal).
+    neighbours_fused, neighbours_out_of_range, neighbours_too_close, neighbours_behind, \
+neighbours_no_message, neighbours_lost : int
+        ``fusion`` (and policies reading messages): over the robot's decisions, how many times
+        another robot in the world was fused, or why not (:data:`fftnav.metrics.
+        NEIGHBOUR_REASONS`); they add up to the sum over its decisions of the number of other
+        robots in the world.
     """
 
     robot: int
@@ -64,6 +70,12 @@ class EpisodeRow:
     decisions_with_neighbours: int
     decisions_flipped_by_neighbours: int
     robot_contacts: int
+    neighbours_fused: int = 0
+    neighbours_out_of_range: int = 0
+    neighbours_too_close: int = 0
+    neighbours_behind: int = 0
+    neighbours_no_message: int = 0
+    neighbours_lost: int = 0
 
     def as_dict(self) -> dict[str, Any]:
         """Column name -> value."""
