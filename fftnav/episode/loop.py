@@ -16,6 +16,7 @@ import numpy as np
 
 from fftnav import metrics
 from fftnav.config import SwarmConfig
+from fftnav.episode.collab import PERIOD_TICKS, PassageBoard
 from fftnav.episode.comms import Channel
 from fftnav.episode.decider import Decider
 from fftnav.episode.record import EpisodeResult, EpisodeRow
@@ -81,12 +82,47 @@ class _Swarm:
                                loss=config.comms.packet_loss,
                                delay_ticks=config.comms.delay_ticks, rng=rng)
         self.decider = Decider(config, self.channel, rng, full_circle=self.pipe.bank.full_circle)
-        self.planner = BugPlanner.for_swarm(n, config, self._decide)
+        self.board = PassageBoard(n)  # collab's passages (empty for the other policies)
+        self._seen = np.zeros(n, dtype=np.int64)  # board version at the last (re)decision
+        self.poses = np.asarray(world.starts, dtype=np.float64)
+        self.planner = BugPlanner.for_swarm(
+            n, config, self._decide, self._reconsider if policy.reconsiders else None)
 
     def _decide(self, i: int) -> int:
         ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
-                              lambda: self.decider.fused_probability(i), self.rng)
+                              lambda: self.decider.fused_probability(i), self.rng,
+                              lambda: self._shared_side(i))
         return self.policy.decide(ctx)
+
+    def _shared_side(self, i: int) -> int | None:
+        self._seen[i] = self.board.version[i]
+        return self.board.side(i, self.poses[i, :2], self.goals[i])
+
+    def _reconsider(self, i: int, side: int) -> int:
+        """A robot following on ``side`` takes the side of the best shared passage when its
+        board changed since it last decided (news arrived); otherwise it keeps its side."""
+        if self.board.version[i] == self._seen[i]:
+            return side
+        shared = self._shared_side(i)
+        return side if shared is None else shared
+
+    def _share_passages(self, tick: int, moving: np.ndarray, active: np.ndarray) -> None:
+        """``collab``: robots that just got past an obstacle learn a passage and tell it at
+        once; every robot that knows passages repeats them every PERIOD_TICKS ticks."""
+        idx = np.flatnonzero(moving)
+        fresh = {int(i) for i in idx if self.planner.left_boundary[i]
+                 and self.board.add(int(i), self.poses[i, :2])}
+        for i in idx:
+            if i in fresh or (tick + i) % PERIOD_TICKS == 0:
+                payload = self.board.message(int(i))
+                if payload is not None:
+                    self.channel.broadcast(int(i), payload, tick=tick, poses=self.poses,
+                                           active=active)
+
+    def _read_passages(self, tick: int, active: np.ndarray) -> None:
+        for r in np.flatnonzero(active):
+            for pkt in self.channel.inbox(int(r), tick=tick, max_age_ticks=PERIOD_TICKS):
+                self.board.receive(int(r), pkt.sender, pkt.tick, pkt.payload)
 
     def commands(self, tick: int, obs: Observation, moving: np.ndarray,
                  active: np.ndarray) -> np.ndarray:
@@ -101,9 +137,14 @@ class _Swarm:
         safe[idx], y1[idx] = res.safe_mask, res.y1
         ranges[idx] = self.pipe.normalise(obs.scans[idx]) * range_m
         self.channel.deliver(tick)
+        self.poses = obs.poses
         self.decider.observe(tick, obs.poses, self.goals, idx, res.sigma, present=active)
+        if self.policy.messages == "passages":
+            self._read_passages(tick, active)
         commands, blocked = self.planner.step(obs.time_s, obs.poses, self.goals, safe, ranges, y1)
-        if self.policy.uses_messages:
+        if self.policy.messages == "passages":
+            self._share_passages(tick, moving, active)
+        elif self.policy.messages == "observation":
             every_tick = self.config.comms.broadcast == "every_tick"
             senders = idx if every_tick else idx[blocked[idx]]
             for j, i in enumerate(idx):
@@ -230,6 +271,10 @@ def _row(i: int, policy: str, trajectory: np.ndarray, swarm: _Swarm, robots: _Ro
         decisions_with_neighbours=swarm.decider.with_neighbours[i],
         decisions_flipped_by_neighbours=swarm.decider.flipped[i],
         robot_contacts=int(robots.robot_contacts[i]),
+        follow_time_s=float(swarm.planner.follow_ticks[i] * dt),
+        stall_time_s=float(swarm.planner.stall_ticks[i] * dt),
+        loop_flips=int(swarm.planner.loop_flips[i]),
+        sides_reconsidered=int(swarm.planner.reconsidered[i]),
         **{f"neighbours_{reason}": swarm.decider.neighbour_reasons[i][reason]
            for reason in metrics.NEIGHBOUR_REASONS},
     )

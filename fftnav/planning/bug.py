@@ -142,6 +142,10 @@ class BugPlanner:
         Speed limits and state-machine constants.
     decide : callable
         ``decide(robot) -> +1 (left) | -1 (right)``, called once per decision.
+    reconsider : callable, optional
+        ``reconsider(robot, side) -> side``, called on every tick a robot follows a boundary
+        (policies that revise a side when news arrives: ``collab``); a different side is taken
+        at once (the loop-detection timer restarts). None: never.
     """
 
     n_robots: int
@@ -150,19 +154,29 @@ class BugPlanner:
     fov_rad: float
     decide: Callable[[int], int]
     params: PlannerParams = field(default_factory=PlannerParams)
+    reconsider: Callable[[int, int], int] | None = None
 
     @classmethod
-    def for_swarm(cls, n_robots: int, config: SwarmConfig,
-                  decide: Callable[[int], int]) -> BugPlanner:
+    def for_swarm(cls, n_robots: int, config: SwarmConfig, decide: Callable[[int], int],
+                  reconsider: Callable[[int, int], int] | None = None) -> BugPlanner:
         """The planner of ``n_robots`` robots of a swarm configuration (its geometry, lidar field
         of view, speed limits and control rate)."""
         return cls(n_robots, l_th_m=config.geometry.l_th_m, r0_m=config.robot.r0_m,
                    fov_rad=config.sensor.fov_rad, decide=decide,
-                   params=PlannerParams.for_swarm(config))
+                   params=PlannerParams.for_swarm(config), reconsider=reconsider)
 
     def __post_init__(self) -> None:
         self.memory = [_Memory() for _ in range(self.n_robots)]
         self.decisions = np.zeros((self.n_robots, 2), dtype=np.int64)  # [left, right]
+        #: Per robot: control ticks spent following a boundary, ticks in the stall fallback
+        #: (both while moving), and loop-detection side flips (diagnostics, docs/planner.md).
+        self.follow_ticks = np.zeros(self.n_robots, dtype=np.int64)
+        self.stall_ticks = np.zeros(self.n_robots, dtype=np.int64)
+        self.loop_flips = np.zeros(self.n_robots, dtype=np.int64)
+        #: Side changes by ``reconsider``; robots that left a boundary by the leave rule on
+        #: the last ``step`` (where they got past an obstacle: ``collab``'s passages).
+        self.reconsidered = np.zeros(self.n_robots, dtype=np.int64)
+        self.left_boundary = np.zeros(self.n_robots, dtype=bool)
 
     def finish(self, robot: int) -> None:
         """Mark a robot as done (arrived or failed): it gets zero commands from now on."""
@@ -232,6 +246,7 @@ class BugPlanner:
             clear |= near & free[np.arange(k), goal_beam] & (around.min(axis=0) > dist)
         left, right = nearest_safe_headings(safe, beta, fov_rad=self.fov_rad)
         commands = np.zeros((k, 2))
+        self.left_boundary[:] = False
         for i in range(k):
             mem = self.memory[i]
             if mem.mode in (Mode.DONE, Mode.WAIT):
@@ -241,7 +256,9 @@ class BugPlanner:
                 continue
             target = self._target(i, mem, time_s, float(dist[i]), bool(clear[i]), beta[i],
                                   left[i], right[i])
+            self.follow_ticks[i] += mem.mode == Mode.FOLLOW
             if math.isnan(target):  # no safe heading on the chosen side: stall fallback
+                self.stall_ticks[i] += 1
                 commands[i] = self._stall_command(mem.side, angles, openness[i], ranges_m[i],
                                                   free[i])
             else:
@@ -257,10 +274,17 @@ class BugPlanner:
         if mem.mode == Mode.FOLLOW:
             if clear and dist < mem.hit_dist_m - p.progress_m:
                 mem.mode = Mode.GO_TO_GOAL  # leave rule: goal direction safe and progress made
+                self.left_boundary[i] = True
             else:
+                if self.reconsider is not None:
+                    side = self.reconsider(i, mem.side)
+                    if side != mem.side:
+                        self.reconsidered[i] += 1
+                        mem.side, mem.best_time_s = side, t
                 if dist < mem.best_dist_m - p.progress_m:
                     mem.best_dist_m, mem.best_time_s = dist, t
                 elif t - mem.best_time_s > p.loop_timeout_s:  # loop detection: flip the side
+                    self.loop_flips[i] += 1
                     mem.side = -mem.side
                     mem.hit_dist_m = mem.best_dist_m = dist
                     mem.best_time_s = t
