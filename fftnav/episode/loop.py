@@ -274,6 +274,8 @@ def _row(i: int, policy: str, trajectory: np.ndarray, swarm: _Swarm, robots: _Ro
         follow_time_s=float(swarm.planner.follow_ticks[i] * dt),
         stall_time_s=float(swarm.planner.stall_ticks[i] * dt),
         loop_flips=int(swarm.planner.loop_flips[i]),
+        contour_time_s=float(swarm.planner.contour_ticks[i] * dt),
+        sides_remembered=int(swarm.planner.sides_remembered[i]),
         sides_reconsidered=int(swarm.planner.reconsidered[i]),
         **{f"neighbours_{reason}": swarm.decider.neighbour_reasons[i][reason]
            for reason in metrics.NEIGHBOUR_REASONS},

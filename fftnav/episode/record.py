@@ -51,6 +51,10 @@ class EpisodeRow:
         heading on the chosen side).
     loop_flips : int
         Side flips by the planner's loop detection.
+    contour_time_s : float
+        Time (s) in the planner's contour mode.
+    sides_remembered : int
+        Decisions taken from the planner's tried-sides memory (the policy not asked).
     sides_reconsidered : int
         Side changes while following when news arrived (``collab``).
     neighbours_fused, neighbours_out_of_range, neighbours_too_close, neighbours_behind, \
@@ -80,6 +84,8 @@ neighbours_no_message, neighbours_lost : int
     follow_time_s: float = 0.0
     stall_time_s: float = 0.0
     loop_flips: int = 0
+    contour_time_s: float = 0.0
+    sides_remembered: int = 0
     sides_reconsidered: int = 0
     neighbours_fused: int = 0
     neighbours_out_of_range: int = 0
