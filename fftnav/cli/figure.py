@@ -24,6 +24,16 @@ def cmd_figure_depth3d(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_figure_sweep(args: argparse.Namespace) -> int:
+    """The sweep report (gains over own-only, collab against fusion) of a results folder."""
+    from fftnav.report.sweep import write_sweep_report
+    from fftnav.runner import load_config
+
+    config = load_config(args.config)
+    print(write_sweep_report(config, args.out or config.out))
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("figure", help="draw the paper's figures")
     figs = p.add_subparsers(dest="figure", metavar="FIGURE", parser_class=type(p))
@@ -35,3 +45,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.add_argument("--out", required=True, metavar="DIR", help="output folder for the PNGs")
     d.add_argument("--seed", type=int, default=0, help="seed of the 3D forest (default 0)")
     d.set_defaults(func=cmd_figure_depth3d)
+    w = figs.add_parser("sweep", help="sweep report: gains over own-only per cell and axis")
+    w.add_argument("config", help="experiment TOML (with or without [sweep])")
+    w.add_argument("--out", metavar="DIR", help="results folder (default: experiment.out)")
+    w.set_defaults(func=cmd_figure_sweep)
