@@ -141,6 +141,7 @@ class _Memory:
     best_dist_m: float = math.inf
     best_time_s: float = 0.0
     flips: int = 0  # loop-detection flips in this follow
+    reconsidered: bool = False  # the side was changed by reconsider in this follow
     contour: bool = False  # contour mode (retreated beyond retreat_m)
     #: Hit points: (x m, y m, goal distance m, side taken).
     hits: list[tuple[float, float, float, int]] = field(default_factory=list)
@@ -165,9 +166,10 @@ class BugPlanner:
     decide : callable
         ``decide(robot) -> +1 (left) | -1 (right)``, called once per decision.
     reconsider : callable, optional
-        ``reconsider(robot, side) -> side``, called on every tick a robot follows a boundary
-        (policies that revise a side when news arrives: ``collab``); a different side is taken
-        at once (the loop-detection timer restarts). None: never.
+        ``reconsider(robot, side) -> side``, called on the ticks a robot follows a boundary
+        before any loop flip and outside contour mode (policies that revise a side when news
+        arrives: ``collab``); a different side is taken at once (the loop-detection timer
+        restarts), at most once per follow. None: never.
     """
 
     n_robots: int
@@ -309,11 +311,12 @@ class BugPlanner:
                 mem.mode = Mode.GO_TO_GOAL  # leave rule: goal direction safe and progress made
                 self.left_boundary[i] = True
             else:
-                if self.reconsider is not None:
+                if (self.reconsider is not None and not mem.reconsidered and not mem.contour
+                        and mem.flips == 0):
                     side = self.reconsider(i, mem.side)
-                    if side != mem.side:
+                    if side != mem.side:  # at most once per follow, before any loop trouble
                         self.reconsidered[i] += 1
-                        mem.side, mem.best_time_s = side, t
+                        mem.side, mem.best_time_s, mem.reconsidered = side, t, True
                 if dist < mem.best_dist_m - p.progress_m:
                     mem.best_dist_m, mem.best_time_s = dist, t
                     mem.contour = False
@@ -347,7 +350,7 @@ class BugPlanner:
         mem.mode, mem.side = Mode.FOLLOW, side
         mem.hit_dist_m = mem.best_dist_m = dist
         mem.best_time_s = t
-        mem.flips, mem.contour = 0, False
+        mem.flips, mem.contour, mem.reconsidered = 0, False, False
         mem.hits.append((float(xy[0]), float(xy[1]), dist, side))
         return left if side > 0 else right
 
