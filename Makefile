@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install test lint benchmark bench figures clean
+.PHONY: install test lint benchmark bench figures collab clean
 
 install: $(STAMP)
 
@@ -23,6 +23,13 @@ lint: $(STAMP)
 
 benchmark: $(STAMP)
 	$(BIN)/fftnav run experiments/table1.toml --out results/table1
+
+# Issue 10: the core comparison (walls, traps; own-only, fusion, collab; 20 maps) and the full
+# sweep (docs/experiments.md, [sweep]); both resume when rerun.
+collab: $(STAMP)
+	$(BIN)/fftnav run experiments/collab/core.toml
+	$(BIN)/fftnav figure sweep experiments/collab/core.toml
+	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)
 	$(BIN)/fftnav bench pipeline --csv results/pipeline_latency.csv

@@ -207,16 +207,25 @@ class CommsConfig(_Section):
 
 @dataclass(frozen=True)
 class EpisodeConfig(_Section):
-    """``[episode]``: time and arrival.
+    """``[episode]``: time, arrival and departures.
 
     Attributes
     ----------
     time_limit_s : float
-        A robot not at its goal by then has failed (paper: 120 s).
+        A robot not at its goal this long after its departure has failed (paper: 120 s).
     control_hz, physics_hz : float
         Control / lidar rate and physics rate (Hz); ``physics_hz / control_hz`` is an integer.
     success_radius_m : float
         A robot within this distance (m) of its goal has arrived.
+    departure : {"together", "waves", "staggered"}
+        When the robots leave their starts: all at once (the paper); in ``waves`` waves
+        ``wave_interval_s`` apart (robot i in wave ``i % waves``, so every wave spans the start
+        line); or one by one, robot i at ``i * stagger_s``. A robot waits at its start, still,
+        silent but listening, until it departs; its path, time and time limit count from then.
+    waves : int
+        Number of waves (``departure = "waves"``).
+    wave_interval_s, stagger_s : float
+        Delay between two waves, and between two robots when ``staggered`` (s).
     """
 
     name: ClassVar[str] = "episode"
@@ -224,6 +233,10 @@ class EpisodeConfig(_Section):
     control_hz: float = _number(10.0, low=0, low_open=True)
     physics_hz: float = _number(240.0, low=0, low_open=True)
     success_radius_m: float = _number(0.3, low=0, low_open=True, high=MAX_MAP_SIDE_M)
+    departure: str = _choice("together", ("together", "waves", "staggered"))
+    waves: int = _integer(3, low=1)
+    wave_interval_s: float = _number(15.0, low=0)
+    stagger_s: float = _number(2.0, low=0)
 
     def _check_together(self) -> None:
         ratio = self.physics_hz / self.control_hz
@@ -238,6 +251,22 @@ class EpisodeConfig(_Section):
     def max_ticks(self) -> int:
         """Control ticks in the time limit."""
         return int(round(self.time_limit_s * self.control_hz))
+
+    def departure_ticks(self, n_robots: int) -> list[int]:
+        """The control tick at which each of ``n_robots`` robots departs.
+
+        >>> EpisodeConfig(departure="waves", waves=2, wave_interval_s=1.5).departure_ticks(5)
+        [0, 15, 0, 15, 0]
+        >>> EpisodeConfig(departure="staggered", stagger_s=0.2).departure_ticks(3)
+        [0, 2, 4]
+        """
+        if self.departure == "waves":
+            delays = [(i % self.waves) * self.wave_interval_s for i in range(n_robots)]
+        elif self.departure == "staggered":
+            delays = [i * self.stagger_s for i in range(n_robots)]
+        else:
+            delays = [0.0] * n_robots
+        return [int(round(d * self.control_hz)) for d in delays]
 
 
 _SECTIONS: dict[str, type[_Section]] = {

@@ -31,6 +31,7 @@ from fftnav.validate import check_number
 __all__ = [
     "MEASURES",
     "Measure",
+    "NEIGHBOUR_REASONS",
     "arrival_rate",
     "arrived",
     "average_path_length_m",
@@ -400,6 +401,32 @@ def _time_to_goal(table: Table) -> float:
 def _robot_contacts(table: Table) -> float:
     """Mean ``robot_contacts`` (robot-robot contact onsets, not fatal) per robot."""
     return _mean(table, "robot_contacts")
+
+
+#: Why a neighbour was or was not fused in a decision that may fuse neighbours (the episode
+#: columns ``neighbours_<reason>``): fused; its message arrived but it was out of the
+#: communication range, too close (protective circles overlapping) or behind (or exactly
+#: ahead); no message arrived because the last fresh one was lost, or sent while the receiver
+#: was out of range (counted as ``out_of_range``), or none was sent in the last second.
+NEIGHBOUR_REASONS: tuple[str, ...] = ("fused", "out_of_range", "too_close", "behind",
+                                      "no_message", "lost")
+
+
+def _neighbour_share(reason: str) -> Callable[[Table], float]:
+    def share(table: Table) -> float:
+        if any(f"neighbours_{r}" not in table for r in NEIGHBOUR_REASONS):
+            return float("nan")  # a table written before the neighbour accounting
+        total = sum(_column(table, f"neighbours_{r}").sum() for r in NEIGHBOUR_REASONS)
+        return _share(_column(table, f"neighbours_{reason}").sum(), total)
+
+    share.__doc__ = (f"Share of ``neighbours_{reason}`` among the neighbours counted in "
+                     f"decisions (every other robot in the world, each decision that may fuse "
+                     f"neighbours); NaN: no such decision, or a table without these columns.")
+    return share
+
+
+for _reason in NEIGHBOUR_REASONS:
+    register_measure(f"share_neighbours_{_reason}")(_neighbour_share(_reason))
 
 
 def evaluate(table: Table, names: Iterable[str] | None = None) -> dict[str, float]:

@@ -116,6 +116,12 @@ def episode_table() -> dict:
         "decisions_flipped_by_neighbours": np.array([0, 1, 0]),
         "robot_contacts": np.array([1, 0, 2]),
         "spl": np.array([19 / 20, 1.0, 0.0]),
+        "neighbours_fused": np.array([2, 1, 0]),
+        "neighbours_out_of_range": np.array([0, 3, 0]),
+        "neighbours_too_close": np.array([1, 0, 0]),
+        "neighbours_behind": np.array([0, 0, 0]),
+        "neighbours_no_message": np.array([4, 0, 0]),
+        "neighbours_lost": np.array([0, 1, 0]),
     }
 
 
@@ -138,6 +144,11 @@ def test_measures_registry_by_name(as_frame):
     assert got["share_with_neighbours"] == pytest.approx(2 / 6)
     assert got["share_flipped_by_neighbours"] == pytest.approx(1 / 2)
     assert got["robot_contacts_per_robot"] == pytest.approx(1.0)
+    assert got["share_neighbours_fused"] == pytest.approx(3 / 12)  # 12 neighbours counted
+    assert got["share_neighbours_no_message"] == pytest.approx(4 / 12)
+    assert got["share_neighbours_behind"] == 0.0
+    old = {k: v for k, v in episode_table().items() if not k.startswith("neighbours_")}
+    assert np.isnan(evaluate(old, ["share_neighbours_lost"])["share_neighbours_lost"])
     assert MEASURES["spl"](table) == got["spl"]
     for name in ("ar", "apl_m", "spl"):  # the interval terms are the measure as a ratio
         num, den = MEASURES[name].terms(table)

@@ -26,6 +26,53 @@ def cmd_figure_depth3d(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_figure_sweep(args: argparse.Namespace) -> int:
+    """The sweep report (gains over own-only, collab against fusion) of a results folder."""
+    from fftnav.report.sweep import write_sweep_report
+    from fftnav.runner import load_config
+
+    config = load_config(args.config)
+    print(write_sweep_report(config, args.out or config.out))
+    return 0
+
+
+def cmd_figure_failures(args: argparse.Namespace) -> int:
+    """The robots of one episode of a results folder that did not arrive (docs/planner.md)."""
+    import json
+    from pathlib import Path
+
+    import numpy as np
+    import pandas as pd
+
+    from fftnav.cli import CliError
+    from fftnav.episode import EPISODE_COLUMNS, EpisodeRow
+    from fftnav.report.trajectories import plot_failures
+    from fftnav.runner import load_config
+    from fftnav.runner.tasks import task_world
+
+    config = load_config(args.config)
+    results = Path(args.results or config.out)
+    stem = f"{args.env}-{args.map}-{args.policy}"
+    npz = results / "trajectories" / f"{stem}.npz"
+    if not npz.exists():
+        raise CliError(f"no trajectories {npz} (only the first experiment.trajectory_maps maps "
+                       "keep them)")
+    if (results / "episodes.csv").exists():
+        table = pd.read_csv(results / "episodes.csv")
+    else:  # a run still going or interrupted: the task's own CSV (no header)
+        columns = json.loads((results / "config.json").read_text())["csv_columns"]
+        table = pd.read_csv(results / "episodes" / f"{stem}.csv", header=None, names=columns)
+    table = table[(table.env == args.env) & (table.map_seed == args.map)
+                  & (table.policy == args.policy)].sort_values("robot")
+    rows = [EpisodeRow(**{c: r[c] for c in EPISODE_COLUMNS if c in r})
+            for r in table.to_dict("records")]
+    with np.load(npz) as z:
+        paths = [z[f"arr_{i}"] for i in range(len(z.files))]
+    print(plot_failures(task_world(config, args.env, args.map), paths, rows, args.out,
+                        control_hz=config.swarm.episode.control_hz))
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("figure", help="draw the paper's figures")
     figs = p.add_subparsers(dest="figure", metavar="FIGURE", parser_class=type(p))
@@ -37,3 +84,15 @@ def register(sub: argparse._SubParsersAction) -> None:
     d.add_argument("--out", required=True, metavar="DIR", help="output folder for the PNGs")
     d.add_argument("--seed", type=int, default=0, help="seed of the 3D forest (default 0)")
     d.set_defaults(func=cmd_figure_depth3d)
+    w = figs.add_parser("sweep", help="sweep report: gains over own-only per cell and axis")
+    w.add_argument("config", help="experiment TOML (with or without [sweep])")
+    w.add_argument("--out", metavar="DIR", help="results folder (default: experiment.out)")
+    w.set_defaults(func=cmd_figure_sweep)
+    x = figs.add_parser("failures", help="paths of the robots of one episode that failed")
+    x.add_argument("config", help="experiment TOML of the results folder")
+    x.add_argument("--results", metavar="DIR", help="results folder (default: experiment.out)")
+    x.add_argument("--env", required=True)
+    x.add_argument("--map", type=int, required=True, help="map seed")
+    x.add_argument("--policy", required=True)
+    x.add_argument("--out", required=True, metavar="PNG")
+    x.set_defaults(func=cmd_figure_failures)

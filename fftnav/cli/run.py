@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from typing import Any
 
 
 def cmd_run(args: argparse.Namespace) -> int:
@@ -14,11 +15,20 @@ def cmd_run(args: argparse.Namespace) -> int:
     130 when interrupted (Ctrl-C), 143 when terminated (SIGTERM): rerun the same command to
     resume.
     """
-    from fftnav.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, Terminated
-    from fftnav.report.experiment import write_report
-    from fftnav.runner import load_config, run_experiment
+    from fftnav.runner import load_config
 
     config = load_config(args.config)
+    if config.cells:
+        return _run_sweep(args, config)
+    return _run_one(args, config)
+
+
+def _run_one(args: argparse.Namespace, config: Any) -> int:
+    """Run one experiment (a config or a sweep cell) and write its report."""
+    from fftnav.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, Terminated
+    from fftnav.report.experiment import write_report
+    from fftnav.runner import run_experiment
+
     out = args.out or config.out
     try:
         outcome = run_experiment(config, out, workers=args.workers, executor=args.executor,
@@ -36,6 +46,28 @@ def cmd_run(args: argparse.Namespace) -> int:
         sys.stderr.write(f"fftnav run: {task.task_id} failed: {error.error_type}: "
                          f"{error.message}\n")
     return 1 if outcome.failed else 0
+
+
+def _run_sweep(args: argparse.Namespace, config: Any) -> int:
+    """Run (or resume) every cell of a ``[sweep]`` config into ``OUT/<cell>``, then write the
+    sweep report ``OUT/report.md`` (gains against own-only per axis)."""
+    from pathlib import Path
+
+    from fftnav.cli import EXIT_INTERRUPTED, EXIT_TERMINATED
+    from fftnav.report.sweep import write_sweep_report
+
+    root = Path(args.out or config.out)
+    status = 0
+    for name, cell in config.cells:
+        print(f"fftnav run: sweep cell {name} -> {root / name}")
+        sub = argparse.Namespace(**{**vars(args), "out": str(root / name)})
+        code = _run_one(sub, cell)
+        if code in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+            return code
+        status = max(status, code)
+    report = write_sweep_report(config, root)
+    print(f"sweep report: {report}")
+    return status
 
 
 def _workers(text: str) -> int:

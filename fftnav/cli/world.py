@@ -12,6 +12,7 @@ from pathlib import Path
 import numpy as np
 
 from fftnav.world.kinds import world_kinds
+from fftnav.world.model import BOUNDARIES
 
 
 def cmd_generate(args: argparse.Namespace) -> int:
@@ -26,6 +27,8 @@ def cmd_generate(args: argparse.Namespace) -> int:
         overrides["density_per_m2"] = args.density
     if args.robots is not None:
         overrides["robots"] = args.robots
+    if args.boundary is not None:
+        overrides["boundary"] = args.boundary
     world = generate_world(args.env, args.seed, **overrides)
     save_world(world, args.out)
     print(f"{args.out}: {args.env} seed {args.seed}, {len(world.obstacles)} obstacles, "
@@ -119,6 +122,8 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="metres; goals then lie on y = H - start_y_m")
     g.add_argument("--density", type=float, help="obstacles per m^2 of the whole world")
     g.add_argument("--robots", type=int, help="number of robots (starts and goals)")
+    g.add_argument("--boundary", choices=BOUNDARIES,
+                   help="map edge: open, or walls that stop robots and lidar (default: preset)")
     g.add_argument("--out", required=True, help="world JSON file to write")
     g.set_defaults(func=cmd_generate)
 

@@ -85,6 +85,17 @@ class Channel:
         # in flight: (deliver_at_tick, receiver, packet); inbox: receiver -> {sender: packet}
         self._in_flight: list[tuple[int, int, Packet]] = []
         self._inbox: list[dict[int, Packet]] = [{} for _ in range(self.n_robots)]
+        #: Tick of each sender's last broadcast, and per (sender, receiver) the tick of the last
+        #: packet lost on the way and of the last one the receiver was out of range for
+        #: (``NEVER`` if none): why a robot has no message from another (the neighbour
+        #: accounting of :class:`fftnav.episode.decider.Decider`).
+        self.last_sent = np.full(self.n_robots, self.NEVER, dtype=np.int64)
+        self.last_lost = np.full((self.n_robots, self.n_robots), self.NEVER, dtype=np.int64)
+        self.last_out_of_range = np.full((self.n_robots, self.n_robots), self.NEVER,
+                                         dtype=np.int64)
+
+    #: "No such packet" in the tick logs (far in the past).
+    NEVER = -(1 << 40)
 
     def broadcast(
         self, sender: int, payload: bytes, *, tick: int, poses: np.ndarray, active: np.ndarray
@@ -101,8 +112,12 @@ class Channel:
         reach = active & (dist <= self.range_m)
         reach[sender] = False
         receivers = np.flatnonzero(reach)
+        self.last_sent[sender] = tick
+        self.last_out_of_range[sender, active & ~reach] = tick
         if self.loss > 0.0:
-            receivers = receivers[self._rng.random(len(receivers)) >= self.loss]
+            kept = self._rng.random(len(receivers)) >= self.loss
+            self.last_lost[sender, receivers[~kept]] = tick
+            receivers = receivers[kept]
         pose = tuple(float(v) for v in poses[sender])
         packet = Packet(sender=sender, tick=tick, payload=payload, sender_pose=pose)  # type: ignore[arg-type]
         for r in receivers:

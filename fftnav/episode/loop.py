@@ -48,19 +48,26 @@ def _reference_lengths(world_json: str, r0_m: float) -> tuple[np.ndarray, np.nda
 
 @dataclass
 class _Robots:
-    """Per-robot state of a running episode."""
+    """Per-robot state of a running episode: ``active`` robots are in the world (waiting at
+    their start until their departure tick, or moving); the others arrived or failed."""
 
     active: np.ndarray
     collided: np.ndarray
     robot_contacts: np.ndarray
     in_contact: np.ndarray
+    departure: np.ndarray
     trajectories: list[list[np.ndarray]] = field(default_factory=list)
 
     @classmethod
-    def start(cls, obs: Observation) -> _Robots:
+    def start(cls, obs: Observation, departure: list[int]) -> _Robots:
         n = len(obs.poses)
         return cls(np.ones(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64),
-                   np.zeros(n, dtype=bool), [[obs.poses[i].copy()] for i in range(n)])
+                   np.zeros(n, dtype=bool), np.asarray(departure, dtype=np.int64),
+                   [[obs.poses[i].copy()] for i in range(n)])
+
+    def moving(self, tick: int) -> np.ndarray:
+        """Active robots that have departed by ``tick``."""
+        return self.active & (self.departure <= tick)
 
 
 class _Swarm:
@@ -87,10 +94,12 @@ class _Swarm:
     def _inbox(self, tick: int) -> Callable[[int], list[Packet]]:
         return lambda i: self.channel.inbox(i, tick=tick, max_age_ticks=self.max_age_ticks)
 
-    def commands(self, tick: int, obs: Observation, active: np.ndarray) -> np.ndarray:
-        """One control tick of every active robot: observe, control, broadcast."""
-        n, beams, range_m = len(active), self.config.sensor.beams, self.config.sensor.range_m
-        idx = np.flatnonzero(active)
+    def commands(self, tick: int, obs: Observation, moving: np.ndarray,
+                 active: np.ndarray) -> np.ndarray:
+        """One control tick of every moving robot: observe, control, broadcast (to the active
+        robots in range, moving or waiting)."""
+        n, beams, range_m = len(moving), self.config.sensor.beams, self.config.sensor.range_m
+        idx = np.flatnonzero(moving)
         ranges = np.zeros((n, beams))
         ranges[idx] = self.pipe.normalise(obs.scans[idx]) * range_m
         safe = y1 = messages = sigma = None
@@ -103,17 +112,19 @@ class _Swarm:
         self.channel.deliver(tick)
         step = SwarmStep(tick=tick, time_s=obs.time_s, poses=obs.poses, goals=self.goals,
                          active=idx, ranges_m=ranges, angles_rad=self.pipe.angles_rad, safe=safe,
-                         y1=y1, messages=messages, inbox=self._inbox(tick), sigma=sigma)
+                         y1=y1, messages=messages, inbox=self._inbox(tick), sigma=sigma,
+                         present=active)
         commands, outgoing = self.controller.step(step)
         for i in sorted(outgoing):
             self.channel.broadcast(int(i), outgoing[i], tick=tick, poses=obs.poses,
                                    active=active)
         return commands
 
-    def advance(self, sim: SwarmSim, commands: np.ndarray, robots: _Robots) -> Observation:
+    def advance(self, sim: SwarmSim, commands: np.ndarray, robots: _Robots,
+                tick: int) -> Observation:
         """Drive the swarm one control period; count robot contacts; park robots that arrived
         or touched an obstacle."""
-        idx = np.flatnonzero(robots.active)
+        idx = np.flatnonzero(robots.moving(tick))
         obs = sim.step(commands)
         robots.robot_contacts += obs.robot_contact & robots.active & ~robots.in_contact  # onsets
         robots.in_contact = obs.robot_contact & robots.active
@@ -177,7 +188,9 @@ def run_episode(
     met an obstacle send their compact message with ``fusion``); the simulator advances one
     control period. A robot
     within ``success_radius_m`` of its goal has arrived, one touching an obstacle has failed;
-    either is parked (taken out of the world).
+    either is parked (taken out of the world). With ``episode.departure`` other than
+    ``together`` a robot waits at its start until its departure tick; its trajectory and time
+    limit start then, and it is parked when its time is up.
     """
     cfg = config or SwarmConfig()
     pol = resolve(policy)
@@ -187,11 +200,21 @@ def run_episode(
                          if reference is None else reference)
     with SwarmSim(world, config=SimConfig.for_swarm(cfg), gui=gui) as sim:
         obs = sim.reset(seed=sim_seed)
-        robots = _Robots.start(obs)
-        for tick in range(cfg.episode.max_ticks):
+        robots = _Robots.start(obs, cfg.episode.departure_ticks(len(world.starts)))
+        for i in np.flatnonzero(robots.departure > 0):
+            swarm.controller.hold(int(i))
+        for tick in range(cfg.episode.max_ticks + int(robots.departure.max())):
+            for i in np.flatnonzero(robots.active & (robots.departure == tick) & (tick > 0)):
+                swarm.controller.release(int(i))
+            out_of_time = tick - robots.departure >= cfg.episode.max_ticks  # waves, staggered
+            for i in np.flatnonzero(robots.active & out_of_time):
+                robots.active[i] = False
+                swarm.controller.finish(int(i))
+                sim.park(int(i))
             if not robots.active.any():
                 break
-            obs = swarm.advance(sim, swarm.commands(tick, obs, robots.active), robots)
+            commands = swarm.commands(tick, obs, robots.moving(tick), robots.active)
+            obs = swarm.advance(sim, commands, robots, tick)
     trajectories = [np.array(t) for t in robots.trajectories]
     rows = [_row(i, pol.name, trajectories[i], swarm, robots, float(optimal[i]),
                  float(geodesic[i])) for i in range(len(trajectories))]

@@ -46,6 +46,23 @@ class EpisodeRow:
         from the robot's own (P_s) side.
     robot_contacts : int
         Contact onsets with other robots (not fatal).
+    follow_time_s, stall_time_s : float
+        Time (s) the planner spent following a boundary, and in its stall fallback (no safe
+        heading on the chosen side).
+    loop_flips : int
+        Side flips by the planner's loop detection.
+    contour_time_s : float
+        Time (s) in the planner's contour mode.
+    sides_remembered : int
+        Decisions taken from the planner's tried-sides memory (the policy not asked).
+    sides_reconsidered : int
+        Side changes while following when news arrived (``collab``).
+    neighbours_fused, neighbours_out_of_range, neighbours_too_close, neighbours_behind, \
+neighbours_no_message, neighbours_lost : int
+        ``fusion`` (and policies reading messages): over the robot's decisions, how many times
+        another robot in the world was fused, or why not (:data:`fftnav.metrics.
+        NEIGHBOUR_REASONS`); they add up to the sum over its decisions of the number of other
+        robots in the world.
     """
 
     robot: int
@@ -64,6 +81,18 @@ class EpisodeRow:
     decisions_with_neighbours: int
     decisions_flipped_by_neighbours: int
     robot_contacts: int
+    follow_time_s: float = 0.0
+    stall_time_s: float = 0.0
+    loop_flips: int = 0
+    contour_time_s: float = 0.0
+    sides_remembered: int = 0
+    sides_reconsidered: int = 0
+    neighbours_fused: int = 0
+    neighbours_out_of_range: int = 0
+    neighbours_too_close: int = 0
+    neighbours_behind: int = 0
+    neighbours_no_message: int = 0
+    neighbours_lost: int = 0
 
     def as_dict(self) -> dict[str, Any]:
         """Column name -> value."""

@@ -67,6 +67,7 @@ class Mode(IntEnum):
     GO_TO_GOAL = 0
     FOLLOW = 1
     DONE = 2
+    WAIT = 3  # not departed yet
 
 
 @dataclass(frozen=True)
@@ -86,6 +87,19 @@ class PlannerParams:
     loop_timeout_s : float
         Loop detection: following for this long without getting ``progress_m`` closer to the
         goal than ever before during the follow flips the side.
+    loop_growth : float
+        Each further flip within one follow waits ``loop_growth`` times longer (25, 50, 100 s):
+        a robot cannot swing between two sides that each fail within the first timeout, and
+        explores farther on each side in turn.
+    retreat_m : float
+        Contour mode: once a following robot is this much farther from the goal than its best
+        distance of the follow, it follows the obstacle's contour (the first safe heading met
+        turning from its obstacle side, not from the goal direction) until it beats its best
+        distance again.
+    memory_radius_m : float
+        Tried sides: at a new decision within this distance of one of its earlier hit points,
+        and no closer to the goal than it was there, a robot takes the side it did not take
+        there (without asking the policy).
     clearance_m, lookahead_m : float
         Clearance guard: a heading is drivable only if no scan point lies within
         ``r0 + clearance_m`` of its line over the next ``r0 + lookahead_m`` (:func:`corridor_free`).
@@ -99,12 +113,17 @@ class PlannerParams:
     loop_timeout_s: float = 25.0
     clearance_m: float = 0.03
     lookahead_m: float = 0.1
+    loop_growth: float = 2.0
+    retreat_m: float = 0.5
+    memory_radius_m: float = 1.0
 
     def __post_init__(self) -> None:
-        for name in ("v_max_mps", "w_max_radps", "control_hz", "heading_tol_rad", "loop_timeout_s"):
+        for name in ("v_max_mps", "w_max_radps", "control_hz", "heading_tol_rad", "loop_timeout_s",
+                     "retreat_m"):
             check_number(name, getattr(self, name), low=0, low_open=True)
-        for name in ("progress_m", "clearance_m", "lookahead_m"):
+        for name in ("progress_m", "clearance_m", "lookahead_m", "memory_radius_m"):
             check_number(name, getattr(self, name), low=0)
+        check_number("loop_growth", self.loop_growth, low=1)
 
     @classmethod
     def for_swarm(cls, config: SwarmConfig, **constants: float) -> PlannerParams:
@@ -121,6 +140,11 @@ class _Memory:
     hit_dist_m: float = math.inf
     best_dist_m: float = math.inf
     best_time_s: float = 0.0
+    flips: int = 0  # loop-detection flips in this follow
+    reconsidered: bool = False  # the side was changed by reconsider in this follow
+    contour: bool = False  # contour mode (retreated beyond retreat_m)
+    #: Hit points: (x m, y m, goal distance m, side taken).
+    hits: list[tuple[float, float, float, int]] = field(default_factory=list)
 
 
 @dataclass
@@ -141,6 +165,11 @@ class BugPlanner:
         Speed limits and state-machine constants.
     decide : callable
         ``decide(robot) -> +1 (left) | -1 (right)``, called once per decision.
+    reconsider : callable, optional
+        ``reconsider(robot, side) -> side``, called on the ticks a robot follows a boundary
+        before any loop flip and outside contour mode (policies that revise a side when news
+        arrives: ``collab``); a different side is taken at once (the loop-detection timer
+        restarts), at most once per follow. None: never.
     """
 
     n_robots: int
@@ -149,23 +178,44 @@ class BugPlanner:
     fov_rad: float
     decide: Callable[[int], int]
     params: PlannerParams = field(default_factory=PlannerParams)
+    reconsider: Callable[[int, int], int] | None = None
 
     @classmethod
-    def for_swarm(cls, n_robots: int, config: SwarmConfig,
-                  decide: Callable[[int], int]) -> BugPlanner:
+    def for_swarm(cls, n_robots: int, config: SwarmConfig, decide: Callable[[int], int],
+                  reconsider: Callable[[int, int], int] | None = None) -> BugPlanner:
         """The planner of ``n_robots`` robots of a swarm configuration (its geometry, lidar field
         of view, speed limits and control rate)."""
         return cls(n_robots, l_th_m=config.geometry.l_th_m, r0_m=config.robot.r0_m,
                    fov_rad=config.sensor.fov_rad, decide=decide,
-                   params=PlannerParams.for_swarm(config))
+                   params=PlannerParams.for_swarm(config), reconsider=reconsider)
 
     def __post_init__(self) -> None:
         self.memory = [_Memory() for _ in range(self.n_robots)]
         self.decisions = np.zeros((self.n_robots, 2), dtype=np.int64)  # [left, right]
+        #: Per robot: control ticks spent following a boundary, ticks in the stall fallback
+        #: (both while moving), and loop-detection side flips (diagnostics, docs/planner.md).
+        self.follow_ticks = np.zeros(self.n_robots, dtype=np.int64)
+        self.stall_ticks = np.zeros(self.n_robots, dtype=np.int64)
+        self.loop_flips = np.zeros(self.n_robots, dtype=np.int64)
+        #: Side changes by ``reconsider``; robots that left a boundary by the leave rule on
+        #: the last ``step`` (where they got past an obstacle: ``collab``'s passages).
+        self.reconsidered = np.zeros(self.n_robots, dtype=np.int64)
+        #: Ticks in contour mode; decisions taken from the tried-sides memory.
+        self.contour_ticks = np.zeros(self.n_robots, dtype=np.int64)
+        self.sides_remembered = np.zeros(self.n_robots, dtype=np.int64)
+        self.left_boundary = np.zeros(self.n_robots, dtype=bool)
 
     def finish(self, robot: int) -> None:
         """Mark a robot as done (arrived or failed): it gets zero commands from now on."""
         self.memory[robot].mode = Mode.DONE
+
+    def hold(self, robot: int) -> None:
+        """Keep a robot at its start (zero commands) until :meth:`release`."""
+        self.memory[robot].mode = Mode.WAIT
+
+    def release(self, robot: int) -> None:
+        """Let a held robot depart toward its goal."""
+        self.memory[robot].mode = Mode.GO_TO_GOAL
 
     def step(
         self,
@@ -222,17 +272,25 @@ class BugPlanner:
                                for o in (-1, 0, 1)])
             clear |= near & free[np.arange(k), goal_beam] & (around.min(axis=0) > dist)
         left, right = nearest_safe_headings(safe, beta, fov_rad=self.fov_rad)
+        # contour headings: the first safe beam turning from the right side (passing on the
+        # left, obstacle on the right) counter-clockwise, or from the left side clockwise
+        contour_left = nearest_safe_headings(safe, -math.pi / 2, fov_rad=self.fov_rad)[0]
+        contour_right = nearest_safe_headings(safe, math.pi / 2, fov_rad=self.fov_rad)[1]
         commands = np.zeros((k, 2))
+        self.left_boundary[:] = False
         for i in range(k):
             mem = self.memory[i]
-            if mem.mode == Mode.DONE:
+            if mem.mode in (Mode.DONE, Mode.WAIT):
                 continue
             if not visible[i] and mem.mode == Mode.GO_TO_GOAL:
                 commands[i] = self._command(float(beta[i]))
                 continue
-            target = self._target(i, mem, time_s, float(dist[i]), bool(clear[i]), beta[i],
-                                  left[i], right[i])
+            target = self._target(i, mem, time_s, poses[i, :2], float(dist[i]), bool(clear[i]),
+                                  beta[i], (left[i], right[i]),
+                                  (contour_left[i], contour_right[i]))
+            self.follow_ticks[i] += mem.mode == Mode.FOLLOW
             if math.isnan(target):  # no safe heading on the chosen side: stall fallback
+                self.stall_ticks[i] += 1
                 commands[i] = self._stall_command(mem.side, angles, openness[i], ranges_m[i],
                                                   free[i])
             else:
@@ -240,36 +298,71 @@ class BugPlanner:
         return commands, visible & ~clear
 
     def _target(
-        self, i: int, mem: _Memory, t: float, dist: float, clear: bool, beta: float,
-        left: float, right: float,
+        self, i: int, mem: _Memory, t: float, xy: np.ndarray, dist: float, clear: bool,
+        beta: float, nearest: tuple[float, float], contour: tuple[float, float],
     ) -> float:
-        """Heading (rad, robot frame) to steer to; NaN if the chosen side has no safe beam."""
+        """Heading (rad, robot frame) to steer to; NaN if the chosen side has no safe beam.
+        ``nearest``: the nearest safe headings left and right of the goal; ``contour``: those
+        of contour mode."""
         p = self.params
+        left, right = nearest
         if mem.mode == Mode.FOLLOW:
             if clear and dist < mem.hit_dist_m - p.progress_m:
                 mem.mode = Mode.GO_TO_GOAL  # leave rule: goal direction safe and progress made
+                self.left_boundary[i] = True
             else:
+                if (self.reconsider is not None and not mem.reconsidered and not mem.contour
+                        and mem.flips == 0):
+                    side = self.reconsider(i, mem.side)
+                    if side != mem.side:  # at most once per follow, before any loop trouble
+                        self.reconsidered[i] += 1
+                        mem.side, mem.best_time_s, mem.reconsidered = side, t, True
                 if dist < mem.best_dist_m - p.progress_m:
                     mem.best_dist_m, mem.best_time_s = dist, t
-                elif t - mem.best_time_s > p.loop_timeout_s:  # loop detection: flip the side
+                    mem.contour = False
+                elif t - mem.best_time_s > p.loop_timeout_s * p.loop_growth ** mem.flips:
+                    self.loop_flips[i] += 1  # loop detection: flip the side
                     mem.side = -mem.side
                     mem.hit_dist_m = mem.best_dist_m = dist
                     mem.best_time_s = t
+                    mem.flips += 1
+                    mem.contour = False
+                if dist > mem.best_dist_m + p.retreat_m:
+                    mem.contour = True
+                if mem.contour:
+                    self.contour_ticks[i] += 1
+                    return contour[0] if mem.side > 0 else contour[1]
                 if clear:
                     return beta
                 return left if mem.side > 0 else right
         if clear:
             return beta
-        side = self.decide(i)
-        if side not in (1, -1):
-            raise ValueError(
-                f"a policy must return +1 (left) or -1 (right), got {side!r} for robot {i}"
-            )
+        side = self._tried_side(mem, xy, dist)
+        if side is None:
+            side = self.decide(i)
+            if side not in (1, -1):
+                raise ValueError(
+                    f"a policy must return +1 (left) or -1 (right), got {side!r} for robot {i}"
+                )
+        else:
+            self.sides_remembered[i] += 1
         self.decisions[i, 0 if side > 0 else 1] += 1
         mem.mode, mem.side = Mode.FOLLOW, side
         mem.hit_dist_m = mem.best_dist_m = dist
         mem.best_time_s = t
+        mem.flips, mem.contour, mem.reconsidered = 0, False, False
+        mem.hits.append((float(xy[0]), float(xy[1]), dist, side))
         return left if side > 0 else right
+
+    def _tried_side(self, mem: _Memory, xy: np.ndarray, dist: float) -> int | None:
+        """The side not taken at the latest earlier hit point within ``memory_radius_m`` from
+        which the robot has not got closer to the goal (it came back); None if there is none."""
+        p = self.params
+        for hx, hy, hit_dist, side in reversed(mem.hits):
+            if (math.hypot(xy[0] - hx, xy[1] - hy) < p.memory_radius_m
+                    and dist > hit_dist - p.progress_m):
+                return -side
+        return None
 
     def _stall_command(
         self, side: int, angles: np.ndarray, openness: np.ndarray, ranges_m: np.ndarray,

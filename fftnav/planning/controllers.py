@@ -156,6 +156,9 @@ class SwarmStep:
     messages: list[bytes] | None
     inbox: Callable[[int], Sequence[Any]]
     sigma: list[np.ndarray] | None = None
+    #: Robots in the world (driving, or waiting at their start to depart: ``episode.departure``),
+    #: a mask of K; None: those of ``active``.
+    present: np.ndarray | None = None
 
 
 class Controller:
@@ -225,6 +228,13 @@ class Controller:
 
     def finish(self, robot: int) -> None:
         """Robot ``robot`` arrived or failed and left the world (nothing by default)."""
+
+    def hold(self, robot: int) -> None:
+        """Robot ``robot`` waits at its start until :meth:`release` (``episode.departure``); it
+        is not in ``active`` meanwhile (nothing by default)."""
+
+    def release(self, robot: int) -> None:
+        """Robot ``robot`` departs now (nothing by default)."""
 
     def counters(self, robot: int) -> dict[str, int]:
         """The decision counters of ``robot``'s row (all zero unless the controller has them)."""

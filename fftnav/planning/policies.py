@@ -15,6 +15,12 @@ Registered policies:
     Ablation: left iff P_s > 0.5, no neighbours (tells whether the gain comes from sharing).
 ``random``
     A seeded coin per decision.
+``collab``
+    Ours (issue 10): robots share *passages* (where they got past an obstacle, relayed from robot
+    to robot, :mod:`fftnav.episode.collab`); at a decision the side of the best known passage
+    ahead, unless the robot's own view is decisive (``|P_s - 0.5| >= COLLAB_TRUST_OWN``) or no
+    passage lies clearly to one side, then P_s as ``own-only``. While following, the planner
+    reconsiders the side when news arrives (``reconsiders``).
 """
 
 from __future__ import annotations
@@ -25,7 +31,9 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
+    "COLLAB_TRUST_OWN",
     "LEFT",
+    "MESSAGES",
     "RIGHT",
     "DecisionContext",
     "Policy",
@@ -52,36 +60,56 @@ class DecisionContext:
         ``() -> float``: P, own and neighbours' probabilities fused (eq. (P)).
     rng : numpy.random.Generator
         The episode's generator (for ``random``).
+    shared_side : callable
+        ``() -> int | None``: the side of the best passage the robot knows of (``collab``'s
+        messages), None if it knows none that says which side.
     """
 
     robot: int
     own_probability: Callable[[], float]
     fused_probability: Callable[[], float]
     rng: np.random.Generator
+    shared_side: Callable[[], int | None] = lambda: None
+
+
+#: What a policy's robots broadcast: nothing, their compressed observation (the paper's
+#: Sigma, ``fusion``) or the passages they know (``collab``).
+MESSAGES: tuple[str | None, ...] = (None, "observation", "passages")
 
 
 @dataclass(frozen=True)
 class Policy:
-    """A named decision rule; ``uses_messages`` says whether robots broadcast observations."""
+    """A named decision rule. ``messages`` says what its robots broadcast (:data:`MESSAGES`);
+    ``reconsiders``: the planner asks ``decide`` again, while following, when news arrives."""
 
     name: str
     decide: Callable[[DecisionContext], int]
-    uses_messages: bool
+    messages: str | None
     description: str
+    reconsiders: bool = False
+
+    @property
+    def uses_messages(self) -> bool:
+        """Whether its robots broadcast anything."""
+        return self.messages is not None
 
 
 POLICIES: dict[str, Policy] = {}
 
 
 def register_policy(
-    name: str, *, uses_messages: bool = False, description: str = ""
+    name: str, *, messages: str | None = None, reconsiders: bool = False, description: str = ""
 ) -> Callable[[Callable[[DecisionContext], int]], Callable[[DecisionContext], int]]:
-    """Decorator registering a decision function under ``name``."""
+    """Decorator registering a decision function under ``name`` (``messages``: what its robots
+    broadcast, one of :data:`MESSAGES`)."""
+    if messages not in MESSAGES:
+        raise ValueError(f"messages must be one of {list(MESSAGES)}, got messages={messages!r}")
 
     def wrap(fn: Callable[[DecisionContext], int]) -> Callable[[DecisionContext], int]:
         if name in POLICIES:
             raise ValueError(f"policy name {name!r} is already registered")
-        POLICIES[name] = Policy(name, fn, uses_messages, description or (fn.__doc__ or ""))
+        POLICIES[name] = Policy(name, fn, messages, description or (fn.__doc__ or ""),
+                                reconsiders)
         return fn
 
     return wrap
@@ -119,7 +147,21 @@ def _own_only(ctx: DecisionContext) -> int:
     return LEFT if ctx.own_probability() > 0.5 else RIGHT
 
 
-@register_policy("fusion", uses_messages=True)
+@register_policy("fusion", messages="observation")
 def _fusion(ctx: DecisionContext) -> int:
     """Left iff the fused P > 0.5 (the paper's method)."""
     return LEFT if ctx.fused_probability() > 0.5 else RIGHT
+
+
+#: ``collab`` trusts its own view over shared passages when P_s is at least this far from 1/2.
+COLLAB_TRUST_OWN = 0.25
+
+
+@register_policy("collab", messages="passages", reconsiders=True)
+def _collab(ctx: DecisionContext) -> int:
+    """The side of the best shared passage ahead, unless the own view is decisive; else P_s."""
+    p_s = ctx.own_probability()
+    shared = ctx.shared_side() if abs(p_s - 0.5) < COLLAB_TRUST_OWN else None
+    if shared is not None:
+        return shared
+    return LEFT if p_s > 0.5 else RIGHT

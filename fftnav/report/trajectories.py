@@ -16,7 +16,7 @@ from fftnav.episode.record import EpisodeRow  # noqa: E402
 from fftnav.report.world_plot import draw_world  # noqa: E402
 from fftnav.world.model import World  # noqa: E402
 
-__all__ = ["draw_trajectories", "plot_episode"]
+__all__ = ["draw_trajectories", "plot_episode", "plot_failures"]
 
 
 def draw_trajectories(
@@ -55,3 +55,34 @@ def plot_episode(
     fig.savefig(out, bbox_inches="tight")
     plt.close(fig)
     return out
+
+
+def plot_failures(
+    world: World,
+    trajectories: Sequence[np.ndarray],
+    rows: Sequence[EpisodeRow],
+    path: str | Path,
+    *,
+    title: str = "",
+    control_hz: float = 10.0,
+) -> Path:
+    """Write a PNG of the robots of one episode that did not arrive: each path dashed, dotted
+    once a second in a colour that goes from dark (start) to yellow (end), so that loops and
+    back-and-forth show, with the robot's index at its start (docs/planner.md)."""
+    fig, ax = plt.subplots(figsize=(6.5, 6.5), dpi=120)
+    failed = [i for i, r in enumerate(rows) if not r.arrived]
+    draw_trajectories(ax, world, [trajectories[i] for i in failed], [False] * len(failed))
+    step = max(int(round(control_hz)), 1)
+    for i in failed:
+        t = trajectories[i][::step]
+        ax.scatter(t[:, 0], t[:, 1], c=np.arange(len(t)), cmap="plasma", s=4, zorder=3)
+        ax.annotate(str(i), trajectories[i][0, :2], xytext=(0, -10),
+                    textcoords="offset points", ha="center", fontsize=7)
+    ax.set_title(title or f"{rows[0].policy}: the {len(failed)} of {len(rows)} robots that "
+                 "did not arrive")
+    out = Path(path)
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, bbox_inches="tight")
+    plt.close(fig)
+    return out
+

@@ -19,14 +19,16 @@ __all__ = ["draw_world", "render_world"]
 
 def draw_world(world: World, ax: Any) -> None:
     """Draw ``world`` on a matplotlib axes: obstacles (grey), starts (blue triangles pointing
-    along the start yaw), goals (green stars), the world border and a 1 m scale bar.
+    along the start yaw), goals (green stars), the world border (thick for boundary walls) and a
+    1 m scale bar.
     Axes are in metres, equal aspect, x right and y up."""
     for obstacle in world.obstacles:
         patch = PolygonPatch(obstacle.outline(), closed=True)  # trunks: their 64-gon
         patch.set(facecolor="0.45", edgecolor="0.2", linewidth=0.5)
         ax.add_patch(patch)
     w, h = world.size_m
-    ax.plot([0, w, w, 0, 0], [0, 0, h, h, 0], color="k", lw=0.8)
+    walls = world.boundary == "walls"  # a boundary wall is drawn as a thick border
+    ax.plot([0, w, w, 0, 0], [0, 0, h, h, 0], color="k", lw=3.0 if walls else 0.8)
     sx, sy, yaw = world.starts.T
     ax.quiver(sx, sy, 0.5 * np.cos(yaw), 0.5 * np.sin(yaw), color="tab:blue", angles="xy",
               scale_units="xy", scale=1, width=0.004)

@@ -1,6 +1,8 @@
 """Experiment configurations: a TOML file -> a validated :class:`ExperimentConfig`.
 
-The file has an ``[experiment]`` table (what to run), an optional ``[world]`` table of overrides
+The file has an ``[experiment]`` table (what to run), an optional ``[sweep]`` table (axes of a
+one-factor-at-a-time sweep: one run of the base config per value, each into its own folder),
+an optional ``[world]`` table of overrides
 for :func:`fftnav.world.model.generate_world` (with optional per-env sub-tables such as
 ``[world.forest]``), and the episode sections ``[robot]``, ``[sensor]``, ``[comms]``,
 ``[episode]`` of :class:`fftnav.config.SwarmConfig`. Every unknown key or invalid value raises
@@ -11,6 +13,8 @@ See ``docs/experiments.md`` for the reference of every key.
 
 from __future__ import annotations
 
+import copy
+import dataclasses
 import re
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -77,6 +81,10 @@ class ExperimentConfig:
     world_by_env: dict[str, dict[str, Any]] = field(default_factory=dict)
     swarm: SwarmConfig = field(default_factory=SwarmConfig)
     source: str = field(default="", repr=False, compare=False)
+    #: ``[sweep]``: the cells of a one-factor-at-a-time sweep, ``(name, config)``, the first
+    #: ``base`` (this config without the sweep); empty without ``[sweep]``.
+    cells: tuple[tuple[str, ExperimentConfig], ...] = field(default=(), repr=False,
+                                                            compare=False)
 
     def world_overrides(self, env: str) -> dict[str, Any]:
         """Overrides for ``generate_world(env, seed, **overrides)``.
@@ -147,10 +155,16 @@ def parse_config(data: dict[str, Any], *, source: str = "",
     ValueError
         Unknown section or key, missing or invalid value; the message names the key.
     """
-    allowed = ("experiment", "world", *SwarmConfig.SECTIONS)
+    allowed = ("experiment", "world", "sweep", *SwarmConfig.SECTIONS)
     for name in data:
         if name not in allowed:
             raise ValueError(f"unknown section [{name}]; expected one of {list(allowed)}")
+    if "sweep" in data:
+        common = {k: v for k, v in data.items() if k != "sweep"}
+        config = parse_config(common, source=source, base=base)
+        cells = tuple(_sweep_cells(common, {"": [None], **_table(data, "sweep")}, source,
+                                   folder=base))
+        return dataclasses.replace(config, cells=cells)
     exp = _table(data, "experiment")
     _check_keys("experiment", exp, _EXPERIMENT_KEYS)
     for key in ("name", "envs", "maps", "map_seed", "robots", "policies"):
@@ -230,6 +244,46 @@ def _policies(value: Any, base: str | Path | None) -> tuple[str, ...]:
         names[found.name] = ref
         out.append(ref)
     return tuple(out)
+def _sweep_cells(base: dict[str, Any], sweep: dict[str, Any], source: str, *,
+                 folder: str | Path | None = None) -> list[tuple[str, ExperimentConfig]]:
+    """The sweep's cells: for each axis ``"section.key"`` (``[robot]``, ``[sensor]``,
+    ``[comms]``, ``[episode]``), ``"world.key"`` or ``"world.<env>.key"`` and each of its
+    values, the base config with that one value (``world.<env>.key``: and only that env);
+    named ``key=value``, written to ``experiment.out/<name>``. Each cell is validated like a
+    config of its own."""
+    cells = []
+    out = base["experiment"].get("out", f"results/{base['experiment'].get('name')}")
+    for axis, values in sweep.items():
+        if axis == "":  # the base cell
+            data = copy.deepcopy(base)
+            data["experiment"] = {**data["experiment"], "out": f"{out}/base"}
+            cells.append(("base", parse_config(data, source=source, base=folder)))
+            continue
+        parts = axis.split(".")
+        valid = ((len(parts) == 2 and parts[0] in (*SwarmConfig.SECTIONS, "world"))
+                 or (len(parts) == 3 and parts[0] == "world"))
+        if not valid:
+            raise ValueError(f"unknown key sweep.{axis}; expected 'section.key' of "
+                             f"{[*SwarmConfig.SECTIONS, 'world']} or 'world.<env>.key'")
+        if not isinstance(values, list) or not values:
+            raise ValueError(f"sweep.{axis} must be a non-empty list of values, got {values!r}")
+        for value in values:
+            data = copy.deepcopy(base)
+            table = data.setdefault(parts[0], {})
+            for part in parts[1:-1]:
+                table = table.setdefault(part, {})
+            table[parts[-1]] = value
+            if len(parts) == 3:  # an axis of one env's world runs that env only
+                data["experiment"] = {**data["experiment"], "envs": [parts[1]]}
+            text = "-".join(f"{v:g}" for v in value) if isinstance(value, list) else (
+                f"{value:g}" if isinstance(value, float) else str(value))
+            name = f"{parts[-1]}={text}"
+            data["experiment"] = {**data["experiment"], "out": f"{out}/{name}"}
+            try:
+                cells.append((name, parse_config(data, source=source, base=folder)))
+            except ValueError as exc:
+                raise ValueError(f"sweep.{axis} = {value!r}: {exc}") from None
+    return cells
 
 
 def _table(data: dict[str, Any], name: str) -> dict[str, Any]:

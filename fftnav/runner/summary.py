@@ -10,6 +10,7 @@ not independent): maps are resampled with replacement and the pooled statistic r
 from __future__ import annotations
 
 import warnings
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -18,8 +19,8 @@ from scipy import stats
 from fftnav.metrics import MEASURES
 from fftnav.validate import check_integer, check_number
 
-__all__ = ["PAIRED_COLUMNS", "bootstrap_ratio_ci", "paired_tests", "summarize",
-           "summary_columns"]
+__all__ = ["PAIRED_COLUMNS", "SWEEP_COLUMNS", "bootstrap_ratio_ci", "gain_table", "paired_tests",
+           "summarize", "summary_columns"]
 
 #: Columns of a summary before the measures: the group and its size.
 _KEYS: tuple[str, ...] = ("env", "policy", "episodes", "robots")
@@ -155,3 +156,57 @@ def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion") -> pd.Dat
                              pair[policy].mean(), np.median(diff) if len(diff) else np.nan,
                              statistic, p_value))
     return pd.DataFrame(rows, columns=list(PAIRED_COLUMNS))
+
+
+#: Columns of ``sweep_summary.csv``.
+SWEEP_COLUMNS: tuple[str, ...] = (
+    "cell", "env", "policy", "maps", "ar", "ar_ci_low", "ar_ci_high", "spl", "spl_ci_low",
+    "spl_ci_high", "bytes_per_robot", "reference", "gain", "gain_ci_low", "gain_ci_high",
+    "p_value",
+)
+
+
+def _mean_ci(diff: np.ndarray) -> tuple[float, float]:
+    if len(diff) < 2 or np.all(diff == diff[0]):
+        return (float(diff[0]), float(diff[0])) if len(diff) else (np.nan, np.nan)
+    res = stats.bootstrap((diff,), np.mean, confidence_level=0.95, n_resamples=2000,
+                          method="percentile", rng=np.random.default_rng(0))
+    return float(res.confidence_interval.low), float(res.confidence_interval.high)
+
+
+def _wilcoxon(diff: np.ndarray) -> float:
+    if not np.any(diff != 0):
+        return float("nan")
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore")
+        return float(stats.wilcoxon(diff).pvalue)
+
+
+def gain_table(episodes: pd.DataFrame, cell: str) -> pd.DataFrame:
+    """Rows :data:`SWEEP_COLUMNS` of one sweep cell's ``episodes.csv``: each (env, policy)
+    with AR and SPL and their 95% bootstrap intervals over maps, bytes per robot, and its gain
+    against ``own-only`` (per-map SPL difference: mean, 95% bootstrap interval of the mean,
+    two-sided Wilcoxon signed-rank p); ``collab`` gets a second row against ``fusion``."""
+    per_map = episodes.pivot_table(index=["env", "map_seed"], columns="policy", values="spl",
+                                   aggfunc="mean")
+    rows: list[tuple[Any, ...]] = []
+    for (env, policy), g in episodes.groupby(["env", "policy"], sort=True):
+        sums = g.groupby("map_seed").agg(arr=("arrived", "sum"), spl=("spl", "sum"),
+                                         n=("robot", "count"))
+        ar = g["arrived"].mean()
+        spl = g["spl"].mean()
+        ar_ci = bootstrap_ratio_ci(sums["arr"].to_numpy(), sums["n"].to_numpy())
+        spl_ci = bootstrap_ratio_ci(sums["spl"].to_numpy(), sums["n"].to_numpy())
+        refs = [r for r in ("own-only", "fusion") if r != policy and r in per_map.columns
+                and (r == "own-only" or policy == "collab")] or [""]
+        for ref in refs:
+            gain = lo = hi = p = np.nan
+            if ref:
+                pair = per_map.loc[env][[policy, ref]].dropna()
+                diff = (pair[policy] - pair[ref]).to_numpy()
+                gain = float(diff.mean()) if len(diff) else np.nan
+                lo, hi = _mean_ci(diff)
+                p = _wilcoxon(diff)
+            rows.append((cell, env, policy, g["map_seed"].nunique(), ar, *ar_ci, spl, *spl_ci,
+                         g["bytes_sent"].mean(), ref, gain, lo, hi, p))
+    return pd.DataFrame(rows, columns=list(SWEEP_COLUMNS))

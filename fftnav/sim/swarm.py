@@ -1,11 +1,11 @@
 """PyBullet swarm of differential-drive robots with lidars: a Gymnasium-style many-robot API.
 
-``SwarmSim(world)`` builds the world file's obstacles as one static triangle mesh of vertical
-prisms (rocks and walls over their polygons, trunks over 64-gons circumscribing their circles:
-Bullet ray-casts triangle meshes exactly and faster than convex hulls or capsules) and one robot
-per start pose (a planar sphere, or optionally a wheeled URDF). ``reset(seed=...)`` returns the
-first observation; ``step(commands)`` applies (v, w) commands for one control period. Only
-``fftnav.sim`` imports pybullet.
+``SwarmSim(world)`` builds the world's solids (obstacles and boundary walls) as one static
+triangle mesh of vertical prisms (rocks and walls over their polygons, trunks over 64-gons
+circumscribing their circles: Bullet ray-casts triangle meshes exactly and faster than convex
+hulls or capsules) and one robot per start pose (a planar sphere, or optionally a wheeled
+URDF). ``reset(seed=...)`` returns the first observation; ``step(commands)`` applies (v, w)
+commands for one control period. Only ``fftnav.sim`` imports pybullet.
 """
 
 from __future__ import annotations
@@ -210,7 +210,7 @@ class SwarmSim:
         # physics step several times cheaper), else tiles of as few meshes as they need; the
         # same meshes go into the static client, which the lidar uses for rays that cannot hit
         # a robot (faster there).
-        meshes = static_meshes(self.world.obstacles, max_vertices=cfg.mesh_max_vertices,
+        meshes = static_meshes(self.world.solids, max_vertices=cfg.mesh_max_vertices,
                                max_indices=cfg.mesh_max_indices)
         #: Number of static obstacle meshes built (1 unless Bullet's limits split the world).
         self.static_meshes = len(meshes)
@@ -237,7 +237,7 @@ class SwarmSim:
                             height_m=r0 if cfg.lidar_height_m is None else cfg.lidar_height_m,
                             start_m=r0 + 0.005, mask=_OBSTACLE | _ROBOT,
                             bodies=[(o.bounding_circle(), o.cull_vertices())
-                                    for o in self.world.obstacles],
+                                    for o in self.world.solids],
                             robot_radius_m=cfg.robot.r0_m, static_client=self._static_client)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:

@@ -14,10 +14,10 @@ from typing import Any
 import numpy as np
 
 from fftnav.limits import MAX_GRID_CELLS, MAX_MAP_SIDE_M, MAX_OBSTACLES, check_limit, grid_cells
-from fftnav.validate import check_integer, check_number, is_integer, is_number
+from fftnav.validate import check_choice, check_integer, check_number, is_integer, is_number
 from fftnav.world.grid import unreachable_robots
 from fftnav.world.kinds import DECIMALS, Params, get_world_kind, load_preset
-from fftnav.world.model import World
+from fftnav.world.model import BOUNDARIES, World
 
 __all__ = ["generate_world", "world_parameters"]
 
@@ -38,6 +38,7 @@ def _check_common(p: Params) -> None:
     check_number("min_gap_m", p["min_gap_m"], low=0)
     check_integer("placement_tries", p["placement_tries"], low=1)
     check_integer("max_attempts", p["max_attempts"], low=1)
+    check_choice("boundary", p.get("boundary", "open"), BOUNDARIES)
     n = check_integer("robots", p["robots"], low=1)
     radius = check_number("robot_radius_m", p["robot_radius_m"], low=0)
     if w / n < 2.5 * radius:
@@ -118,6 +119,8 @@ def generate_world(env: str, seed: int, *, preset: Params | None = None,
         (4-connected free space of the occupancy grid inflated by that radius); if not, or if
         the kind asks for a redraw (an obstacle found no free spot), the world is redrawn from
         the generator seeded ``[seed, attempt]`` for the next attempt, up to ``max_attempts``.
+        Its ``boundary`` is the parameter ``boundary`` (``"open"`` if the preset has none);
+        with ``"walls"`` the reachability check sees the walls too.
 
     Examples
     --------
@@ -134,7 +137,8 @@ def generate_world(env: str, seed: int, *, preset: Params | None = None,
         obstacles = kind.draw(params, np.random.default_rng([seed, attempt]))
         if obstacles is None:
             continue
-        world = World(env, seed, (w, h), tuple(obstacles), starts, goals)
+        world = World(env, seed, (w, h), tuple(obstacles), starts, goals,
+                      params.get("boundary", "open"))
         if not unreachable_robots(world, radius_m=params["robot_radius_m"],
                                   resolution_m=params["reachability_resolution_m"]):
             return world

@@ -59,7 +59,7 @@ def raycast_world(world: World, origins: np.ndarray, angles: np.ndarray, range_m
     p = np.repeat(origins, angles.shape[1], axis=0)
     d = np.c_[np.cos(angles.ravel()), np.sin(angles.ravel())]
     by_class = [(cls, list(group)) for cls, group in groupby(
-        sorted(world.obstacles, key=lambda o: o.shape), key=type)]
+        sorted(world.solids, key=lambda o: o.shape), key=type)]
     out = np.full(len(p), float(range_m))
     for s in range(0, len(p), chunk):
         best = out[s:s + chunk]

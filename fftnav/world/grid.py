@@ -49,7 +49,8 @@ class OccupancyGrid:
 
 def occupancy_grid(world: World, *, resolution_m: float = 0.05,
                    inflate_m: float = 0.0) -> OccupancyGrid:
-    """Rasterise a world's obstacles (exact distance of each cell centre, no approximation).
+    """Rasterise a world's solids (obstacles and boundary walls, :attr:`World.solids`; exact
+    distance of each cell centre, no approximation).
 
     Parameters
     ----------
@@ -73,7 +74,7 @@ def occupancy_grid(world: World, *, resolution_m: float = 0.05,
                 MAX_GRID_CELLS, hint="raise resolution_m")
     shape = (math.ceil(h / resolution_m - 1e-9), math.ceil(w / resolution_m - 1e-9))
     grid = np.zeros(shape, dtype=bool)
-    for obstacle in world.obstacles:
+    for obstacle in world.solids:
         lo, hi = obstacle.bounds()
         c0, r0 = np.maximum(np.floor((lo - inflate_m) / resolution_m).astype(int), 0)
         c1, r1 = np.minimum(np.ceil((hi + inflate_m) / resolution_m).astype(int) + 1,

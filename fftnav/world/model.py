@@ -3,19 +3,25 @@
 A world is a flat rectangle ``[0, w] x [0, h]`` (metres, x right, y up, yaw CCW from +x) holding
 vertical prisms (:mod:`fftnav.world.obstacles`: tree trunks, rocks, wall fragments, any
 registered shape), plus one start pose and one goal per robot (paper Sec. IV-B: 20 m x 20 m,
-about one obstacle per 5 m^2, 15 robots). Pure numpy.
+about one obstacle per 5 m^2, 15 robots). Its ``boundary`` is ``"open"`` (the paper: nothing
+stops a robot at the map edge) or ``"walls"`` (the edge is an obstacle for the robots, the lidar,
+grids and A*: :attr:`World.solids` adds four walls just outside the rectangle). Pure numpy.
 
-World file (JSON); every key is required and no other key is accepted::
+World file (JSON); every key but ``boundary`` is required (a file without it is ``"open"``, as
+every file written before the option existed) and no other key is accepted::
 
     {"env": "forest", "seed": 3, "size": [20.0, 20.0],
      "obstacles": [{"shape": "circle", "center": [x, y], "radius": r, "height": h},
                    {"shape": "polygon", "vertices": [[x, y], ...], "height": h}],
-     "starts": [[x, y, yaw], ...], "goals": [[x, y], ...]}
+     "starts": [[x, y, yaw], ...], "goals": [[x, y], ...], "boundary": "walls"}
+
+``boundary`` is written only when it is ``"walls"``, so an open world's file is unchanged.
 """
 
 from __future__ import annotations
 
 import json
+import math
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -24,13 +30,22 @@ import numpy as np
 
 from fftnav.files import parse_json, read_text, write_atomic
 from fftnav.limits import MAX_MAP_SIDE_M, MAX_OBSTACLES, check_limit
-from fftnav.validate import check_number, check_vector, is_integer
-from fftnav.world.obstacles import SHAPES, Obstacle
+from fftnav.validate import check_choice, check_number, check_vector, is_integer
+from fftnav.world.obstacles import SHAPES, Obstacle, rectangle
 
-__all__ = ["WORLD_KEYS", "World", "load_world", "save_world"]
+__all__ = ["BOUNDARIES", "OPTIONAL_WORLD_KEYS", "WORLD_KEYS", "World", "load_world",
+           "save_world"]
 
-#: The keys of a world file, in the order they are written.
+#: The required keys of a world file, in the order they are written.
 WORLD_KEYS: tuple[str, ...] = ("env", "seed", "size", "obstacles", "starts", "goals")
+#: Optional keys of a world file (written after the required ones when not at their default).
+OPTIONAL_WORLD_KEYS: tuple[str, ...] = ("boundary",)
+#: Map boundaries: ``open`` (nothing at the edge) or ``walls`` (the edge is an obstacle).
+BOUNDARIES: tuple[str, ...] = ("open", "walls")
+#: Thickness and height (m) of the boundary walls, which lie just outside the map.
+_BOUNDARY_THICKNESS_M = 1.0
+_BOUNDARY_HEIGHT_M = 2.0
+_BOUNDARY_PIECE_M = 2.5
 
 
 @dataclass(frozen=True)
@@ -38,7 +53,8 @@ class World:
     """A world: environment name, generating seed, size (w, h) m, obstacles, robot starts and goals.
 
     ``starts`` is ``(N, 3)`` (x m, y m, yaw rad) and ``goals`` ``(N, 2)`` (x m, y m); robot i
-    starts at ``starts[i]`` and drives to ``goals[i]``.
+    starts at ``starts[i]`` and drives to ``goals[i]``. ``boundary`` is ``"open"`` or
+    ``"walls"`` (:data:`BOUNDARIES`).
     """
 
     env: str
@@ -47,14 +63,49 @@ class World:
     obstacles: tuple[Obstacle, ...]
     starts: np.ndarray
     goals: np.ndarray
+    boundary: str = "open"
+
+    def __post_init__(self) -> None:
+        check_choice("boundary", self.boundary, BOUNDARIES)
+
+    @property
+    def boundary_walls(self) -> tuple[Obstacle, ...]:
+        """The walls of a ``"walls"`` boundary, bottom, top, left, right: 1 m thick rectangles
+        just outside ``[0, w] x [0, h]`` (the bottom and top ones covering the corners), each
+        cut into pieces at most 2.5 m long so that the lidar's ray culling stays effective;
+        empty for ``"open"``."""
+        if self.boundary == "open":
+            return ()
+        w, h = self.size_m
+        t = _BOUNDARY_THICKNESS_M
+        boxes = ((-t, -t, w + t, 0.0), (-t, h, w + t, h + t),  # bottom, top
+                 (-t, 0.0, 0.0, h), (w, 0.0, w + t, h))  # left, right
+        walls = []
+        for x0, y0, x1, y1 in boxes:
+            along_x = x1 - x0 > y1 - y0
+            cuts = np.linspace(*((x0, x1) if along_x else (y0, y1)),
+                               math.ceil(max(x1 - x0, y1 - y0) / _BOUNDARY_PIECE_M) + 1)
+            for a, b in zip(cuts[:-1], cuts[1:], strict=True):
+                box = (a, y0, b, y1) if along_x else (x0, a, x1, b)
+                walls.append(rectangle(*map(float, box), _BOUNDARY_HEIGHT_M))
+        return tuple(walls)
+
+    @property
+    def solids(self) -> tuple[Obstacle, ...]:
+        """Everything that stops a robot or a lidar beam: the obstacles, then the boundary
+        walls. The simulator, the ray-cast oracle, grids and A* all use this."""
+        return self.obstacles + self.boundary_walls
 
     def to_json(self) -> str:
         """The documented JSON text of this world (see the module docstring)."""
-        return json.dumps({
+        data = {
             "env": self.env, "seed": self.seed, "size": list(self.size_m),
             "obstacles": [o.to_dict() for o in self.obstacles],
             "starts": self.starts.tolist(), "goals": self.goals.tolist(),
-        })
+        }
+        if self.boundary != "open":
+            data["boundary"] = self.boundary
+        return json.dumps(data)
 
     @classmethod
     def from_json(cls, text: str, *, where: str = "world file") -> World:
@@ -69,11 +120,11 @@ class World:
             raise ValueError(f"{where}: {exc}") from None
 
     def obstacle_distance(self, points: np.ndarray) -> np.ndarray:
-        """Euclidean distance (m) from each point ``(P, 2)`` to the nearest obstacle, 0 inside
-        one, ``inf`` in a world without obstacles."""
+        """Euclidean distance (m) from each point ``(P, 2)`` to the nearest solid (obstacle or
+        boundary wall), 0 inside one, ``inf`` in an open world without obstacles."""
         pts = np.asarray(points, dtype=float).reshape(-1, 2)
         best = np.full(len(pts), np.inf)
-        for obstacle in self.obstacles:
+        for obstacle in self.solids:
             best = np.minimum(best, obstacle.distance(pts))
         return best
 
@@ -81,7 +132,7 @@ class World:
         """The same obstacles with other robots: ``starts`` ``(N, 3)`` and ``goals`` ``(N, 2)``."""
         return World(self.env, self.seed, self.size_m, self.obstacles,
                      np.asarray(starts, dtype=float).reshape(-1, 3),
-                     np.asarray(goals, dtype=float).reshape(-1, 2))
+                     np.asarray(goals, dtype=float).reshape(-1, 2), self.boundary)
 
 
 def _parse_obstacle(data: Any, where: str, size: tuple[float, float]) -> Obstacle:
@@ -107,9 +158,10 @@ def _points(value: Any, n: int, where: str, size: tuple[float, float]) -> np.nda
     return pts
 
 
-def _check_free(where: str, points: np.ndarray, obstacles: tuple[Obstacle, ...]) -> None:
-    """Raise if a start or goal lies inside an obstacle or on its boundary (a robot would be
-    spawned inside the obstacle's mesh)."""
+def _check_free(where: str, points: np.ndarray, obstacles: tuple[Obstacle, ...],
+                n_obstacles: int) -> None:
+    """Raise if a start or goal lies inside an obstacle (or boundary wall) or on its boundary (a
+    robot would be spawned inside the obstacle's mesh)."""
     if not obstacles:
         return
     distance = np.array([o.distance(points[:, :2]) for o in obstacles])  # (N, P)
@@ -117,7 +169,8 @@ def _check_free(where: str, points: np.ndarray, obstacles: tuple[Obstacle, ...])
     if blocked.size:
         i = blocked[0]
         j = int(np.argmin(distance[:, i]))
-        raise ValueError(f"{where}[{i}] lies inside obstacles[{j}], got {points[i].tolist()}")
+        what = f"obstacles[{j}]" if j < n_obstacles else "a boundary wall"
+        raise ValueError(f"{where}[{i}] lies inside {what}, got {points[i].tolist()}")
 
 
 def _parse_world(data: Any) -> World:
@@ -126,10 +179,11 @@ def _parse_world(data: Any) -> World:
     for key in WORLD_KEYS:
         if key not in data:
             raise ValueError(f"world file is missing key {key!r}")
-    unknown = [key for key in data if key not in WORLD_KEYS]
+    unknown = [key for key in data if key not in WORLD_KEYS + OPTIONAL_WORLD_KEYS]
     if unknown:
         raise ValueError(f"world file has an unknown key {unknown[0]!r}; its keys are "
-                         f"{list(WORLD_KEYS)}")
+                         f"{list(WORLD_KEYS + OPTIONAL_WORLD_KEYS)}")
+    boundary = check_choice("boundary", data.get("boundary", "open"), BOUNDARIES)
     if not isinstance(data["env"], str):
         raise ValueError(f"env must be a string, got env={data['env']!r}")
     if not is_integer(data["seed"]):
@@ -148,9 +202,11 @@ def _parse_world(data: Any) -> World:
     if len(starts) != len(goals):
         raise ValueError(f"starts and goals must have the same length, got {len(starts)} starts "
                          f"and {len(goals)} goals")
+    world = World(data["env"], data["seed"], size, obstacles, starts, goals,  # type: ignore[arg-type]
+                  boundary)
     for name, pts in (("starts", starts), ("goals", goals)):
-        _check_free(name, pts, obstacles)
-    return World(data["env"], data["seed"], size, obstacles, starts, goals)  # type: ignore[arg-type]
+        _check_free(name, pts, world.solids, len(obstacles))
+    return world
 
 
 def save_world(world: World, path: str | Path) -> None:

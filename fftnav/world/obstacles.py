@@ -29,7 +29,7 @@ import numpy as np
 from fftnav.validate import check_number, check_vector
 
 __all__ = ["SHAPES", "Circle", "Obstacle", "Polygon", "combined_mesh", "prism_mesh",
-           "register_shape"]
+           "rectangle", "register_shape"]
 
 #: Shape classes by their JSON ``shape`` name.
 SHAPES: dict[str, type[Obstacle]] = {}
@@ -284,6 +284,21 @@ class Polygon(Obstacle):
         verts = np.array([check_vector(f"{where}.vertices[{i}]", v, 2) for i, v in enumerate(raw)])
         verts = convex_ccw(verts, f"{where}.vertices")
         return Polygon(tuple(map(tuple, verts.tolist())), height)
+
+
+def rectangle(x0: float, y0: float, x1: float, y1: float, height_m: float, *,
+              yaw_rad: float = 0.0) -> Polygon:
+    """The box ``[x0, x1] x [y0, y1]`` (m, ``x0 < x1``, ``y0 < y1``) turned by ``yaw_rad`` about
+    the origin (CCW), as a :class:`Polygon` of height ``height_m``.
+
+    >>> rectangle(0, 0, 2, 1, 1.0).vertices
+    ((0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (0.0, 1.0))
+    """
+    corners = np.array([[x0, y0], [x1, y0], [x1, y1], [x0, y1]], dtype=float)
+    c, s = math.cos(yaw_rad), math.sin(yaw_rad)
+    if yaw_rad:
+        corners = corners @ np.array([[c, s], [-s, c]])
+    return Polygon(tuple(map(tuple, corners.tolist())), float(height_m))
 
 
 def convex_ccw(vertices: np.ndarray, where: str) -> np.ndarray:

@@ -36,6 +36,18 @@ def test_generate_writes_the_documented_json(world_file):
     assert {o["shape"] for o in data["obstacles"]} == {"circle"}
 
 
+def test_generate_walls_and_traps_and_the_boundary_option(tmp_path):
+    for env, boundary in (("walls", None), ("traps", "open"), ("forest", "walls")):
+        path = tmp_path / f"{env}.json"
+        extra = ["--boundary", boundary] if boundary else []
+        res = _run("world", "generate", "--env", env, "--seed", "2", "--out", str(path), *extra)
+        assert res.returncode == 0, res.stderr
+        assert json.loads(path.read_text()).get("boundary", "open") == (boundary or "walls")
+    res = _run("world", "generate", "--env", "walls", "--seed", "2", "--boundary", "fence",
+               "--out", str(tmp_path / "x.json"))
+    assert res.returncode == 2 and "invalid choice: 'fence'" in res.stderr
+
+
 def test_render_grid_and_ros_map(world_file, tmp_path):
     res = _run("world", "render", str(world_file), "--out", str(tmp_path / "w.png"))
     assert res.returncode == 0, res.stderr

@@ -168,3 +168,55 @@ def test_partial_field_of_view_uses_its_own_beam_angles():
     cmd, blocked = p2.step(0.0, np.array([[0, 0, 0.0]]), np.array([[-10, 1]]),
                            np.ones((1, 181), bool), np.full((1, 181), 3.0), np.ones((1, 181)))
     assert not blocked[0] and cmd[0, 0] == 0.0 and cmd[0, 1] == 1.5
+
+
+
+def test_every_policy_still_escapes_a_pocket_open_toward_it():
+    """A U pocket 4 m wide and 2 m deep right in the way: the robot walks in and out round an
+    arm in contour mode (a lone robot escaped before the change too: a regression test)."""
+    import math
+
+    from fftnav.config import EpisodeConfig, SwarmConfig
+    from fftnav.episode import run_episode
+    from fftnav.world import World
+    from fftnav.world.obstacles import rectangle
+
+    pocket = (rectangle(2.0, 5.0, 6.3, 5.3, 1.0), rectangle(2.0, 3.0, 2.3, 5.0, 1.0),
+              rectangle(6.0, 3.0, 6.3, 5.0, 1.0))
+    world = World("t", 0, (8.3, 10.0), pocket, np.array([[4.15, 1.0, math.pi / 2]]),
+                  np.array([[4.15, 9.0]]), "walls")
+    cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=80.0))
+    for policy in ("bug-left", "bug-right", "own-only"):
+        row = run_episode(world, policy, seed=0, config=cfg).rows[0]
+        assert row.arrived and not row.collided, policy
+        assert row.contour_time_s > 0 and row.path_length_m < 20.0, policy
+
+
+def test_loop_detection_waits_twice_as_long_after_each_flip():
+    """A robot held still at a blocked goal direction (no progress): flips at 25 s, then 50 s
+    and 100 s later (25, 75, 175 s), not every 25 s."""
+    planner = BugPlanner(1, l_th_m=0.6, r0_m=0.15, fov_rad=2 * np.pi, decide=lambda i: 1)
+    beams = 360
+    safe = np.ones((1, beams), dtype=bool)
+    safe[0, 150:211] = False  # the goal (straight ahead, beam 180) is blocked
+    ranges = np.full((1, beams), 3.0)
+    flips = []
+    for tick in range(2000):
+        t = tick / 10
+        planner.step(t, np.array([[0.0, 0.0, 0.0]]), np.array([[10.0, 0.0]]), safe, ranges,
+                     ranges)
+        if planner.loop_flips[0] > len(flips):
+            flips.append(t)
+    assert flips == pytest.approx([25.1, 75.2, 175.3], abs=0.11)
+    assert planner.decisions.sum() == 1 and planner.memory[0].side == -1
+
+
+def test_tried_sides_memory_takes_the_other_side_only_without_progress():
+    planner = BugPlanner(1, l_th_m=0.6, r0_m=0.15, fov_rad=2 * np.pi, decide=lambda i: 1)
+    mem = planner.memory[0]
+    mem.hits.append((2.0, 3.0, 10.0, 1))  # passed left at (2, 3), 10 m from the goal
+    assert planner._tried_side(mem, np.array([2.5, 3.2]), 10.0) == -1  # back, no progress
+    assert planner._tried_side(mem, np.array([2.5, 3.2]), 9.0) is None  # progress made
+    assert planner._tried_side(mem, np.array([3.5, 3.0]), 10.0) is None  # elsewhere
+    mem.hits.append((2.2, 3.0, 10.2, -1))  # the latest try there went right
+    assert planner._tried_side(mem, np.array([2.1, 3.0]), 10.3) == 1

@@ -17,7 +17,7 @@ ROOT = Path(__file__).resolve().parents[2]
 
 
 def test_builtin_kinds_and_their_presets_are_the_files_of_worlds():
-    assert world_kinds() == ("forest", "rocky")
+    assert world_kinds() == ("forest", "rocky", "walls", "traps")
     for name in world_kinds():
         shipped = resources.files("fftnav.world.presets") / f"{name}.toml"
         assert shipped.read_bytes() == (ROOT / "worlds" / f"{name}.toml").read_bytes()
@@ -26,7 +26,8 @@ def test_builtin_kinds_and_their_presets_are_the_files_of_worlds():
 
 
 def test_unknown_kind_and_bad_preset_path_are_refused():
-    with pytest.raises(ValueError, match=r"env must be one of \['forest', 'rocky'\], got env='x'"):
+    with pytest.raises(ValueError, match=r"env must be one of \['forest', 'rocky', 'walls', "
+                                         r"'traps'\], got env='x'"):
         get_world_kind("x")
     with pytest.raises(ValueError, match=r"env_or_path must be one of .* or a .toml path"):
         load_preset("x.json")

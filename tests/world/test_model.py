@@ -82,7 +82,8 @@ def test_overrides_change_size_density_and_robots():
     assert len(world.obstacles) == 90 and len(world.starts) == 10
     with pytest.raises(ValueError, match=r"unknown world parameter\(s\) \['colour'\]"):
         generate_world("forest", 0, colour="red")
-    with pytest.raises(ValueError, match=r"env must be one of \[.forest., .rocky.\], got env=.desert."):
+    with pytest.raises(ValueError, match=r"env must be one of \[.forest., .rocky., .walls., .traps.\], "
+                                         r"got env=.desert."):
         generate_world("desert", 0)
     with pytest.raises(ValueError, match="seed must be an integer >= 0, got seed=-1"):
         generate_world("forest", -1)
@@ -149,7 +150,8 @@ def _with(path, value):
     (["starts", 0], [11, 1, 0], r"starts\[0\] lies outside the world"),
     (["goals", 0], [1, "x"], r"goals\[0\]\[1\] must be a finite number"),
     (["seed"], 1.5, "seed must be an integer"),
-    (["boundary"], "walls", r"world file has an unknown key 'boundary'; its keys are \['env', "),
+    (["edge"], "walls", r"world file has an unknown key 'edge'; its keys are \['env', .*'boundary'"),
+    (["boundary"], "fence", r"boundary must be one of \['open', 'walls'\], got boundary='fence'"),
     (["obstacles", 0, "colour"], "red", r"obstacles\[0\]: unknown key 'colour'; a circle has "
      r"the keys \['shape', 'center', 'radius', 'height'\]"),
 ])

@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import importlib
 import pkgutil
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from importlib import resources
 from pathlib import Path
@@ -120,20 +120,26 @@ def max_obstacle_radius(params: Params) -> float:
     return min(float(params["size_m"][0]), band) / 2
 
 
-def scatter_obstacles(params: Params, rng: np.random.Generator,
-                      make: Callable[[Params, np.random.Generator], tuple[Obstacle, float]],
-                      ) -> list[Obstacle] | None:
-    """Place ``round(density_per_m2 * w * h)`` obstacles by rejection sampling.
+Made = tuple["Obstacle | list[Obstacle]", float]
 
-    ``make(params, rng)`` returns one obstacle centred at the origin and its bounding radius
-    (m); it is moved to a uniform random spot between the start and goal strips whose bounding
-    circle keeps ``min_gap_m`` from those already placed. Returns None if an obstacle finds no
-    spot in ``placement_tries`` tries (the world is then redrawn).
+
+def scatter_obstacles(params: Params, rng: np.random.Generator,
+                      make: Callable[[Params, np.random.Generator], Made], *,
+                      count: int | None = None, avoid: Sequence[Obstacle] = (),
+                      ) -> list[Obstacle] | None:
+    """Place ``count`` (default ``round(density_per_m2 * w * h)``) obstacles by rejection sampling.
+
+    ``make(params, rng)`` returns one obstacle centred at the origin (or a list of obstacles
+    forming one compound, such as the three walls of a U) and its bounding radius (m); it is
+    moved to a uniform random spot between the start and goal strips whose bounding circle keeps
+    ``min_gap_m`` from those already placed and from every obstacle of ``avoid``. Returns None
+    if an obstacle finds no spot in ``placement_tries`` tries (the world is then redrawn).
     """
     w, h = (float(v) for v in params["size_m"])
     clear = params["strip_half_width_m"]
     band = (params["start_y_m"] + clear, params["goal_y_m"] - clear)  # between the strips
-    count = round(params["density_per_m2"] * w * h)
+    if count is None:
+        count = round(params["density_per_m2"] * w * h)
     placed: list[Obstacle] = []
     centers = np.zeros((0, 2))
     radii = np.zeros(0)
@@ -141,11 +147,13 @@ def scatter_obstacles(params: Params, rng: np.random.Generator,
         shape, rad = make(params, rng)
         for _attempt in range(params["placement_tries"]):
             xy = rng.uniform([rad, band[0] + rad], [w - rad, band[1] - rad])
-            if np.all(np.hypot(*(centers - xy).T) >= radii + rad + params["min_gap_m"]):
+            if (np.all(np.hypot(*(centers - xy).T) >= radii + rad + params["min_gap_m"])
+                    and all(o.distance(xy)[0] >= rad + params["min_gap_m"] for o in avoid)):
                 break
         else:
             return None
-        placed.append(shape.moved(xy, decimals=DECIMALS))
+        parts = shape if isinstance(shape, list) else [shape]
+        placed.extend(part.moved(xy, decimals=DECIMALS) for part in parts)
         centers = np.vstack([centers, xy])
         radii = np.append(radii, rad)
     return placed

@@ -18,18 +18,21 @@ from fftnav.world.kinds import (
 from fftnav.world.obstacles import Circle, Obstacle
 
 
-def _check(params: Params) -> None:
+def check_trunks(params: Params) -> None:
+    """``trunk_radius_m`` is a range of positive radii."""
     low, high = params["trunk_radius_m"]
     check_number("trunk_radius_m[0]", low, low=0, low_open=True)
     check_number("trunk_radius_m[1]", high, low=low, high=max_obstacle_radius(params))
 
 
-def _trunk(params: Params, rng: np.random.Generator) -> tuple[Obstacle, float]:
+def trunk(params: Params, rng: np.random.Generator) -> tuple[Obstacle, float]:
+    """One trunk at the origin, radius uniform in ``trunk_radius_m``, and its radius (shared
+    with the kinds that scatter trunks among their own obstacles)."""
     r = round(float(rng.uniform(*params["trunk_radius_m"])), DECIMALS)
     return Circle((0.0, 0.0), r, params["obstacle_height_m"]), r
 
 
-@register_world_kind("forest", check=_check)
+@register_world_kind("forest", check=check_trunks)
 def draw(params: Params, rng: np.random.Generator) -> list[Obstacle] | None:
     """Trunks of radius uniform in ``trunk_radius_m`` (paper: forest)."""
-    return scatter_obstacles(params, rng, _trunk)
+    return scatter_obstacles(params, rng, trunk)

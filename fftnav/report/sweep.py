@@ -1,0 +1,112 @@
+"""The report of a sweep (or of one experiment): does collaboration pay, cell by cell?
+
+For every cell of a ``[sweep]`` config (:attr:`fftnav.runner.config.ExperimentConfig.cells`; one
+cell ``base`` for a plain config), env and policy: AR and SPL with 95% bootstrap intervals over
+maps, bytes per robot, and the gain against ``own-only`` (per-map SPL of the policy minus that
+of own-only: mean, 95% bootstrap interval, paired Wilcoxon signed-rank p); plus ``collab``
+against ``fusion``. One figure per sweep axis: the gain of ``collab`` and ``fusion`` against
+the axis's values, one panel per env. Cells that have not run (no ``episodes.csv``) are listed
+as such.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+
+from fftnav.runner.config import ExperimentConfig
+from fftnav.runner.run import write_atomic
+from fftnav.runner.summary import SWEEP_COLUMNS, gain_table
+
+__all__ = ["write_sweep_report"]
+
+def _axis_of(cell: str) -> str:
+    return cell.split("=")[0] if "=" in cell else ""
+
+
+def _gain_figure(table: pd.DataFrame, axis: str, path: Path) -> Path:
+    """Gain of collab and fusion over own-only (SPL points) against the axis's cells."""
+    cells = ["base", *[c for c in dict.fromkeys(table["cell"]) if _axis_of(c) == axis]]
+    sub = table[table["cell"].isin(cells) & (table["reference"] == "own-only")
+                & table["policy"].isin(["collab", "fusion"])]
+    envs = sorted(sub["env"].unique())
+    fig = Figure(figsize=(3.2 * max(len(envs), 1), 3.0), dpi=120)
+    axes = fig.subplots(1, max(len(envs), 1), squeeze=False, sharey=True)
+    for ax, env in zip(axes[0], envs, strict=False):
+        for k, (policy, color) in enumerate((("collab", "tab:red"), ("fusion", "tab:blue"))):
+            rows = sub[(sub["env"] == env) & (sub["policy"] == policy)].set_index("cell")
+            rows = rows.reindex([c for c in cells if c in rows.index])
+            x = np.array([cells.index(c) for c in rows.index]) + (k - 0.5) * 0.12
+            y = 100 * rows["gain"].to_numpy()
+            err = 100 * np.abs(np.vstack([rows["gain"] - rows["gain_ci_low"],
+                                          rows["gain_ci_high"] - rows["gain"]]))
+            ax.errorbar(x, y, yerr=err, fmt="o-", color=color, capsize=3, label=policy)
+        ax.axhline(0, color="k", lw=0.8)
+        ax.set_xticks(range(len(cells)), [c.split("=")[-1] for c in cells], fontsize=7)
+        ax.set_title(env, fontsize=9)
+        ax.set_xlabel(axis or "cell", fontsize=8)
+    axes[0][0].set_ylabel("SPL gain over own-only (points)", fontsize=8)
+    axes[0][0].legend(fontsize=7)
+    fig.tight_layout()
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    return path
+
+
+def _fmt(v: float, scale: float = 100.0, digits: int = 1) -> str:
+    return "" if pd.isna(v) else f"{scale * v:.{digits}f}"
+
+
+def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
+    """Write ``ROOT/report.md``, ``ROOT/sweep_summary.csv`` and ``ROOT/figures/gain_*.png``
+    for a sweep run into ``ROOT/<cell>`` (or a plain experiment run into ``ROOT``)."""
+    root = Path(root)
+    cells = [(name, root / name) for name, _ in config.cells] or [("base", root)]
+    tables, missing = [], []
+    for name, folder in cells:
+        if (folder / "episodes.csv").exists():
+            tables.append(gain_table(pd.read_csv(folder / "episodes.csv"), name))
+        else:
+            missing.append(name)
+    table = (pd.concat(tables, ignore_index=True) if tables
+             else pd.DataFrame(columns=list(SWEEP_COLUMNS)))
+    write_atomic(root / "sweep_summary.csv", table.to_csv(index=False, float_format="%.6f"))
+    axes = sorted({_axis_of(c) for c in table["cell"]} - {""})
+    figures = [_gain_figure(table, axis, root / "figures" / f"gain_{axis or 'cells'}.png")
+               for axis in (axes or [""])] if len(table) else []
+    view = pd.DataFrame({
+        "cell": table["cell"], "env": table["env"], "policy": table["policy"],
+        "maps": table["maps"],
+        "AR %": [f"{_fmt(a)} [{_fmt(lo)}, {_fmt(hi)}]" for a, lo, hi in
+                 zip(table["ar"], table["ar_ci_low"], table["ar_ci_high"], strict=True)],
+        "SPL %": [f"{_fmt(a)} [{_fmt(lo)}, {_fmt(hi)}]" for a, lo, hi in
+                  zip(table["spl"], table["spl_ci_low"], table["spl_ci_high"], strict=True)],
+        "bytes/robot": [f"{b:.0f}" for b in table["bytes_per_robot"]],
+        "vs": table["reference"],
+        "gain (SPL points)": [f"{_fmt(g)} [{_fmt(lo)}, {_fmt(hi)}]" if r else "" for g, lo, hi, r
+                              in zip(table["gain"], table["gain_ci_low"],
+                                     table["gain_ci_high"], table["reference"], strict=True)],
+        "p (Wilcoxon)": ["" if pd.isna(p) else f"{p:.2g}" for p in table["p_value"]],
+    })
+    lines = [
+        f"# Sweep `{config.name}`: does collaboration pay?",
+        "",
+        "Per cell, env and policy: AR and SPL (percent, 95% bootstrap intervals over maps), "
+        "bytes sent per robot, and the gain in SPL points over `own-only` (and, for `collab`, "
+        "over `fusion`): mean of the per-map differences, its 95% bootstrap interval and the "
+        "paired two-sided Wilcoxon signed-rank p over maps.",
+        "",
+        *([f"Cells not run (no episodes.csv): {', '.join(missing)}.", ""] if missing else []),
+        "| " + " | ".join(view.columns) + " |",
+        "|" + "---|" * len(view.columns),
+        *("| " + " | ".join(str(v) for v in row) + " |" for row in view.itertuples(index=False)),
+        "",
+        *(f"![{p.stem}](figures/{p.name})" for p in figures),
+        "",
+    ]
+    path = root / "report.md"
+    write_atomic(path, "\n".join(lines))
+    return path

@@ -1,0 +1,110 @@
+"""[sweep] configs (one-factor-at-a-time cells) and the gain table of the sweep report."""
+
+from __future__ import annotations
+
+import copy
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+import pytest
+from scipy import stats
+
+from fftnav.runner import load_config, parse_config
+from fftnav.runner.summary import gain_table
+
+ROOT = Path(__file__).resolve().parents[2]
+
+BASE = {
+    "experiment": {"name": "s", "envs": ["walls", "forest"], "maps": 2, "map_seed": 1,
+                   "robots": 4, "policies": ["own-only", "collab"], "out": "results/s"},
+    "sweep": {"sensor.range_m": [1.5, 6.0], "episode.departure": ["waves"],
+              "world.walls.wall_length_m": [[3.0, 4.5]], "comms.packet_loss": [0.3]},
+}
+
+
+def test_sweep_cells_are_the_base_and_one_value_at_a_time():
+    config = parse_config(copy.deepcopy(BASE))
+    names = [name for name, _ in config.cells]
+    assert names == ["base", "range_m=1.5", "range_m=6", "departure=waves",
+                     "wall_length_m=3-4.5", "packet_loss=0.3"]
+    cells = dict(config.cells)
+    assert cells["base"].swarm == config.swarm and cells["base"].out == "results/s/base"
+    assert cells["range_m=1.5"].swarm.sensor.range_m == 1.5
+    assert cells["range_m=1.5"].swarm.comms == config.swarm.comms
+    assert cells["departure=waves"].swarm.episode.departure == "waves"
+    assert cells["wall_length_m=3-4.5"].world_overrides("walls")["wall_length_m"] == [3.0, 4.5]
+    assert cells["wall_length_m=3-4.5"].envs == ("walls",)  # the axis of one env's world
+    assert cells["range_m=6"].envs == ("walls", "forest")
+    assert cells["packet_loss=0.3"].out == "results/s/packet_loss=0.3"
+    assert parse_config({k: v for k, v in BASE.items() if k != "sweep"}).cells == ()
+
+
+@pytest.mark.parametrize(("sweep", "message"), [
+    ({"sensor.range": [1.0]}, r"sweep.sensor.range = 1.0: unknown key sensor.range"),
+    ({"radio.loss": [0.1]}, r"unknown key sweep.radio.loss; expected 'section.key' of"),
+    ({"comms.packet_loss": 0.3}, r"sweep.comms.packet_loss must be a non-empty list"),
+    ({"comms.packet_loss": [1.5]}, r"sweep.comms.packet_loss = 1.5: comms.packet_loss must be"),
+    ({"world.walls.colour": ["red"]}, r"sweep.world.walls.colour = 'red': unknown key "
+                                       r"world.walls.colour"),
+    ({"episode.departure": ["later"]}, r"episode.departure must be one of"),
+])
+def test_bad_sweeps_are_refused_naming_the_key(sweep, message):
+    with pytest.raises(ValueError, match=message):
+        parse_config({**copy.deepcopy(BASE), "sweep": sweep})
+
+
+def test_the_shipped_collab_configs_load():
+    core = load_config(ROOT / "experiments" / "collab" / "core.toml")
+    assert core.envs == ("walls", "traps") and core.maps == 20 and core.cells == ()
+    assert {"own-only", "fusion", "collab"} <= set(core.policies)
+    sweep = load_config(ROOT / "experiments" / "collab.toml")
+    assert sweep.maps == 20 and set(sweep.envs) == {"forest", "rocky", "walls", "traps"}
+    assert set(sweep.policies) == {"bug-left", "bug-right", "own-only", "fusion", "collab"}
+    axes = {name.split("=")[0] for name, _ in sweep.cells} - {"base"}
+    assert axes == {"range_m", "departure", "packet_loss", "wall_length_m"}
+
+
+def test_gain_table_against_own_only_and_fusion_by_hand():
+    rng = np.random.default_rng(0)
+    rows = []
+    spl = {"own-only": [0.5, 0.6, 0.7, 0.4, 0.5], "fusion": [0.5, 0.7, 0.6, 0.5, 0.5],
+           "collab": [0.8, 0.9, 0.8, 0.7, 0.9]}
+    for policy, values in spl.items():
+        for m, v in enumerate(values):
+            for r in range(2):  # two robots per map, both with the map's SPL
+                rows.append(("walls", m, policy, r, v > 0.45, v, int(rng.integers(0, 100))))
+    episodes = pd.DataFrame(rows, columns=["env", "map_seed", "policy", "robot", "arrived",
+                                           "spl", "bytes_sent"])
+    table = gain_table(episodes, "base")
+    collab = table[(table.policy == "collab")].set_index("reference")
+    diff = np.array(spl["collab"]) - np.array(spl["own-only"])
+    assert collab.loc["own-only", "gain"] == pytest.approx(diff.mean())
+    assert collab.loc["own-only", "p_value"] == pytest.approx(stats.wilcoxon(diff).pvalue)
+    assert collab.loc["own-only", "gain_ci_low"] <= diff.mean() <= collab.loc["own-only",
+                                                                             "gain_ci_high"]
+    vs_fusion = np.array(spl["collab"]) - np.array(spl["fusion"])
+    assert collab.loc["fusion", "gain"] == pytest.approx(vs_fusion.mean())
+    own = table[table.policy == "own-only"].iloc[0]
+    assert own.reference == "" and np.isnan(own.gain) and own.spl == pytest.approx(0.54)
+    assert own.ar == pytest.approx(0.8) and own.maps == 5
+    assert table[table.policy == "fusion"].reference.tolist() == ["own-only"]
+
+
+def test_figure_sweep_cli_writes_the_report_of_a_results_folder(tmp_path):
+    cfg = tmp_path / "c.toml"
+    cfg.write_text('[experiment]\nname = "c"\nenvs = ["walls"]\nmaps = 2\nmap_seed = 1\n'
+                   'robots = 4\npolicies = ["own-only", "collab"]\n')
+    rows = [("walls", m, p, 0, True, 0.5 + 0.1 * m + (0.1 if p == "collab" else 0), 10)
+            for m in range(2) for p in ("own-only", "collab")]
+    pd.DataFrame(rows, columns=["env", "map_seed", "policy", "robot", "arrived", "spl",
+                                "bytes_sent"]).to_csv(tmp_path / "episodes.csv", index=False)
+    res = subprocess.run([sys.executable, "-m", "fftnav", "figure", "sweep", str(cfg), "--out",
+                          str(tmp_path)], capture_output=True, text=True, timeout=120)
+    assert res.returncode == 0, res.stderr
+    text = (tmp_path / "report.md").read_text()
+    assert "| base | walls | collab | 2 |" in text and "10.0 [10.0, 10.0]" in text
+    assert (tmp_path / "figures" / "gain_cells.png").exists()
+    assert (tmp_path / "sweep_summary.csv").exists()
