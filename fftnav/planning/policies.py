@@ -88,6 +88,11 @@ class Policy:
     description: str
     reconsiders: bool = False
 
+    def __post_init__(self) -> None:
+        if self.messages not in MESSAGES:
+            raise ValueError(f"messages must be one of {list(MESSAGES)}, got "
+                             f"messages={self.messages!r}")
+
     @property
     def uses_messages(self) -> bool:
         """Whether its robots broadcast anything."""

@@ -89,7 +89,7 @@ def _wrap(obj: object, reference: str, default_name: str, file: Path | None) -> 
     if isinstance(obj, Policy):
         return Resolved(name, reference, policy=obj, file=file)
     if inspect.isfunction(obj) or inspect.isbuiltin(obj):
-        return Resolved(name, reference, policy=Policy(name, obj, False, obj.__doc__ or ""),
+        return Resolved(name, reference, policy=Policy(name, obj, None, obj.__doc__ or ""),
                         file=file)
     raise PluginError(f"{reference!r} must be a Controller subclass, a Policy or a decision "
                       f"function, got {type(obj).__name__}")

@@ -26,7 +26,7 @@ PLUGIN = textwrap.dedent("""\
     def always_left(ctx):
         return LEFT
 
-    FANCY = Policy("fancy-left", always_left, True, "left, and talk")
+    FANCY = Policy("fancy-left", always_left, "observation", "left, and talk")
     NUMBER = 3
     class Vfh(Spin):
         name = "vfh"
