@@ -12,12 +12,14 @@ second Ctrl-C or SIGTERM during that cleanup exits at once, with one line.
 
 from __future__ import annotations
 
+import _thread
 import argparse
 import importlib
 import os
 import signal
 import sys
 from collections.abc import Sequence
+from typing import Any
 
 #: Subcommand modules, in the order ``fftnav --help`` lists them.
 _MODULES = ("scan", "scan3d", "fly3d", "world", "episode", "run", "figure", "bench")
@@ -102,12 +104,26 @@ def _on_sigterm(signum: int, frame: object) -> None:
     raise Terminated
 
 
+def _redeliver(unraisable: Any) -> None:
+    """``sys.unraisablehook``: a first Ctrl-C or SIGTERM whose exception landed where Python
+    ignores exceptions (a finaliser, logging's at-fork hook) would be printed as a traceback and
+    lost; deliver it again to the main thread instead, where it stops the run as usual."""
+    if unraisable.exc_type is not None and issubclass(unraisable.exc_type,
+                                                      (KeyboardInterrupt, Terminated)):
+        signum = signal.SIGTERM if issubclass(unraisable.exc_type, Terminated) else signal.SIGINT
+        signal.signal(signum, _on_sigterm if signum == signal.SIGTERM else _on_sigint)
+        _thread.interrupt_main(signum)
+        return
+    sys.__unraisablehook__(unraisable)
+
+
 def install_signal_handlers() -> None:
     """First Ctrl-C raises KeyboardInterrupt, first SIGTERM :class:`Terminated`; the next one
     of either exits at once. A SIGINT ignored at start (a background job) stays ignored."""
     if signal.getsignal(signal.SIGINT) is signal.default_int_handler:
         signal.signal(signal.SIGINT, _on_sigint)
     signal.signal(signal.SIGTERM, _on_sigterm)
+    sys.unraisablehook = _redeliver
 
 
 def entry() -> None:

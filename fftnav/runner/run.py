@@ -421,10 +421,11 @@ def _write_episodes(out: Path, config: ExperimentConfig) -> None:
     order (streamed into a temporary file, renamed over the old one)."""
     with atomic_writer(out / "episodes.csv") as fh:
         fh.write((",".join(CSV_COLUMNS) + "\n").encode())
-        for task in iter_tasks(config):
+        folder = out / "episodes"
+        for task in iter_tasks(config, where=lambda name: (folder / f"{name}.csv").exists()):
             path = _task_csv(out, task)
-            if path.exists() and task_file_problem(path, None, task, robots=config.robots,
-                                                   columns=CSV_COLUMNS) is None:
+            if task_file_problem(path, None, task, robots=config.robots,
+                                 columns=CSV_COLUMNS) is None:
                 fh.write(path.read_bytes())
 
 

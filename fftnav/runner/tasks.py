@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import json
 import zlib
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from functools import lru_cache
 
@@ -22,7 +22,7 @@ from fftnav.runner.config import ExperimentConfig
 from fftnav.world import World, generate_world
 
 __all__ = ["Task", "TaskResult", "episode_seed", "iter_tasks", "make_tasks", "map_reference",
-           "run_task", "task_count", "task_world"]
+           "run_task", "task_count", "task_id", "task_world"]
 
 
 @dataclass(frozen=True, order=True)
@@ -43,7 +43,12 @@ class Task:
     @property
     def task_id(self) -> str:
         """File-name-safe identifier, e.g. ``forest-1000-fusion``."""
-        return f"{self.env}-{self.map_seed}-{self.policy}"
+        return task_id(self.env, self.map_seed, self.policy)
+
+
+def task_id(env: str, map_seed: int, policy: str) -> str:
+    """The identifier of a task (its result files' name), e.g. ``forest-1000-fusion``."""
+    return f"{env}-{map_seed}-{policy}"
 
 
 @dataclass
@@ -60,15 +65,22 @@ def episode_seed(env: str, map_seed: int) -> int:
     return int(seq.generate_state(1)[0])
 
 
-def iter_tasks(config: ExperimentConfig) -> Iterator[Task]:
+def iter_tasks(config: ExperimentConfig, *,
+               where: Callable[[str], bool] | None = None) -> Iterator[Task]:
     """The tasks of an experiment one by one, sorted (env, map_seed, policy), never all in
     memory: ``len(envs) * maps * len(policies)`` (:func:`task_count`) tasks; the first
-    ``trajectory_maps`` maps of each env keep their trajectories."""
+    ``trajectory_maps`` maps of each env keep their trajectories. With ``where``, only the
+    tasks whose :func:`task_id` it accepts (the episode seed, the costly part, is derived for
+    those only)."""
     for env in sorted(config.envs):
         for i in range(config.maps):
-            seed = episode_seed(env, config.map_seed + i)
+            map_seed, seed = config.map_seed + i, None
             for policy in sorted(config.policy_names):
-                yield Task(env, config.map_seed + i, policy, seed, i < config.trajectory_maps)
+                if where is not None and not where(task_id(env, map_seed, policy)):
+                    continue
+                if seed is None:
+                    seed = episode_seed(env, map_seed)
+                yield Task(env, map_seed, policy, seed, i < config.trajectory_maps)
 
 
 def task_count(config: ExperimentConfig) -> int:

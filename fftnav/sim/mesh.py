@@ -20,7 +20,7 @@ from collections.abc import Sequence
 
 import numpy as np
 
-from fftnav.world.obstacles import Obstacle, combined_mesh
+from fftnav.world.obstacles import Obstacle
 
 __all__ = ["MAX_MESH_INDICES", "MAX_MESH_VERTICES", "TILE_M", "static_meshes"]
 
@@ -67,18 +67,28 @@ def static_meshes(obstacles: Sequence[Obstacle], *, max_vertices: int = MAX_MESH
         return []
     total = sizes.sum(axis=0)
     if total[0] <= max_vertices and total[1] <= max_indices:
-        return [combined_mesh(obstacles)]
+        return [_join(parts)]
     centres = np.array([np.add(*o.bounds()) / 2 for o in obstacles])
     tiles = np.floor(centres / tile_m).astype(np.int64)
     order = np.lexsort((centres[:, 0], tiles[:, 0], tiles[:, 1]))  # tile rows, then x
     meshes: list[Mesh] = []
-    group: list[Obstacle] = []
+    group: list[tuple[np.ndarray, np.ndarray]] = []
     used = np.zeros(2, dtype=np.int64)
     for k in order:
         if group and (used[0] + sizes[k, 0] > max_vertices or used[1] + sizes[k, 1] > max_indices):
-            meshes.append(combined_mesh(group))
+            meshes.append(_join(group))
             group, used = [], np.zeros(2, dtype=np.int64)
-        group.append(obstacles[k])
+        group.append(parts[k])
         used += sizes[k]
-    meshes.append(combined_mesh(group))
+    meshes.append(_join(group))
     return meshes
+
+
+def _join(parts: Sequence[tuple[np.ndarray, np.ndarray]]) -> Mesh:
+    """Concatenate obstacle meshes ``(vertices (V, 3), indices)`` into one, as
+    :func:`fftnav.world.obstacles.combined_mesh` does (the same lists, tested)."""
+    offsets = np.cumsum([0] + [len(v) for v, _ in parts[:-1]])
+    vertices = np.concatenate([np.asarray(v, dtype=float).reshape(-1, 3) for v, _ in parts])
+    indices = np.concatenate([np.asarray(i).ravel() + o for (_, i), o in zip(parts, offsets,
+                                                                             strict=True)])
+    return vertices.tolist(), indices.tolist()

@@ -185,6 +185,9 @@ def test_huge_ranges_give_the_right_answer_not_every_beam_safe(tmp_path, capsys)
     assert main(["scan", str(tmp_path / "near.npy"), "--range", "1e9"]) == 0
     rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
     assert len(rows) == 2 and all(sum(r["safe_mask"]) == 0 for r in rows)
+    assert main(["scan", str(tmp_path / "near.npy"), "--range", "1e300"]) == 0  # no overflow
+    rows = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert len(rows) == 2 and all(sum(r["safe_mask"]) == 0 for r in rows)
     np.save(tmp_path / "wall.npy", np.full((30, 120), 1.0))
     assert main(["scan3d", str(tmp_path / "wall.npy"), "--range", "1e300"]) == 0
     assert json.loads(capsys.readouterr().out)["safe_fraction"] == 0.0

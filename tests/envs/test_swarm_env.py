@@ -79,7 +79,7 @@ def test_reset_options_and_render():
     assert frame.shape == (round(h / 0.05), round(w / 0.05), 3) and frame.dtype == np.uint8
     x, y = env.world.starts[0, :2]  # a robot is drawn blue at its start (first row = top)
     assert tuple(frame[int((h - y) / 0.05), int(x / 0.05)]) == (30, 90, 220)
-    with pytest.raises(ValueError, match=r"sensor\.range_m must be a finite number > 0"):
+    with pytest.raises(ValueError, match=r"sensor\.range_m must be a finite number in \(0, 1000\], got sensor\.range_m=-1"):
         env.reset(seed=1, options={"sensor.range_m": -1})
     env.close()
 

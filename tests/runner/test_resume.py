@@ -121,9 +121,9 @@ def test_tasks_are_enumerated_lazily_in_the_sorted_order():
 
 
 def test_bookkeeping_per_finished_episode_is_constant(tmp_path, monkeypatch):
-    """200,000 maps, interrupted after 60 episodes: tasks are never all in memory and
+    """50,000 maps, interrupted after 60 episodes: tasks are never all in memory and
     episodes.csv is not rebuilt after every episode (the old runner did both)."""
-    big = parse_config({"experiment": {"name": "big", "envs": ["forest"], "maps": 200_000,
+    big = parse_config({"experiment": {"name": "big", "envs": ["forest"], "maps": 50_000,
                                        "map_seed": 0, "robots": 3, "policies": ["fusion"],
                                        "trajectory_maps": 0}})
     rebuilds = []
@@ -137,4 +137,16 @@ def test_bookkeeping_per_finished_episode_is_constant(tmp_path, monkeypatch):
     tracemalloc.stop()
     assert len(pd.read_csv(tmp_path / "episodes.csv")) == 60 * 3
     assert len(rebuilds) <= 3  # the final one, and one per 2 s at most
-    assert peak < 20e6  # 200,000 Task objects alone would take more
+    assert peak < 4e6  # the list of 50,000 tasks alone takes 9 MB
+
+
+def test_damaged_config_json_is_refused_naming_it_and_damaged_run_info_is_replaced(full):
+    (full / "run_info.json").write_bytes(b"\x93{not json")
+    outcome = run_experiment(CONFIG, full, workers=1, task_fn=fake_task, progress=False)
+    assert outcome.skipped == N_TASKS
+    info = json.loads((full / "run_info.json").read_text())
+    assert info["wall_time_total_s"] == pytest.approx(outcome.wall_time_s, abs=0.01)
+    (full / "config.json").write_bytes(b"\x93\x00garbage")
+    with pytest.raises(ValueError, match=rf"different experiment config or fftnav version "
+                                         rf"\({full / 'config.json'}\)"):
+        run_experiment(CONFIG, full, workers=1, task_fn=fake_task, progress=False)
