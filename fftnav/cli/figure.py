@@ -38,38 +38,12 @@ def cmd_figure_sweep(args: argparse.Namespace) -> int:
 
 def cmd_figure_failures(args: argparse.Namespace) -> int:
     """The robots of one episode of a results folder that did not arrive (docs/planner.md)."""
-    import json
-    from pathlib import Path
-
-    import numpy as np
-    import pandas as pd
-
-    from fftnav.cli import CliError
-    from fftnav.episode import EPISODE_COLUMNS, EpisodeRow
-    from fftnav.report.trajectories import plot_failures
+    from fftnav.report.experiment import draw_failures
     from fftnav.runner import load_config
-    from fftnav.runner.tasks import task_world
 
     config = load_config(args.config)
-    results = Path(args.results or config.out)
-    stem = f"{args.env}-{args.map}-{args.policy}"
-    npz = results / "trajectories" / f"{stem}.npz"
-    if not npz.exists():
-        raise CliError(f"no trajectories {npz} (only the first experiment.trajectory_maps maps "
-                       "keep them)")
-    if (results / "episodes.csv").exists():
-        table = pd.read_csv(results / "episodes.csv")
-    else:  # a run still going or interrupted: the task's own CSV (no header)
-        columns = json.loads((results / "config.json").read_text())["csv_columns"]
-        table = pd.read_csv(results / "episodes" / f"{stem}.csv", header=None, names=columns)
-    table = table[(table.env == args.env) & (table.map_seed == args.map)
-                  & (table.policy == args.policy)].sort_values("robot")
-    rows = [EpisodeRow(**{c: r[c] for c in EPISODE_COLUMNS if c in r})
-            for r in table.to_dict("records")]
-    with np.load(npz) as z:
-        paths = [z[f"arr_{i}"] for i in range(len(z.files))]
-    print(plot_failures(task_world(config, args.env, args.map), paths, rows, args.out,
-                        control_hz=config.swarm.episode.control_hz))
+    print(draw_failures(config, args.results or config.out, args.env, args.map, args.policy,
+                        args.out))
     return 0
 
 

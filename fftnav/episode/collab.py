@@ -45,7 +45,7 @@ def encode_passages(points: np.ndarray) -> bytes:
     bytes: a count byte, then x and y in centimetres as little-endian int16.
 
     >>> encode_passages(np.array([[1.0, 2.5]])).hex()
-    '0164007a00'
+    '016400fa00'
     """
     pts = np.asarray(points, dtype=float).reshape(-1, 2)
     if len(pts) > MAX_PASSAGES_PER_MESSAGE:

@@ -19,7 +19,9 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow
 from fftnav.report.trajectories import draw_trajectories as draw_paths
+from fftnav.report.trajectories import plot_failures
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.run import write_atomic
 from fftnav.runner.tasks import task_world
@@ -220,3 +222,30 @@ def _markdown(table: pd.DataFrame) -> list[str]:
     cells = [[str(c) for c in table.columns]] + [[str(v) for v in r] for r in table.to_numpy()]
     return ["| " + " | ".join(r) + " |" for r in cells[:1]] + [
         "|" + "---|" * len(table.columns)] + ["| " + " | ".join(r) + " |" for r in cells[1:]]
+
+
+def draw_failures(config: ExperimentConfig, results: str | Path, env: str, map_seed: int,
+                  policy: str, path: str | Path) -> Path:
+    """The robots of one episode of a results folder that did not arrive
+    (:func:`fftnav.report.trajectories.plot_failures`); the folder may be that of a run still
+    going or interrupted (the task's own CSV is read then)."""
+    results = Path(results)
+    stem = f"{env}-{map_seed}-{policy}"
+    npz = results / "trajectories" / f"{stem}.npz"
+    if not npz.exists():
+        raise ValueError(f"no trajectories {npz} (only the first experiment.trajectory_maps "
+                         "maps keep them)")
+    if (results / "episodes.csv").exists():
+        table = pd.read_csv(results / "episodes.csv")
+    else:
+        columns = json.loads((results / "config.json").read_text())["csv_columns"]
+        table = pd.read_csv(results / "episodes" / f"{stem}.csv", header=None, names=columns)
+    table = table[(table.env == env) & (table.map_seed == map_seed)
+                  & (table.policy == policy)].sort_values("robot")
+    rows = [EpisodeRow(**{c: r[c] for c in EPISODE_COLUMNS if c in r})
+            for r in table.to_dict("records")]
+    with np.load(npz) as z:
+        paths = [z[f"arr_{i}"] for i in range(len(z.files))]
+    return plot_failures(task_world(config, env, map_seed), paths, rows, path,
+                         control_hz=config.swarm.episode.control_hz)
+

@@ -62,7 +62,8 @@ def _fmt(v: float, scale: float = 100.0, digits: int = 1) -> str:
 
 def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
     """Write ``ROOT/report.md``, ``ROOT/sweep_summary.csv`` and ``ROOT/figures/gain_*.png``
-    for a sweep run into ``ROOT/<cell>`` (or a plain experiment run into ``ROOT``)."""
+    for a sweep run into ``ROOT/<cell>`` (for a plain experiment run into ``ROOT``: the report
+    is ``ROOT/gains.md``, beside the run's own ``report.md``)."""
     root = Path(root)
     cells = [(name, root / name) for name, _ in config.cells] or [("base", root)]
     tables, missing = [], []
@@ -107,6 +108,6 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
         *(f"![{p.stem}](figures/{p.name})" for p in figures),
         "",
     ]
-    path = root / "report.md"
+    path = root / ("report.md" if config.cells else "gains.md")  # beside a run's report.md
     write_atomic(path, "\n".join(lines))
     return path

@@ -104,7 +104,7 @@ def test_figure_sweep_cli_writes_the_report_of_a_results_folder(tmp_path):
     res = subprocess.run([sys.executable, "-m", "fftnav", "figure", "sweep", str(cfg), "--out",
                           str(tmp_path)], capture_output=True, text=True, timeout=120)
     assert res.returncode == 0, res.stderr
-    text = (tmp_path / "report.md").read_text()
+    text = (tmp_path / "gains.md").read_text()
     assert "| base | walls | collab | 2 |" in text and "10.0 [10.0, 10.0]" in text
     assert (tmp_path / "figures" / "gain_cells.png").exists()
     assert (tmp_path / "sweep_summary.csv").exists()
