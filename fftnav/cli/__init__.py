@@ -92,13 +92,21 @@ def _exit_now(signum: int, frame: object) -> None:
     os._exit(status)
 
 
+#: Set by the first Ctrl-C or SIGTERM: the process is stopping.
+_stopping = False
+
+
 def _on_sigint(signum: int, frame: object) -> None:
+    global _stopping
+    _stopping = True
     signal.signal(signal.SIGINT, _exit_now)
     signal.signal(signal.SIGTERM, _exit_now)
     raise KeyboardInterrupt
 
 
 def _on_sigterm(signum: int, frame: object) -> None:
+    global _stopping
+    _stopping = True
     signal.signal(signal.SIGINT, _exit_now)
     signal.signal(signal.SIGTERM, _exit_now)
     raise Terminated
@@ -107,14 +115,17 @@ def _on_sigterm(signum: int, frame: object) -> None:
 def _redeliver(unraisable: Any) -> None:
     """``sys.unraisablehook``: a first Ctrl-C or SIGTERM whose exception landed where Python
     ignores exceptions (a finaliser, logging's at-fork hook) would be printed as a traceback and
-    lost; deliver it again to the main thread instead, where it stops the run as usual."""
+    lost; deliver it again to the main thread instead, where it stops the run as usual. Once
+    stopping, the other exceptions Python would print while ignoring them (a multiprocessing
+    finaliser cut short by the interrupt) are consequences of it: not printed either."""
     if unraisable.exc_type is not None and issubclass(unraisable.exc_type,
                                                       (KeyboardInterrupt, Terminated)):
         signum = signal.SIGTERM if issubclass(unraisable.exc_type, Terminated) else signal.SIGINT
         signal.signal(signum, _on_sigterm if signum == signal.SIGTERM else _on_sigint)
         _thread.interrupt_main(signum)
         return
-    sys.__unraisablehook__(unraisable)
+    if not _stopping:
+        sys.__unraisablehook__(unraisable)
 
 
 def install_signal_handlers() -> None:
