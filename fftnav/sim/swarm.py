@@ -19,7 +19,8 @@ import numpy as np
 import pybullet as p
 
 from fftnav.config import EpisodeConfig, RobotConfig, SensorConfig, SwarmConfig
-from fftnav.sim.lidar import Lidar
+from fftnav.sim.fastrays import StaticMesh
+from fftnav.sim.lidar import CULL_MARGIN_M, Lidar
 from fftnav.validate import check_integer, check_number
 from fftnav.world import World
 from fftnav.world.obstacles import Obstacle, combined_mesh
@@ -228,7 +229,11 @@ class SwarmSim:
                             start_m=r0 + 0.005, mask=_OBSTACLE | _ROBOT,
                             bodies=[(o.bounding_circle(), o.cull_vertices())
                                     for o in self.world.obstacles],
-                            robot_radius_m=cfg.robot.r0_m, static_client=self._static_client)
+                            robot_radius_m=cfg.robot.r0_m, static_client=self._static_client,
+                            static_mesh=StaticMesh(
+                                [o.mesh() for o in self.world.obstacles],
+                                [(x, y, r + CULL_MARGIN_M) for x, y, r in
+                                 (o.bounding_circle() for o in self.world.obstacles)]))
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client
