@@ -233,7 +233,8 @@ class SwarmSim:
                             static_mesh=StaticMesh(
                                 [o.mesh() for o in self.world.obstacles],
                                 [(x, y, r + CULL_MARGIN_M) for x, y, r in
-                                 (o.bounding_circle() for o in self.world.obstacles)]))
+                                 (o.bounding_circle() for o in self.world.obstacles)]),
+                            robot_mask=_ROBOT)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client
