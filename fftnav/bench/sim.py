@@ -102,12 +102,13 @@ def bench_sim(*, env: str = "forest", seconds: float = 20.0, seed: int = 0, robo
         ``real_time_factor`` (simulated / wall seconds), ``ms_per_robot_s`` (wall ms per
         simulated robot-second), ``lidar_ms_per_tick`` (wall ms of one swarm scan),
         ``lidar_full_client_ms_per_tick`` (the same scans with every culled ray cast by Bullet
-        in the full client, the previous way, timed on the same poses) and ``lidar_identical``, ``physics_ms_per_s`` (wall ms of
-        physics and control per simulated second), ``wall_s``, ``rays_per_tick`` (live beams
-        of the swarm), ``rays_cast_per_tick`` (those left after culling, mean),
-        ``rays_static_per_tick`` (of those, the ones outside every robot's sector: answered by
-        the compiled obstacle test, or Bullet's static client without numba), ``load_avg_1min`` (the
-        machine's load average at the end: the bench shares the CPU with whatever else runs)
+        in the full client, the previous way, timed on the same poses) and ``lidar_identical``,
+        ``physics_ms_per_s`` (wall ms of physics and control per simulated second), ``wall_s``,
+        ``rays_per_tick`` (live beams of the swarm), ``rays_cast_per_tick`` (those left after
+        culling, mean), ``rays_static_per_tick`` (of those, the ones outside every robot's
+        sector: answered by the compiled obstacle test, or by Bullet's static client without
+        numba), ``load_avg_1min`` (the machine's load average at the end: the bench shares the
+        CPU with whatever else runs)
         and the setting.
     """
     check_number("seconds", seconds, low=0, high=3600, low_open=True)
