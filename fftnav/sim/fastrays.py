@@ -37,6 +37,9 @@ else:
 
 #: Distance (m) within which a ray must pass a side face's footprint for the face to be tested.
 MARGIN_M = 1e-3
+#: A hit counts as clear of its triangle's edges when every edge test exceeds ``CLEAR |n|^2``
+#: (about 1e-3 of the face's width from every edge); other hits are left to Bullet.
+CLEAR = 1e-3
 
 
 class StaticMesh:
@@ -76,9 +79,10 @@ class StaticMesh:
 
 
 @njit(cache=True, nogil=True)
-def _process_triangle(tri, t, fx, fy, fz, tx, ty, tz, hit):
+def _process_triangle(tri, t, fx, fy, fz, tx, ty, tz, hit, clear):
     """``btTriangleRaycastCallback::processTriangle`` (no back-face filtering): the smaller of
-    ``hit`` and this triangle's accepted distance."""
+    ``hit`` and this triangle's accepted distance, and whether that hit is clear of the
+    triangle's edges (``clear``: kept from the caller if this triangle does not win)."""
     v0x, v0y, v0z = tri[t, 0, 0], tri[t, 0, 1], tri[t, 0, 2]
     v1x, v1y, v1z = tri[t, 1, 0], tri[t, 1, 1], tri[t, 1, 2]
     v2x, v2y, v2z = tri[t, 2, 0], tri[t, 2, 1], tri[t, 2, 2]
@@ -93,12 +97,13 @@ def _process_triangle(tri, t, fx, fy, fz, tx, ty, tz, hit):
     db = nx * tx + ny * ty + nz * tz
     db -= dist
     if da * db >= 0.0:
-        return hit
+        return hit, clear
     proj = da - db
     d = da / proj
     if not d < hit:
-        return hit
-    tol = nx * nx + ny * ny + nz * nz
+        return hit, clear
+    n2 = nx * nx + ny * ny + nz * nz
+    tol = n2
     tol *= -0.0001
     s = 1.0 - d
     px = s * fx + d * tx
@@ -109,20 +114,28 @@ def _process_triangle(tri, t, fx, fy, fz, tx, ty, tz, hit):
     cx = p0y * p1z - p0z * p1y
     cy = p0z * p1x - p0x * p1z
     cz = p0x * p1y - p0y * p1x
-    if not cx * nx + cy * ny + cz * nz >= tol:
-        return hit
+    e0 = cx * nx + cy * ny + cz * nz
+    if not e0 >= tol:
+        return hit, clear
     p2x, p2y, p2z = v2x - px, v2y - py, v2z - pz
     cx = p1y * p2z - p1z * p2y
     cy = p1z * p2x - p1x * p2z
     cz = p1x * p2y - p1y * p2x
-    if not cx * nx + cy * ny + cz * nz >= tol:
-        return hit
+    e1 = cx * nx + cy * ny + cz * nz
+    if not e1 >= tol:
+        return hit, clear
     cx = p2y * p0z - p2z * p0y
     cy = p2z * p0x - p2x * p0z
     cz = p2x * p0y - p2y * p0x
-    if not cx * nx + cy * ny + cz * nz >= tol:
-        return hit
-    return d
+    e2 = cx * nx + cy * ny + cz * nz
+    if not e2 >= tol:
+        return hit, clear
+    # clear of every edge by CLEAR |n|^2 (CLEAR / 1e-4 times the tolerance's reach): the
+    # triangle's bounding box holds the point with room to spare, so Bullet's tree walk
+    # surely reaches this triangle; nearer an edge, Bullet may skip it (a ray grazing a
+    # corner): the caller asks Bullet
+    room = CLEAR * n2
+    return d, e0 >= room and e1 >= room and e2 >= room
 
 
 @njit(cache=True, nogil=True)
@@ -153,10 +166,12 @@ def _near_footprint(foot, t, sx, sy, ux, uy, length, margin):
 
 @njit(cache=True, nogil=True)
 def cast_static(starts, ends, robot, centres, triangles, footprints, first, circles, reach,
-                margin, out):
+                margin, out, sure):
     """Hit fractions ``out`` of rays ``starts[i] -> ends[i]`` of robot ``robot[i]`` (centre
-    ``centres[robot]``, x y) against the obstacles, as Bullet computes them (1: no hit).
-    ``reach`` (m) bounds the distance from a robot's centre to anything its rays reach."""
+    ``centres[robot]``, x y) against the obstacles, as Bullet computes them (1: no hit), and
+    ``sure[i]``: False where the nearest hit lies near its triangle's edges, where Bullet's tree
+    walk may skip that triangle (ask Bullet for those rays). ``reach`` (m) bounds the distance
+    from a robot's centre to anything its rays reach."""
     n_obstacles = circles.shape[0]
     n_robots = centres.shape[0]
     near = np.empty((n_robots, n_obstacles), dtype=np.int64)
@@ -176,6 +191,7 @@ def cast_static(starts, ends, robot, centres, triangles, footprints, first, circ
         length = np.sqrt(ux * ux + uy * uy)
         ux, uy = ux / length, uy / length
         hit = 1.0
+        clear = True
         k = robot[i]
         for c in range(count[k]):
             j = near[k, c]
@@ -190,5 +206,7 @@ def cast_static(starts, ends, robot, centres, triangles, footprints, first, circ
                 continue
             for t in range(first[j], first[j + 1]):
                 if _near_footprint(footprints, t, fx, fy, ux, uy, length, margin):
-                    hit = _process_triangle(triangles, t, fx, fy, fz, tx, ty, tz, hit)
+                    hit, clear = _process_triangle(triangles, t, fx, fy, fz, tx, ty, tz, hit,
+                                                   clear)
         out[i] = hit
+        sure[i] = hit == 1.0 or clear

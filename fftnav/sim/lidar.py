@@ -126,6 +126,9 @@ class Lidar:
         #: Rays actually cast so far (after culling), and those of them cast in the static client.
         self.rays_cast = 0
         self.rays_cast_static = 0
+        #: Of the rays answered by the compiled obstacle test, those whose hit lay too near a
+        #: triangle edge to be sure, re-cast in Bullet's static client.
+        self.rays_asked_bullet = 0
 
     def scan(self, poses: np.ndarray) -> np.ndarray:
         """Ranges ``(K, M)`` in metres for robots at ``poses`` ``(K, 3)`` (x m, y m, yaw rad).
@@ -187,8 +190,15 @@ class Lidar:
         (:func:`fftnav.sim.fastrays.cast_static`)."""
         starts, ends, robot = self._rays(centres, direction, cast)
         mesh, hits = self.static_mesh, np.empty(len(starts))
+        sure = np.empty(len(starts), dtype=bool)
         fastrays.cast_static(starts, ends, robot, poses[:, :2], mesh.triangles, mesh.footprints,
-                             mesh.first, mesh.circles, self.range_m, fastrays.MARGIN_M, hits)
+                             mesh.first, mesh.circles, self.range_m, fastrays.MARGIN_M, hits,
+                             sure)
+        unsure = ~sure  # a hit near a triangle's edge: Bullet decides (static client)
+        if unsure.any():
+            client = self._client if self._static_client is None else self._static_client
+            hits[unsure] = cast_rays(client, starts[unsure], ends[unsure], mask=self._mask)
+            self.rays_asked_bullet += int(unsure.sum())
         return hits
 
     def _may_hit(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
