@@ -6,15 +6,17 @@ it meets: the plane distances ``dist_a``, ``dist_b`` of the ray's ends, ``distan
 (dist_a - dist_b)``, the hit point ``(1 - distance) from + distance to`` and three edge tests
 against ``-1e-4 |n|^2``, keeping the smallest accepted ``distance``. :func:`cast_static` runs
 the same arithmetic, operation for operation, on the triangles a ray can meet, so it returns
-the same hit fractions bit for bit (``tests/sim/test_lidar.py`` compares it with Bullet on every
-ray of random scenes) at a fraction of the cost: no Python tuple per ray, no tree walk, and
+the same hit fractions bit for bit where it is sure (``tests/sim/test_lidar.py`` compares it
+with Bullet on random and corner-aimed rays) at a fraction of the cost: no Python tuple per ray, no tree walk, and
 only the side faces of the obstacles near the robot and close to the ray are tested.
 
 Which triangles a ray can meet: the lidar's rays are horizontal, so a prism's cap triangles
 (all vertices at one height) never pass the plane test (``dist_a = dist_b``) and are left out;
 a side triangle is tested if the ray passes within ``margin`` of its footprint segment in the
 plane (far beyond the edge tolerance's reach, at most ``1e-4`` times the face's width) and its
-obstacle's widened bounding circle comes within the ray. Needs numba (extra ``fast``); without
+obstacle's widened bounding circle comes within the ray. A nearest hit close to its triangle's
+edges is flagged (``sure`` False): Bullet's tree walk may skip such a triangle (a ray through a
+corner), so the caller asks Bullet for that ray. Needs numba (extra ``fast``); without
 it :data:`AVAILABLE` is False and the lidar casts these rays in Bullet.
 """
 
