@@ -7,8 +7,9 @@ it meets: the plane distances ``dist_a``, ``dist_b`` of the ray's ends, ``distan
 against ``-1e-4 |n|^2``, keeping the smallest accepted ``distance``. :func:`cast_static` runs
 the same arithmetic, operation for operation, on the triangles a ray can meet, so it returns
 the same hit fractions bit for bit where it is sure (``tests/sim/test_lidar.py`` compares it
-with Bullet on random and corner-aimed rays) at a fraction of the cost: no Python tuple per ray, no tree walk, and
-only the side faces of the obstacles near the robot and close to the ray are tested.
+with Bullet on random and corner-aimed rays) at a fraction of the cost: no Python tuple per ray,
+no tree walk, and only the side faces of the obstacles near the robot and close to the ray are
+tested.
 
 Which triangles a ray can meet: the lidar's rays are horizontal, so a prism's cap triangles
 (all vertices at one height) never pass the plane test (``dist_a = dist_b``) and are left out;
