@@ -89,7 +89,8 @@ def bench_pipeline(*, repeats: int = 2000, seed: int = 0, runs: int = 1) -> dict
         (same, batch of 15), ``batch15_with_p_s_us_per_scan`` (plus quadrant areas and P_s),
         the safe mask alone per scan in a batch of 15 by FFT (``mask_fft_us_per_scan``), by
         ``numpy.convolve`` (``mask_convolve_us_per_scan``) and by a sliding-window minimum
-        (``mask_sliding_min_us_per_scan``), ``masks_agree``, ``repeats``, ``runs``, ``cpu``.
+        (``mask_sliding_min_us_per_scan``), ``masks_agree``, ``repeats``, ``runs``, ``cpu``,
+        ``load_avg_1min`` (the machine's load average at the end).
     """
     check_integer("repeats", repeats, low=1)
     check_integer("runs", runs, low=1)
@@ -144,6 +145,7 @@ def bench_pipeline(*, repeats: int = 2000, seed: int = 0, runs: int = 1) -> dict
         "repeats": repeats,
         "runs": runs,
         "cpu": cpu,
+        "load_avg_1min": round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None,
     }
 
 
@@ -171,7 +173,7 @@ def format_pipeline(result: dict) -> str:
     lines.append(
         f"masks agree: {result['masks_agree']}; compiled kernels: {result['compiled']}; "
         f"best of {result['runs']} run(s) of the median of {result['repeats']} repeats, "
-        f"pinned to CPU {result['cpu']}"
+        f"pinned to CPU {result['cpu']}, load average {result['load_avg_1min']}"
     )
     return "\n".join(lines)
 

@@ -13,8 +13,10 @@ casting every ray.
 The rays that can hit an obstacle but no robot (outside every other robot's sector) go to a
 second, static physics client holding only the obstacles' mesh (``static_client``): Bullet
 answers a ray there about twice as fast as in the client where the robots move, with the same
-hit fraction bit for bit (the same mesh, the same ray; ``tests/sim/test_lidar.py``). The rays
-in a robot's sector are cast in the full client.
+hit fraction bit for bit (the same mesh, the same ray; ``tests/sim/test_lidar.py``). With
+numba, these rays are not even sent to Bullet: :mod:`fftnav.sim.fastrays` runs Bullet's
+ray-triangle arithmetic on the few triangles each ray can meet, with the same result bit for
+bit. The rays in a robot's sector are cast in the full client.
 """
 
 from __future__ import annotations
@@ -26,6 +28,7 @@ from collections.abc import Sequence
 import numpy as np
 
 from fftnav.observe.scan import angle_increment_rad, beam_angles_rad
+from fftnav.sim import fastrays
 from fftnav.sim.rays import cast_rays
 
 __all__ = ["CULL_MARGIN_M", "Lidar"]
@@ -75,15 +78,27 @@ class Lidar:
     static_client : int, optional
         A physics client holding the same static bodies as ``client`` and no robot: the culled
         rays outside every robot's sector are cast there (faster). None: all in ``client``.
+    static_mesh : fftnav.sim.fastrays.StaticMesh, optional
+        The static bodies' triangles: with numba and ``robot_mask``, every cast ray is answered
+        against them by :func:`fftnav.sim.fastrays.cast_static` (Bullet's arithmetic, bit for
+        bit, several times faster), and only the rays in a robot's sector go to Bullet, against
+        the robots alone (``robot_mask``); the nearer hit counts, as in Bullet. Set
+        ``static_mesh = None`` to cast every ray in Bullet.
+    robot_mask : int, optional
+        Bullet collision-filter mask that selects the robots alone.
     """
 
     def __init__(self, client: int, *, beams: int, range_m: float, fov_deg: float,
                  blind_deg: float, height_m: float, start_m: float, mask: int,
                  bodies: Sequence[tuple[tuple[float, float, float], np.ndarray | None]] = (),
                  robot_radius_m: float = 0.0, cull: bool = True,
-                 static_client: int | None = None) -> None:
+                 static_client: int | None = None,
+                 static_mesh: fastrays.StaticMesh | None = None,
+                 robot_mask: int | None = None) -> None:
         self._client = client
         self._static_client = static_client
+        self.static_mesh = static_mesh if fastrays.AVAILABLE else None
+        self._robot_mask = robot_mask
         self.range_m = float(range_m)
         self.angles_rad = beam_angles_rad(beams, math.radians(fov_deg))
         #: Beams outside the blind sector (the only ones cast). The edge is compared with a
@@ -111,6 +126,9 @@ class Lidar:
         #: Rays actually cast so far (after culling), and those of them cast in the static client.
         self.rays_cast = 0
         self.rays_cast_static = 0
+        #: Of the rays answered by the compiled obstacle test, those whose hit lay too near a
+        #: triangle edge to be sure, re-cast in Bullet's static client.
+        self.rays_asked_bullet = 0
 
     def scan(self, poses: np.ndarray) -> np.ndarray:
         """Ranges ``(K, M)`` in metres for robots at ``poses`` ``(K, 3)`` (x m, y m, yaw rad).
@@ -135,20 +153,53 @@ class Lidar:
         else:
             full, static = np.ones(theta.shape, dtype=bool), None
         centres = np.c_[poses[:, :2], np.full(k, self._height_m)]
-        for cast, client in ((full, self._client), (static, self._static_client)):
-            if cast is None or not cast.any():
-                continue
-            d = direction[cast]
-            centre = centres[np.nonzero(cast)[0]]
-            starts = centre + self._start_m * d
-            ends = centre + self.range_m * d
-            fractions[cast] = cast_rays(client, starts, ends, mask=self._mask)
-            self.rays_cast += len(starts)
-            if client == self._static_client:
-                self.rays_cast_static += len(starts)
+        if self.cull and self.static_mesh is not None and self._robot_mask is not None:
+            # obstacles: every cast ray by the compiled copy of Bullet's triangle test; robots:
+            # the rays in a robot's sector also by Bullet against the robots alone; the nearer
+            fractions[any_body] = self._cast_static(centres, poses, direction, any_body)
+            if robots.any():
+                starts, ends, _ = self._rays(centres, direction, robots)
+                fractions[robots] = np.minimum(
+                    fractions[robots], cast_rays(self._client, starts, ends,
+                                                 mask=self._robot_mask))
+            self.rays_cast += int(any_body.sum())
+            self.rays_cast_static += int(any_body.sum() - robots.sum())
+        else:
+            for cast, client in ((full, self._client), (static, self._static_client)):
+                if cast is None or not cast.any():
+                    continue
+                starts, ends, _ = self._rays(centres, direction, cast)
+                fractions[cast] = cast_rays(client, starts, ends, mask=self._mask)
+                self.rays_cast += len(starts)
+                if client == self._static_client:
+                    self.rays_cast_static += len(starts)
         out[:, self.live] = self._start_m + fractions * (self.range_m - self._start_m)
         self.seconds_spent += time.perf_counter() - tic
         return out
+
+    def _rays(self, centres: np.ndarray, direction: np.ndarray,
+              cast: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """Start and end points of the rays ``cast`` (a ``(K, L)`` mask), and their robots."""
+        robot = np.nonzero(cast)[0]
+        d, centre = direction[cast], centres[robot]
+        return centre + self._start_m * d, centre + self.range_m * d, robot
+
+    def _cast_static(self, centres: np.ndarray, poses: np.ndarray, direction: np.ndarray,
+                     cast: np.ndarray) -> np.ndarray:
+        """Hit fractions of the rays ``cast`` against the static bodies alone
+        (:func:`fftnav.sim.fastrays.cast_static`)."""
+        starts, ends, robot = self._rays(centres, direction, cast)
+        mesh, hits = self.static_mesh, np.empty(len(starts))
+        sure = np.empty(len(starts), dtype=bool)
+        fastrays.cast_static(starts, ends, robot, poses[:, :2], mesh.triangles, mesh.footprints,
+                             mesh.first, mesh.circles, self.range_m, fastrays.MARGIN_M, hits,
+                             sure)
+        unsure = ~sure  # a hit near a triangle's edge: Bullet decides (static client)
+        if unsure.any():
+            client = self._client if self._static_client is None else self._static_client
+            hits[unsure] = cast_rays(client, starts[unsure], ends[unsure], mask=self._mask)
+            self.rays_asked_bullet += int(unsure.sum())
+        return hits
 
     def _may_hit(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(K, L)`` masks of the live rays that point into the sector of a widened body

@@ -21,7 +21,8 @@ import pybullet as p
 
 from fftnav.config import EpisodeConfig, RobotConfig, SensorConfig, SwarmConfig
 from fftnav.limits import MAX_RAYS_PER_TICK, check_limit
-from fftnav.sim.lidar import Lidar
+from fftnav.sim.fastrays import StaticMesh
+from fftnav.sim.lidar import CULL_MARGIN_M, Lidar
 from fftnav.sim.mesh import MAX_MESH_INDICES, MAX_MESH_VERTICES, static_meshes
 from fftnav.validate import check_integer, check_number
 from fftnav.world import World
@@ -238,7 +239,12 @@ class SwarmSim:
                             start_m=r0 + 0.005, mask=_OBSTACLE | _ROBOT,
                             bodies=[(o.bounding_circle(), o.cull_vertices())
                                     for o in self.world.solids],
-                            robot_radius_m=cfg.robot.r0_m, static_client=self._static_client)
+                            robot_radius_m=cfg.robot.r0_m, static_client=self._static_client,
+                            static_mesh=StaticMesh(
+                                [o.mesh() for o in self.world.solids],
+                                [(x, y, r + CULL_MARGIN_M) for x, y, r in
+                                 (o.bounding_circle() for o in self.world.solids)]),
+                            robot_mask=_ROBOT)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client

@@ -118,3 +118,77 @@ def test_noise_and_dropout_follow_the_episode_seed():
     np.testing.assert_array_equal(a[clean == 0], 0.0)  # blind beams stay 0
     returns = hits & ~dropped
     assert 0.01 < np.std(a[returns] - clean[returns]) < 0.03
+
+
+@pytest.mark.parametrize("env", ["forest", "rocky"])
+def test_compiled_obstacle_rays_equal_bullets_bit_for_bit(env):
+    """fastrays.cast_static against Bullet's rayTestBatch in the static client, on random rays
+    and on rays aimed at obstacle vertices (grazing corners, the edge-tolerance cases)."""
+    from fftnav.sim import fastrays
+    from fftnav.sim.rays import cast_rays
+
+    if not fastrays.AVAILABLE:
+        pytest.skip("numba is not installed")
+    world = generate_world(env, 5)
+    rng = np.random.default_rng(4)
+    n = 4000
+    centres = rng.uniform(0.0, 20.0, (40, 2))
+    robot = rng.integers(0, 40, n)
+    angle = rng.uniform(-math.pi, math.pi, n)
+    # half the rays aim at a vertex of an obstacle outline, nudged by 0 or a few ulps
+    outlines = np.concatenate([o.outline() for o in world.obstacles])
+    aim = rng.random(n) < 0.5
+    target = outlines[rng.integers(0, len(outlines), n)]
+    rel = target - centres[robot]
+    angle[aim] = np.arctan2(rel[aim, 1], rel[aim, 0]) + rng.choice([0.0, 1e-15, -1e-15, 1e-9],
+                                                                    aim.sum())
+    direction = np.c_[np.cos(angle), np.sin(angle), np.zeros(n)]
+    starts = np.c_[centres[robot], np.full(n, 0.15)] + 0.155 * direction
+    ends = np.c_[centres[robot], np.full(n, 0.15)] + 3.0 * direction
+    with SwarmSim(World(env, 5, world.size_m, world.obstacles, world.starts[:1],
+                        world.goals[:1])) as sim:
+        expected = cast_rays(sim._static_client, starts, ends, mask=2 | 4)
+        mesh = sim.lidar.static_mesh
+        got, sure = np.empty(n), np.empty(n, dtype=bool)
+        fastrays.cast_static(starts, ends, robot, centres, mesh.triangles, mesh.footprints,
+                             mesh.first, mesh.circles, 3.0, fastrays.MARGIN_M, got, sure)
+    # every answer the kernel is sure of is Bullet's, bit for bit; the others (hits near a
+    # triangle's edge, where Bullet's tree walk may skip the triangle) go to Bullet
+    assert got[sure].tobytes() == expected[sure].tobytes()
+    assert sure.mean() > 0.8 and sure[~aim].mean() > 0.99
+    assert 0.2 < (expected < 1.0).mean() < 0.95  # hits and misses
+
+
+def test_a_ray_grazing_a_corner_is_left_to_bullet():
+    """Regression (rocky map 1001 of Table I): a ray through a wall's corner, where Bullet's
+    tree walk skips the triangle that the edge tolerance would accept. The compiled test must
+    not be sure of it, and the lidar's answer must be Bullet's."""
+    from fftnav.sim import fastrays
+    from fftnav.sim.rays import cast_rays
+    from fftnav.world.obstacles import Polygon
+
+    if not fastrays.AVAILABLE:
+        pytest.skip("numba is not installed")
+    wall = Polygon(((0.4612, 11.2063), (1.1352, 10.354), (1.273, 10.463), (0.599, 11.3153)), 1.0)
+    start = np.array([[0.41913908, 10.95357162, 0.15]])  # aimed exactly at the corner
+    corner = np.array([0.4612, 11.2063, 0.15])
+    direction = (corner - start[0]) / np.linalg.norm(corner - start[0])
+    end = start + 2.845 * direction
+    far = np.array([[10.0, 1.0, math.pi / 2]])
+    with SwarmSim(World("rocky", 0, (20.0, 20.0), (wall,), far, far[:, :2])) as sim:
+        mesh = sim.lidar.static_mesh
+        got, sure = np.empty(1), np.empty(1, dtype=bool)
+        fastrays.cast_static(start, end, np.array([0]), start[:, :2], mesh.triangles,
+                             mesh.footprints, mesh.first, mesh.circles, 3.0, fastrays.MARGIN_M,
+                             got, sure)
+        assert got[0] < 1.0 and not sure[0]  # a corner hit is never taken on its word
+        # through the lidar: the kernel's unsure answer is replaced by Bullet's
+        lidar = sim.lidar
+        centre = start - lidar._start_m * direction
+        pose = np.c_[centre[:, :2], [0.0]]
+        cast = np.ones((1, 1), dtype=bool)
+        s, e, _ = lidar._rays(centre, direction[None, None], cast)
+        expected = cast_rays(sim._static_client, s, e, mask=2 | 4)
+        assert lidar._cast_static(centre, pose, direction[None, None], cast).tobytes() \
+            == expected.tobytes()
+        assert lidar.rays_asked_bullet == 1
