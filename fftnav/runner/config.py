@@ -25,7 +25,7 @@ from fftnav.files import read_toml
 from fftnav.limits import MAX_RAYS_PER_TICK, MAX_TASKS, check_limit
 from fftnav.planning.resolve import Resolved, resolve
 from fftnav.validate import check_integer
-from fftnav.world import load_preset, world_kinds, world_parameters
+from fftnav.world import load_preset, load_world, world_kinds, world_parameters
 
 __all__ = ["ExperimentConfig", "load_config", "parse_config"]
 
@@ -63,6 +63,11 @@ class ExperimentConfig:
         Overrides passed to ``generate_world`` for every env.
     world_by_env : dict
         Extra per-env overrides (``[world.<env>]``), applied after ``world``.
+    world_files : dict
+        ``[world_files]``: envs whose world is a file (a world JSON, e.g. imported from a ROS
+        map with ``fftnav world import``) instead of a generator, env name -> absolute path
+        (relative paths are taken from the config file's folder). Every map of such an env is
+        that world; the maps differ by their episode seed (sensor noise, packet loss).
     swarm : SwarmConfig
         Robot, sensor, communication and episode parameters.
     source : str
@@ -79,6 +84,7 @@ class ExperimentConfig:
     out: str = ""
     world: dict[str, Any] = field(default_factory=dict)
     world_by_env: dict[str, dict[str, Any]] = field(default_factory=dict)
+    world_files: dict[str, str] = field(default_factory=dict)
     swarm: SwarmConfig = field(default_factory=SwarmConfig)
     source: str = field(default="", repr=False, compare=False)
     #: ``[sweep]``: the cells of a one-factor-at-a-time sweep, ``(name, config)``, the first
@@ -155,7 +161,7 @@ def parse_config(data: dict[str, Any], *, source: str = "",
     ValueError
         Unknown section or key, missing or invalid value; the message names the key.
     """
-    allowed = ("experiment", "world", "sweep", *SwarmConfig.SECTIONS)
+    allowed = ("experiment", "world", "world_files", "sweep", *SwarmConfig.SECTIONS)
     for name in data:
         if name not in allowed:
             raise ValueError(f"unknown section [{name}]; expected one of {list(allowed)}")
@@ -174,7 +180,11 @@ def parse_config(data: dict[str, Any], *, source: str = "",
     if not (isinstance(name, str) and _NAME.match(name)):
         raise ValueError(f"experiment.name must be a non-empty string of letters, digits, "
                          f"'_', '.', '-', got {name!r}")
-    envs = _names("experiment.envs", exp["envs"], world_kinds())
+    world_files = _world_files(_table(data, "world_files"), base)
+    envs = _names("experiment.envs", exp["envs"], (*world_kinds(), *world_files))
+    for env in world_files:
+        if env not in envs:
+            raise ValueError(f"world_files.{env} is not one of experiment.envs={list(envs)}")
     maps = check_integer("experiment.maps", exp["maps"], low=1)
     trajectory_maps = check_integer("experiment.trajectory_maps", exp.get("trajectory_maps", 1),
                                     low=0)
@@ -199,8 +209,14 @@ def parse_config(data: dict[str, Any], *, source: str = "",
     for env, table in by_env.items():
         if env not in envs:
             raise ValueError(f"world.{env} is not one of experiment.envs={list(envs)}")
+        if env in world_files:
+            raise ValueError(f"world.{env}: a world file env (world_files.{env}) takes no "
+                             "generator overrides")
         _check_world_keys(f"world.{env}", env, table)
     for env in envs:
+        if env in world_files:
+            _check_world_file(env, world_files[env], robots)
+            continue
         _check_world_keys("world", env, common)
         overrides = {"robot_radius_m": swarm.robot.r0_m, **common, **by_env.get(env, {}),
                      "robots": robots}
@@ -220,9 +236,41 @@ def parse_config(data: dict[str, Any], *, source: str = "",
         out=out,
         world=common,
         world_by_env=by_env,
+        world_files=world_files,
         swarm=swarm,
         source=source,
     )
+
+
+def _world_files(table: dict[str, Any], base: str | Path | None) -> dict[str, str]:
+    """``[world_files]``: env name -> world file, made absolute, names distinct from the
+    registered world kinds."""
+    out = {}
+    for env, path in table.items():
+        if not _NAME.match(env):
+            raise ValueError(f"world_files: an env name must be letters, digits, '_', '.', '-', "
+                             f"got {env!r}")
+        if env in world_kinds():
+            raise ValueError(f"world_files.{env}: {env!r} is a registered world kind; name the "
+                             "world file's env otherwise")
+        if not (isinstance(path, str) and path):
+            raise ValueError(f"world_files.{env} must be a world file path, got {path!r}")
+        full = Path(path).expanduser()
+        if not full.is_absolute():
+            full = Path(base or ".") / full
+        out[env] = str(full.resolve())
+    return out
+
+
+def _check_world_file(env: str, path: str, robots: int) -> None:
+    """The world file of ``env`` loads and has ``robots`` robots (starts)."""
+    try:
+        world = load_world(path)
+    except (ValueError, OSError) as exc:
+        raise ValueError(f"world_files.{env}: {exc}") from None
+    if len(world.starts) != robots:
+        raise ValueError(f"world_files.{env}: {path} has {len(world.starts)} robots (starts), "
+                         f"experiment.robots={robots}")
 
 
 def _policies(value: Any, base: str | Path | None) -> tuple[str, ...]:

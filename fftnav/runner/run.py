@@ -303,7 +303,9 @@ def _check_same_experiment(config: ExperimentConfig, out: Path, *, fresh: bool =
     if not record.exists() and not fresh and any((out / "episodes").glob("*.csv")):
         raise ValueError(f"{out} holds episode files but no config.json ({record}): they cannot "
                          "be told apart from another experiment's; use another --out or --fresh")
-    canonical = json.dumps({**asdict(config), "out": None, "source": None,
+    fields = {k: v for k, v in asdict(config).items()
+              if not (k == "world_files" and not v)}  # older configs keep their form
+    canonical = json.dumps({**fields, "out": None, "source": None,
                             "fftnav_version": __version__, "csv_columns": list(CSV_COLUMNS),
                             **_plugin_files(config)}, indent=1, sort_keys=True)
     if record.exists():
@@ -333,11 +335,16 @@ def _check_same_experiment(config: ExperimentConfig, out: Path, *, fresh: bool =
 
 
 def _plugin_files(config: ExperimentConfig) -> dict[str, dict[str, str]]:
-    """``{"plugin_sha256": {file: sha256}}`` of the plugins named by file path (none: ``{}``,
-    so configs without them keep their canonical form): resuming with a changed plugin file
-    is refused like a changed config."""
+    """``{"plugin_sha256": {file: sha256}}`` of the plugins named by file path and
+    ``{"world_sha256": ...}`` of the world files (none: ``{}``, so configs without them keep
+    their canonical form): resuming with a changed plugin or world file is refused like a
+    changed config."""
     files = {str(f.file): file_sha256(f.file) for f in config.resolved.values() if f.file}
-    return {"plugin_sha256": files} if files else {}
+    worlds = {path: file_sha256(Path(path)) for path in config.world_files.values()}
+    return ({"plugin_sha256": files} if files else {}) | (
+        {"world_sha256": worlds} if worlds else {})
+
+
 def _reference_path(out: Path, env: str, map_seed: int) -> Path:
     return out / "reference" / f"{env}-{map_seed}.npy"
 

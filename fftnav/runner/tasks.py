@@ -19,7 +19,7 @@ import numpy as np
 from fftnav.episode import EpisodeRow, run_episode
 from fftnav.planning.reference import optimal_lengths
 from fftnav.runner.config import ExperimentConfig
-from fftnav.world import World, generate_world
+from fftnav.world import World, generate_world, load_world
 
 __all__ = ["Task", "TaskResult", "episode_seed", "iter_tasks", "make_tasks", "map_reference",
            "run_task", "task_count", "task_id", "task_world"]
@@ -122,9 +122,17 @@ def map_reference(config: ExperimentConfig, task: Task) -> np.ndarray:
 
 
 def task_world(config: ExperimentConfig, env: str, map_seed: int) -> World:
-    """The world of a map: ``generate_world(env, map_seed, robots=..., **overrides)``, cached."""
+    """The world of a map: ``generate_world(env, map_seed, robots=..., **overrides)``, or the
+    world file of an env of ``[world_files]`` (the same for every map), cached."""
+    if env in config.world_files:
+        return _file_world(config.world_files[env])
     return _cached_world(env, map_seed, config.robots,
                          json.dumps(config.world_overrides(env), sort_keys=True))
+
+
+@lru_cache(maxsize=8)
+def _file_world(path: str) -> World:
+    return load_world(path)
 
 
 @lru_cache(maxsize=8)

@@ -3,6 +3,8 @@ through ``fftnav world grid --ros-map``, and an episode on an imported map."""
 
 from __future__ import annotations
 
+import csv
+import re
 import subprocess
 import sys
 
@@ -150,3 +152,60 @@ def test_an_imported_map_runs_an_episode_from_the_command_line(tmp_path):
     bad = fftnav("world", "import", "room.yaml", "--start", "0", "0", "0", "--out", "x.json")
     assert bad.returncode == 2 and bad.stderr.count("\n") == 1
     assert "as many --start X Y YAW_DEG as --goal X Y" in bad.stderr
+
+
+@pytest.mark.slow
+def test_an_imported_map_runs_as_an_experiment_env(tmp_path):
+    """``[world_files]`` names an imported world as an env of ``fftnav run``: its rows carry the
+    env's name, the world file's hash guards a resume, bad entries are refused in one line."""
+    pixels = np.full((50, 30), 254)  # 3 m x 5 m room at 0.1 m, a wall from the left
+    pixels[:, 0] = pixels[:, -1] = pixels[0, :] = pixels[-1, :] = 0
+    pixels[24:26, 0:18] = 0
+    _pgm(tmp_path / "room.pgm", pixels)
+    _yaml(tmp_path / "room.yaml", "room.pgm")
+    (tmp_path / "robots.toml").write_text(
+        "[[robot]]\nstart = [0.6, 0.6, 90.0]\ngoal = [0.6, 4.4]\n"
+        "[[robot]]\nstart = [2.4, 0.6, 90.0]\ngoal = [2.4, 4.4]\n")
+    maps = tmp_path / "maps"
+    maps.mkdir()
+
+    def fftnav(*args):
+        return subprocess.run([sys.executable, "-m", "fftnav", *args], capture_output=True,
+                              text=True, cwd=tmp_path, timeout=600)
+
+    proc = fftnav("world", "import", "room.yaml", "--robots", "robots.toml",
+                  "--out", "maps/room.json")
+    assert proc.returncode == 0, proc.stderr
+    config = ('[experiment]\nname = "room"\nenvs = ["room"]\nmaps = 2\nmap_seed = 0\n'
+              'robots = {robots}\npolicies = ["bug-right"]\n'
+              '[world_files]\nroom = "{path}"\n[episode]\ntime_limit_s = 40.0\n')
+    (maps / "room.toml").write_text(config.format(robots=2, path="room.json"))  # relative
+    proc = fftnav("run", "maps/room.toml", "--out", "out", "--workers", "1", "--quiet")
+    assert proc.returncode == 0, proc.stderr
+    episodes = (tmp_path / "out" / "episodes.csv").read_text().splitlines()
+    assert len(episodes) == 1 + 2 * 2  # maps x robots
+    summary = (tmp_path / "out" / "summary.csv").read_text().splitlines()
+    assert [line.split(",")[:2] for line in summary[1:]] == [["room", "bug-right"]]
+    assert "world_sha256" in (tmp_path / "out" / "config.json").read_text()
+    # every map is the imported world: each robot's optimal length is the same on both maps,
+    # and the robot behind the wall (robot 0) has to go round it
+    rows = list(csv.DictReader(episodes))
+    optimal = {(r["robot"], r["map_seed"]): float(r["optimal_length_m"]) for r in rows}
+    for robot in ("0", "1"):
+        assert optimal[robot, "0"] == optimal[robot, "1"]
+    assert optimal["0", "0"] > optimal["1", "0"] + 0.5
+    # a changed world file is refused when resuming, in one line
+    world = load_world(maps / "room.json")
+    save_world(world.with_robots(world.starts[::-1], world.goals[::-1]), maps / "room.json")
+    again = fftnav("run", "maps/room.toml", "--out", "out", "--workers", "1", "--quiet")
+    assert again.returncode == 2 and again.stderr.count("\n") == 1, again.stderr
+    for text, match in [(config.format(robots=3, path="room.json"),
+                         "world_files.room: .* has 2 robots"),
+                        (config.format(robots=2, path="nothere.json"), "world_files.room: "),
+                        (config.replace("room = ", "forest = ").format(robots=2, path="room.json"),
+                         "world_files.forest: 'forest' is a registered world kind")]:
+        (maps / "bad.toml").write_text(text)
+        bad = fftnav("run", "maps/bad.toml", "--out", "bad", "--quiet")
+        assert bad.returncode == 2 and bad.stderr.count("\n") == 1, bad.stderr
+        assert re.search(match, bad.stderr), bad.stderr
+        assert not (tmp_path / "bad").exists()
