@@ -25,18 +25,10 @@ from __future__ import annotations
 
 import numpy as np
 
+# numba or, where it is missing, a stand-in decorator (the optional extra `fast`)
+from fftnav.observe.kernels import AVAILABLE, njit
+
 __all__ = ["AVAILABLE", "StaticMesh", "cast_static"]
-
-try:  # optional dependency: pip install fftnav[fast]
-    from numba import njit
-except ImportError:  # pragma: no cover - exercised where numba is missing
-    AVAILABLE = False
-
-    def njit(*args, **kwargs):  # type: ignore[no-redef]
-        """Stand-in decorator: the functions stay plain Python (correct, slow, unused)."""
-        return args[0] if args and callable(args[0]) else (lambda fn: fn)
-else:
-    AVAILABLE = True
 
 #: Distance (m) within which a ray must pass a side face's footprint for the face to be tested.
 MARGIN_M = 1e-3
