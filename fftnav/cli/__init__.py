@@ -96,19 +96,21 @@ def _exit_now(signum: int, frame: object) -> None:
 _stopping = False
 
 
-def _on_sigint(signum: int, frame: object) -> None:
+def _stop() -> None:
+    """A first Ctrl-C or SIGTERM: the process is stopping; the next one of either exits now."""
     global _stopping
     _stopping = True
     signal.signal(signal.SIGINT, _exit_now)
     signal.signal(signal.SIGTERM, _exit_now)
+
+
+def _on_sigint(signum: int, frame: object) -> None:
+    _stop()
     raise KeyboardInterrupt
 
 
 def _on_sigterm(signum: int, frame: object) -> None:
-    global _stopping
-    _stopping = True
-    signal.signal(signal.SIGINT, _exit_now)
-    signal.signal(signal.SIGTERM, _exit_now)
+    _stop()
     raise Terminated
 
 

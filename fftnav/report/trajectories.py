@@ -50,6 +50,11 @@ def plot_episode(
     draw_trajectories(ax, world, trajectories, [r.arrived for r in rows])
     arrived = sum(r.arrived for r in rows)
     ax.set_title(title or f"{rows[0].policy}: {arrived}/{len(rows)} arrived")
+    return _save(fig, path)
+
+
+def _save(fig: plt.Figure, path: str | Path) -> Path:
+    """Write ``fig`` to ``path`` (its folder created), close it; returns the path."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, bbox_inches="tight")
@@ -80,9 +85,5 @@ def plot_failures(
                     textcoords="offset points", ha="center", fontsize=7)
     ax.set_title(title or f"{rows[0].policy}: the {len(failed)} of {len(rows)} robots that "
                  "did not arrive")
-    out = Path(path)
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, bbox_inches="tight")
-    plt.close(fig)
-    return out
+    return _save(fig, path)
 
