@@ -225,14 +225,20 @@ class FilterBank:
         rows for a few batch sizes), one inverse FFT."""
         k = stacked.shape[0] // 2
         spec = _rfft(stacked, self.fft_size)
+        spec *= self.repeated_spectra(k)
+        out = self._inverse(spec)
+        return out[:k], out[k:]
+
+    def repeated_spectra(self, k: int) -> np.ndarray:
+        """``(2K, fft_size // 2 + 1)`` complex: H1 for the first K rows, H2 for the last K, the
+        filters of K stacked scans (kept for a few batch sizes; read-only)."""
         spectra = self._repeated.get(k)
-        if spectra is None:  # H1 for the first K rows, H2 for the last K (a few batch sizes kept)
+        if spectra is None:
             if len(self._repeated) >= _KEEP_BATCH_SIZES:
                 self._repeated.clear()
             spectra = self._repeated[k] = np.repeat(self._spectra, k, axis=0)
-        spec *= spectra
-        out = self._inverse(spec)
-        return out[:k], out[k:]
+            spectra.flags.writeable = False
+        return spectra
 
     def _inverse(self, spec: np.ndarray) -> np.ndarray:
         out = np.fft.irfft(spec, self.fft_size, axis=1)

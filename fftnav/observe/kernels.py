@@ -1,35 +1,44 @@
-"""Compiled per-scan steps of the single-scan pipeline (optional: needs numba, extra ``fast``).
+"""Compiled per-scan steps of the pipeline (optional: needs numba, extra ``fast``).
 
 One scan through :meth:`fftnav.observe.pipeline.Pipeline.process` costs about 45 numpy calls on
 360-element arrays, each with its fixed dispatch cost; the arithmetic itself is a few
-microseconds. The single-scan path keeps the paper's FFT formulation and numpy's FFT (the
-reference filtering, bit for bit) and replaces everything before and after it by two compiled
-loops:
+microseconds. The compiled paths (one scan, and a batch of K scans) keep the paper's FFT
+formulation and pocketfft (the reference filtering, bit for bit) and replace everything before
+and after it by two compiled loops:
 
-- :func:`prepare`: sanitise and normalise the ranges and write the clipped row (for h1) and the
-  raw row (for h2) into the zero-padded FFT input, exactly as
+- :func:`prepare` / :func:`prepare_batch`: sanitise and normalise the ranges and write the
+  clipped rows (for h1) and the raw rows (for h2) into the zero-padded FFT input, exactly as
   :meth:`fftnav.observe.filters.FilterBank.filter_ranges` does;
-- :func:`finish`: the safe mask ``y1 >= limit`` (``limit = l_th/R - tolerance``, computed by the
-  caller, :func:`fftnav.observe.safe.safe_mask`'s test), the extrema of y2 exactly as
-  :func:`fftnav.observe.compress.find_extrema_flat` (same slopes, same plateau rule, same
-  clipping of distances) and the compact message words.
+- :func:`finish` / :func:`finish_batch`: the safe mask ``y1 >= limit`` (``limit = l_th/R -
+  tolerance``, computed by the caller, :func:`fftnav.observe.safe.safe_mask`'s test), the
+  extrema of y2 exactly as :func:`fftnav.observe.compress.find_extrema_flat` (same slopes, same
+  plateau rule, same clipping of distances) and the whole compact message (header, payload
+  words, CRC-16), as :func:`fftnav.observe.codec.encode_sigma` writes it.
+
+:func:`entry` returns a kernel's compiled entry point for the one signature the pipeline uses,
+which skips numba's per-call type dispatch (about half a microsecond per call with 17
+arguments); the pipeline gets its kernels through it once, when it is built.
 
 Every operation is the same IEEE double operation as in the numpy path, in the same order, so
 masks, y1, y2, extrema and messages are bit-identical (``tests/observe/test_kernels.py`` checks it
-on random scans and on every scan of the four Radish logs). Without numba, :data:`AVAILABLE` is
-False and the pipeline uses its numpy path.
+on random scans and batches and on every scan of the four Radish logs). Without numba,
+:data:`AVAILABLE` is False and the pipeline uses its numpy path.
 """
 
 from __future__ import annotations
 
+import binascii
+
 import numpy as np
 
-__all__ = ["AVAILABLE", "finish", "prepare"]
+__all__ = ["AVAILABLE", "CRC_TABLE", "crc_heads", "entry", "finish", "finish_batch", "prepare",
+           "prepare_batch"]
 
 try:  # optional dependency: pip install fftnav[fast]
-    from numba import njit
+    from numba import njit, types
 except ImportError:  # pragma: no cover - exercised where numba is missing
     AVAILABLE = False
+    types = None
 
     def njit(*args, **kwargs):  # type: ignore[no-redef]
         """Stand-in decorator: the functions stay plain Python (correct, slow, unused)."""
@@ -38,10 +47,62 @@ else:
     AVAILABLE = True
 
 
+def _crc_table() -> np.ndarray:
+    """CRC-16/CCITT (polynomial 0x1021, most significant bit first) of every byte value, the
+    table behind :func:`binascii.crc_hqx`."""
+    table = np.empty(256, dtype=np.int64)
+    for byte in range(256):
+        crc = byte << 8
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x1021) if crc & 0x8000 else (crc << 1)
+        table[byte] = crc & 0xFFFF
+    return table
+
+
+#: :func:`binascii.crc_hqx`'s table, for the messages :func:`finish` writes.
+CRC_TABLE = _crc_table()
+
+
+def crc_heads(head: int) -> np.ndarray:
+    """``(256,)`` int64: for each count n, :func:`binascii.crc_hqx` from 0xFFFF of the header
+    ``(head, n)`` followed by 3 n zero bytes (the part of a compact message's CRC that does not
+    depend on its payload)."""
+    return np.array([binascii.crc_hqx(bytes((head, n)) + bytes(3 * n), 0xFFFF)
+                     for n in range(256)], dtype=np.int64)
+
+
+def _signatures() -> dict[str, tuple]:
+    """The one signature of each kernel in the pipeline (C-contiguous arrays)."""
+    f8, i8, b1, u1 = types.float64, types.int64, types.boolean, types.uint8
+    return {
+        "prepare": (f8[::1], f8, f8, f8[:, ::1]),
+        "finish": (f8[:, ::1], i8, f8, b1[::1], b1, f8, f8[::1], f8, f8, f8, b1[:, ::1],
+                   f8[:, ::1], b1[::1], u1[::1], i8, i8[::1], i8[::1]),
+        "prepare_batch": (f8[:, ::1], f8, f8, f8[:, ::1]),
+        "finish_batch": (f8[:, ::1], i8, f8, b1[::1], b1, f8, f8[::1], f8, f8, f8, b1[:, ::1],
+                         f8[:, ::1], b1[::1], i8[::1], u1[:, ::1], i8, i8[::1], i8[::1]),
+    }
+
+
+def entry(name: str):
+    """The kernel ``name`` (``"prepare"``, ``"finish"``, ``"prepare_batch"`` or
+    ``"finish_batch"``) as the pipeline calls it: numba's
+    compiled entry point for the pipeline's argument types (loaded from numba's cache after
+    the first run), or the function itself when it is plain Python (no numba, or a test's
+    replacement). The entry point does no type dispatch: the caller passes exactly the types
+    of the signature (C-contiguous float64/bool/uint8/int64 arrays, Python floats, ints and
+    bools)."""
+    fn = globals()[name]
+    compile_ = getattr(fn, "compile", None)
+    return fn if compile_ is None else compile_(_signatures()[name])
+
+
 @njit(cache=True, nogil=True)
-def prepare(ranges: np.ndarray, range_m: float, threshold: float, work: np.ndarray) -> None:
-    """Write one scan into ``work`` ``(2, L)``: row 0 ``min(s, l_th/R)``, row 1 ``s = d / R``,
-    with ``d = max(min(r, R), 0)`` and NaN read as 0 (columns ``M..L-1`` stay as they are, 0).
+def _prepare_row(ranges: np.ndarray, range_m: float, threshold: float, work: np.ndarray,
+                 clipped: int, raw: int) -> None:
+    """Write one scan into rows ``clipped`` (``min(s, l_th/R)``) and ``raw`` (``s = d / R``) of
+    ``work``, with ``d = max(min(r, R), 0)`` and NaN read as 0 (columns ``M..L-1`` stay as
+    they are, 0).
 
     The same operations as ``np.minimum``, ``np.fmax``, ``np.divide`` and ``np.minimum`` of
     :meth:`~fftnav.observe.filters.FilterBank.filter_ranges`.
@@ -54,21 +115,42 @@ def prepare(ranges: np.ndarray, range_m: float, threshold: float, work: np.ndarr
             d = r if r <= range_m else range_m  # np.minimum (+inf -> R)
             d = d if d >= 0.0 else 0.0  # np.fmax(d, 0)
         s = d / range_m
-        work[1, i] = s
-        work[0, i] = s if s <= threshold else threshold
+        work[raw, i] = s
+        work[clipped, i] = s if s <= threshold else threshold
 
 
 @njit(cache=True, nogil=True)
-def finish(out: np.ndarray, tau: int, limit: float, valid: np.ndarray, circular: bool,
-           eps: float, angles: np.ndarray, range_m: float, angle_scale: float,
-           dist_scale: float, mask: np.ndarray, sigma: np.ndarray, is_min: np.ndarray,
-           payload: np.ndarray) -> int:
-    """Safe mask, extrema and compact message words of one filtered scan.
+def prepare(ranges: np.ndarray, range_m: float, threshold: float, work: np.ndarray) -> None:
+    """Write one scan ``(M,)`` into ``work`` ``(2, L)``: row 0 clipped (for h1), row 1 raw (for
+    h2); see :func:`_prepare_row`."""
+    _prepare_row(ranges, range_m, threshold, work, 0, 1)
+
+
+@njit(cache=True, nogil=True)
+def prepare_batch(ranges: np.ndarray, range_m: float, threshold: float,
+                  work: np.ndarray) -> None:
+    """Write K scans ``(K, M)`` into ``work`` ``(2 K, L)``: row k clipped, row K + k raw, the
+    layout of :meth:`~fftnav.observe.filters.FilterBank.filter_ranges`."""
+    k = ranges.shape[0]
+    for i in range(k):
+        _prepare_row(ranges[i], range_m, threshold, work, i, k + i)
+
+
+@njit(cache=True, nogil=True)
+def _scan(out: np.ndarray, h1: int, h2: int, tau: int, limit: float, valid: np.ndarray,
+          circular: bool, eps: float, angles: np.ndarray, range_m: float, angle_scale: float,
+          dist_scale: float, mask: np.ndarray, row: int, sigma: np.ndarray, is_min: np.ndarray,
+          start: int, message: np.ndarray, head: int, crc_table: np.ndarray,
+          crc_heads: np.ndarray) -> int:
+    """Safe mask, extrema and compact message of one filtered scan.
 
     Parameters
     ----------
-    out : ndarray, shape (2, L)
-        Inverse FFT output: row 0 is y1, row 1 is y2, both aligned at column ``tau``.
+    out : ndarray, shape (2 K, L)
+        Inverse FFT output: row ``h1`` is the scan's y1, row ``h2`` its y2, both aligned at
+        column ``tau``.
+    h1, h2 : int
+        The scan's rows of ``out``.
     tau : int
         Group delay (0 in circular mode).
     limit : float
@@ -86,10 +168,26 @@ def finish(out: np.ndarray, tau: int, limit: float, valid: np.ndarray, circular:
         R (m).
     angle_scale, dist_scale : float
         Quantisation factors of the compact layout (``4096 / 2 pi`` and ``2047 / R``).
-    mask, sigma, is_min, payload : ndarray
-        Outputs: ``(M,)`` bool, ``(M, 2)`` float, ``(M,)`` bool and ``(3 M,)`` uint8, the
-        compact payload (3 big-endian bytes per extremum); the first n rows (3 n bytes) are
-        filled.
+    mask : ndarray of bool, shape (K, M)
+        Output: row ``row`` is the scan's safe mask.
+    row : int
+        The scan's row of ``mask``.
+    sigma, is_min : ndarray
+        Outputs, ``(N, 2)`` float and ``(N,)`` bool: rows ``start .. start + n - 1`` are
+        filled with the scan's extrema.
+    start : int
+        Where the scan's extrema go in ``sigma`` and ``is_min``.
+    message : ndarray of uint8, shape (3 (M + 2) + 4,)
+        Output: the compact message in its first ``3 n + 4`` bytes: ``head``, n (modulo 256:
+        the caller refuses n > 255), 3 big-endian bytes per extremum, and the CRC-16 of all
+        that (:func:`binascii.crc_hqx` from 0xFFFF, big-endian).
+    head : int
+        The layout/version byte of the compact layout.
+    crc_table : ndarray of int64, shape (256,)
+        :data:`CRC_TABLE`.
+    crc_heads : ndarray of int64, shape (256,)
+        ``crc_heads[n]``: the CRC-16 of the header of n extrema followed by 3 n zero bytes
+        (:func:`crc_heads`), which the payload's CRC from 0 completes.
 
     Returns
     -------
@@ -98,21 +196,22 @@ def finish(out: np.ndarray, tau: int, limit: float, valid: np.ndarray, circular:
     """
     m = angles.shape[0]
     for i in range(m):
-        mask[i] = out[0, tau + i] >= limit
+        mask[row, i] = out[h1, tau + i] >= limit
     # the row as find_extrema_flat sees it
     width = m + 2 if circular else m
     y = np.empty(width)
     if circular:
-        y[0] = out[1, tau + m - 1]
-        y[width - 1] = out[1, tau]
+        y[0] = out[h2, tau + m - 1]
+        y[width - 1] = out[h2, tau]
         for i in range(m):
-            y[i + 1] = out[1, tau + i]
+            y[i + 1] = out[h2, tau + i]
     else:
         for i in range(m):
-            y[i] = out[1, tau + i]
+            y[i] = out[h2, tau + i]
     # consecutive non-flat slopes of opposite sign enclose one extremum, at the middle of the
     # plateau between them (rounded down); with no flat slope, where the slope changes sign
     n = 0
+    crc = 0  # CRC-16 of the payload so far, from 0
     last = -1  # index of the last non-flat slope
     last_sign = 0
     for j in range(width - 1):
@@ -128,16 +227,55 @@ def finish(out: np.ndarray, tau: int, limit: float, valid: np.ndarray, circular:
                 value = value if value >= 0.0 else 0.0
                 value = value if value <= range_m else range_m
                 angle = angles[beam]
-                sigma[n, 0] = angle
-                sigma[n, 1] = value
+                sigma[start + n, 0] = angle
+                sigma[start + n, 1] = value
                 minimum = last_sign < 0
-                is_min[n] = minimum
+                is_min[start + n] = minimum
                 qa = np.int64(np.rint(angle * angle_scale))
                 qd = np.int64(np.rint(value * dist_scale))
                 word = ((qa << 12) & 0xFFF000) | qd | (np.int64(minimum) << 11)
-                payload[3 * n] = (word >> 16) & 0xFF
-                payload[3 * n + 1] = (word >> 8) & 0xFF
-                payload[3 * n + 2] = word & 0xFF
+                for k in range(3):  # the word's 3 bytes, and the CRC from 0 through them
+                    byte = (word >> (16 - 8 * k)) & 0xFF
+                    message[2 + 3 * n + k] = byte
+                    crc = ((crc << 8) & 0xFFFF) ^ crc_table[(crc >> 8) ^ byte]
                 n += 1
         last, last_sign = j, sign
+    message[0] = head
+    message[1] = n & 0xFF
+    # CRC-16 is linear: crc(0xFFFF, header + payload) = crc(0xFFFF, header + 3 n zero bytes)
+    # ^ crc(0, payload); the first term is crc_heads[n]
+    crc ^= crc_heads[n & 0xFF]
+    message[2 + 3 * n] = crc >> 8
+    message[3 + 3 * n] = crc & 0xFF
     return n
+
+
+@njit(cache=True, nogil=True)
+def finish(out: np.ndarray, tau: int, limit: float, valid: np.ndarray, circular: bool,
+           eps: float, angles: np.ndarray, range_m: float, angle_scale: float,
+           dist_scale: float, mask: np.ndarray, sigma: np.ndarray, is_min: np.ndarray,
+           message: np.ndarray, head: int, crc_table: np.ndarray, crc_heads: np.ndarray) -> int:
+    """:func:`_scan` of one scan: ``out`` ``(2, L)`` (y1, y2), ``mask`` ``(1, M)``; returns n,
+    the extrema in the first n rows of ``sigma`` and ``is_min``."""
+    return _scan(out, 0, 1, tau, limit, valid, circular, eps, angles, range_m, angle_scale,
+                 dist_scale, mask, 0, sigma, is_min, 0, message, head, crc_table, crc_heads)
+
+
+@njit(cache=True, nogil=True)
+def finish_batch(out: np.ndarray, tau: int, limit: float, valid: np.ndarray, circular: bool,
+                 eps: float, angles: np.ndarray, range_m: float, angle_scale: float,
+                 dist_scale: float, mask: np.ndarray, sigma: np.ndarray, is_min: np.ndarray,
+                 offsets: np.ndarray, messages: np.ndarray, head: int, crc_table: np.ndarray,
+                 crc_heads: np.ndarray) -> int:
+    """:func:`_scan` of K scans: ``out`` ``(2 K, L)`` (y1 of the K scans, then their y2),
+    ``mask`` ``(K, M)``, ``messages`` ``(K, 3 (M + 2) + 4)``; the extrema of scan k go to rows
+    ``offsets[k] .. offsets[k + 1] - 1`` of ``sigma`` and ``is_min`` (``offsets`` ``(K + 1,)``
+    is written). Returns the total number of extrema."""
+    k = mask.shape[0]
+    offsets[0] = 0
+    for i in range(k):
+        n = _scan(out, i, k + i, tau, limit, valid, circular, eps, angles, range_m, angle_scale,
+                  dist_scale, mask, i, sigma, is_min, offsets[i], messages[i], head, crc_table,
+                  crc_heads)
+        offsets[i + 1] = offsets[i] + n
+    return offsets[k]

@@ -10,15 +10,15 @@
 
 from __future__ import annotations
 
-import functools
 import math
+from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
 
 import numpy as np
 
 from fftnav.observe import kernels
-from fftnav.observe.codec import LAYOUTS, codec_scales, pack_messages, packed_message
+from fftnav.observe.codec import LAYOUTS, codec_scales, pack_messages
 from fftnav.observe.compress import EXTREMUM_EPS, find_extrema_flat, quadrant_areas_batch
 from fftnav.observe.filters import FilterBank
 from fftnav.observe.fusion import own_probability
@@ -27,23 +27,25 @@ from fftnav.observe.safe import nearest_safe_headings, safe_mask, safe_tolerance
 from fftnav.observe.scan import as_scan_batch, beam_angles_rad, sanitize_ranges
 from fftnav.validate import check_choice
 
-# The single-scan path calls pocketfft without the Python wrappers of numpy.fft (a few
-# microseconds per call): scipy's binding (the fastest to call) or the ufuncs behind
-# numpy.fft.rfft / irfft (numpy >= 2), else numpy.fft itself. All run pocketfft; that the
-# results equal numpy.fft's bit for bit is tested (tests/observe/test_kernels.py).
+# The single-scan path calls pocketfft through scipy's binding, without the Python wrappers of
+# numpy.fft / scipy.fft (a few microseconds per call), else numpy.fft itself. Both run
+# pocketfft; that the results equal numpy.fft's bit for bit is tested
+# (tests/observe/test_kernels.py).
 try:
     from scipy.fft._pocketfft import pypocketfft as _pp
 except ImportError:  # pragma: no cover - other scipy layouts
     _pp = None
-try:
-    from numpy.fft import _pocketfft_umath as _pfu
-except ImportError:  # pragma: no cover - numpy 1.x
-    _pfu = None
 
 __all__ = ["Pipeline", "PipelineResult", "safe_limit"]
 
-#: The FFT ufuncs' axes argument: transform along axis 1 of (2, L) arrays.
-_AXES = [(1,), (), (1,)]
+#: pypocketfft's axes argument: transform along axis 1 of (2, L) arrays.
+_AXIS = (1,)
+#: The dtype of the scans the single-scan path takes as they are (native float64).
+_FLOAT64 = np.dtype(np.float64)
+#: The layout byte of compact messages, which the compiled kernel writes...
+_COMPACT_HEAD = LAYOUTS["compact"]
+#: ... and the payload-free parts of their CRCs.
+_CRC_HEADS = kernels.crc_heads(_COMPACT_HEAD)
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -55,10 +57,15 @@ def _read_only(a: np.ndarray) -> np.ndarray:
 _NAN_X0, _NAN_P_S = _read_only(np.full((1, 4), np.nan)), _read_only(np.full(1, np.nan))
 
 
-@functools.lru_cache(maxsize=256)
 def _offsets(n: int) -> np.ndarray:
     """``offsets`` of one scan with n extrema, ``[0, n]``: shared, read-only."""
-    return _read_only(np.array([0, n]))
+    try:
+        return _OFFSETS[n]
+    except KeyError:
+        return _OFFSETS.setdefault(n, _read_only(np.array([0, n])))
+
+
+_OFFSETS: dict[int, np.ndarray] = {}
 
 
 def safe_limit(threshold: float) -> float:
@@ -122,6 +129,20 @@ class PipelineResult:
         return list(zip(bounds[:-1], bounds[1:], strict=True))
 
 
+class _OneScanResult(PipelineResult):
+    """:class:`PipelineResult` of one scan by the compiled path: ``y1`` and ``y2`` are views of
+    the filter output ``_filtered`` ``(2, L)`` from column ``_tau``, made on first access (two
+    views less per scan for the callers that use only the mask, Sigma and the message)."""
+
+    @cached_property
+    def y1(self) -> np.ndarray:  # type: ignore[override]
+        return self._filtered[0:1, self._tau : self._tau + self.safe_mask.shape[1]]
+
+    @cached_property
+    def y2(self) -> np.ndarray:  # type: ignore[override]
+        return self._filtered[1:2, self._tau : self._tau + self.safe_mask.shape[1]]
+
+
 class Pipeline:
     """Filter bank plus every per-scan step: safe mask, Sigma, compact message, P_s.
 
@@ -162,19 +183,8 @@ class Pipeline:
         self.layout = layout
         self.angles_rad = beam_angles_rad(beams, fov_rad)
         self.compiled = kernels.AVAILABLE if compiled is None else bool(compiled)
-        if self.compiled:  # workspaces of the single-scan path
-            circular = mode == "circular"
-            self._work = np.zeros((2, b.fft_size))  # columns M.. stay 0: the zero padding
-            self._spec = np.empty((2, b.fft_size // 2 + 1), dtype=complex)
-            self._inverse_scale = np.reciprocal(b.fft_size, dtype=np.float64)  # as numpy.fft
-            self._payload = np.empty(3 * beams, dtype=np.uint8)
-            # columns of the row that may hold an extremum, as find_extrema_flat
-            width = beams + 2 if circular else beams
-            self._valid = np.zeros(width, bool)
-            inner = self.angles_rad if circular else self.angles_rad[1:-1]
-            np.less_equal(np.abs(inner), math.pi - b.blind_rad / 2.0, out=self._valid[1:-1])
-            self._limit = safe_limit(b.threshold)
-            self._scales = codec_scales(range_m)
+        if self.compiled:
+            self._process_one, self._process_many = self._compiled_paths()
 
     def normalise(self, ranges: np.ndarray) -> np.ndarray:
         """Validated, sanitised ``(K, M)`` normalised scans ``d / R`` (a new array)."""
@@ -195,12 +205,14 @@ class Pipeline:
         the input is not modified. ``with_p_s=False`` skips the quadrant areas and P_s (NaN).
         """
         b = self.bank
-        if (self.compiled and type(ranges) is np.ndarray and ranges.dtype == np.float64
-                and ranges.shape == (b.beams,)):  # one scan, nothing to convert or check
-            return self._process_one(ranges, with_p_s)
+        if (self.compiled and type(ranges) is np.ndarray and ranges.dtype is _FLOAT64
+                and ranges.shape == (b.beams,) and ranges.flags.c_contiguous):
+            return self._process_one(ranges, with_p_s)  # one scan, nothing to convert or check
         batch = as_scan_batch(ranges, beams=b.beams)[0]
         if self.compiled and batch.shape[0] == 1:
-            return self._process_one(batch[0], with_p_s)
+            return self._process_one(np.ascontiguousarray(batch[0]), with_p_s)
+        if self.compiled:
+            return self._process_many(np.ascontiguousarray(batch, dtype=float), with_p_s)
         y1, y2 = b.filter_ranges(batch)
         flat, flat_min, off = find_extrema_flat(
             y2,
@@ -215,49 +227,96 @@ class Pipeline:
         return self._result(safe_mask(y1, threshold=b.threshold), y1, y2, flat, flat_min, off,
                             msgs, with_p_s)
 
-    def _process_one(self, ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
-        """:meth:`process` of one scan by the compiled kernels around numpy's FFT (the same
-        FFT calls as :meth:`FilterBank.filter_ranges`, into preallocated arrays)."""
-        b, m = self.bank, self.bank.beams
-        kernels.prepare(ranges, b.range_m, b.threshold, self._work)
+    def _compiled_paths(self) -> tuple[Callable[[np.ndarray, bool], PipelineResult],
+                                       Callable[[np.ndarray, bool], PipelineResult]]:
+        """The compiled paths: ``process_one(ranges, with_p_s)`` for one C-contiguous float64
+        scan ``(M,)`` and ``process_many(ranges, with_p_s)`` for a C-contiguous float64 batch
+        ``(K, M)``, by the compiled kernels around pocketfft (the same FFT calls as
+        :meth:`FilterBank.filter_ranges`).
+
+        Closures over their workspaces and constants, so that a call does no attribute lookup:
+        at a dozen microseconds per scan, the interpreter's own work is a tenth of the cost.
+        """
+        b, m, linear = self.bank, self.bank.beams, self.bank.mode == "linear"
+        range_m, threshold, size = b.range_m, b.threshold, b.fft_size
+        tau = b.tau if linear else 0
+        rows_y1, rows_y2 = (slice(0, 1), slice(tau, tau + m)), (slice(1, 2), slice(tau, tau + m))
+        width = m if linear else m + 2  # the row searched for extrema
+        bound = 3 * width + 4  # bytes of a message of at most width extrema
+        work = np.zeros((2, size))  # columns M.. stay 0: the zero padding
+        spec, spectra = np.empty((2, size // 2 + 1), dtype=complex), b._spectra
+        message = np.empty(bound, dtype=np.uint8)  # head, n, 3 bytes per extremum, CRC
+        # columns of the row that may hold an extremum, as find_extrema_flat
+        valid = np.zeros(width, bool)
+        inner = self.angles_rad[1:-1] if linear else self.angles_rad
+        np.less_equal(np.abs(inner), math.pi - b.blind_rad / 2.0, out=valid[1:-1])
+        constants = (tau, safe_limit(threshold), valid, not linear, EXTREMUM_EPS,
+                     self.angles_rad, range_m, *codec_scales(range_m))
+        tables = (_COMPACT_HEAD, kernels.CRC_TABLE, _CRC_HEADS)
+        compact, layout, result_of = self.layout == "compact", self.layout, self._result
+        empty, multiply, new = np.empty, np.multiply, object.__new__
+        prepare, finish = kernels.entry("prepare"), kernels.entry("finish")
+        prepare_batch, finish_batch = kernels.entry("prepare_batch"), kernels.entry("finish_batch")
+        r2c = c2r = None
         if _pp is not None:  # inorm=2: scaled by 1/n on the way back, as numpy.fft.irfft
-            spec, out = self._spec, np.empty((2, b.fft_size))
-            _pp.r2c(self._work, (1,), True, 0, spec, 1)
-            np.multiply(spec, b._spectra, out=spec)
-            _pp.c2r(spec, (1,), b.fft_size, False, 2, out, 1)
-        elif _pfu is not None:  # pragma: no cover - numpy.fft's ufuncs
-            spec, out = self._spec, np.empty((2, b.fft_size))
-            rfft = _pfu.rfft_n_even if b.fft_size % 2 == 0 else _pfu.rfft_n_odd
-            rfft(self._work, 1, axes=_AXES, out=spec)
-            np.multiply(spec, b._spectra, out=spec)
-            _pfu.irfft(spec, self._inverse_scale, axes=_AXES, out=out)
-        else:  # pragma: no cover - numpy 1.x
-            spec = np.fft.rfft(self._work, axis=1)
-            spec *= b._spectra
-            out = np.fft.irfft(spec, b.fft_size, axis=1)
-        mask = np.empty(m, dtype=bool)
-        sigma = np.empty((m, 2))
-        is_min = np.empty(m, dtype=bool)
-        linear = b.mode == "linear"
-        n = kernels.finish(out, b.tau if linear else 0, self._limit, self._valid, not linear,
-                           EXTREMUM_EPS, self.angles_rad, b.range_m, *self._scales, mask,
-                           sigma, is_min, self._payload)
-        sigma, is_min = sigma[:n], is_min[:n]
-        if self.layout == "compact" and n <= 255:
-            msgs = [packed_message(self._payload[: 3 * n].tobytes(), n)]
-        else:  # float32 layout, or too many extrema (pack_messages raises)
-            msgs = pack_messages(sigma, is_min, [n], layout=self.layout, range_m=b.range_m)
-        rows = out[:, b.tau : b.tau + m] if linear else out
-        offsets = _offsets(n)
-        if with_p_s:
-            return self._result(mask[None], rows[:1], rows[1:], sigma, is_min, offsets, msgs,
-                                True)
-        # the fields set directly: the frozen dataclass's __init__ costs a microsecond here
-        result = object.__new__(PipelineResult)
-        result.__dict__.update(safe_mask=mask[None], y1=rows[:1], y2=rows[1:], sigma_flat=sigma,
-                               is_min_flat=is_min, offsets=offsets, messages=msgs,
-                               x0=_NAN_X0, p_s=_NAN_P_S)
-        return result
+            r2c, c2r = _pp.r2c, _pp.c2r
+
+            def filtered(work: np.ndarray, spec: np.ndarray | None,
+                         spectra: np.ndarray) -> np.ndarray:
+                spec = r2c(work, _AXIS, True, 0, spec, 1)
+                multiply(spec, spectra, spec)
+                return c2r(spec, _AXIS, size, False, 2, None, 1)
+        else:  # pragma: no cover - other scipy layouts
+
+            def filtered(work: np.ndarray, spec: np.ndarray | None,
+                         spectra: np.ndarray) -> np.ndarray:
+                return np.fft.irfft(np.fft.rfft(work, axis=1) * spectra, size, axis=1)
+
+        def process_one(ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
+            prepare(ranges, range_m, threshold, work)
+            if r2c is not None:  # filtered(work, spec, spectra), inline: one call less
+                r2c(work, _AXIS, True, 0, spec, 1)
+                multiply(spec, spectra, spec)
+                out = c2r(spec, _AXIS, size, False, 2, None, 1)
+            else:  # pragma: no cover - other scipy layouts
+                out = filtered(work, spec, spectra)
+            mask, sigma, is_min = empty((1, m), bool), empty((m, 2)), empty(m, bool)
+            n = finish(out, *constants, mask, sigma, is_min, message, *tables)
+            sigma, is_min = sigma[:n], is_min[:n]
+            if compact and n <= 255:
+                msgs = [message[: 3 * n + 4].tobytes()]
+            else:  # float32 layout, or too many extrema (pack_messages raises)
+                msgs = pack_messages(sigma, is_min, [n], layout=layout, range_m=range_m)
+            if with_p_s:
+                return result_of(mask, out[rows_y1], out[rows_y2], sigma, is_min, _offsets(n),
+                                 msgs, True)
+            # the fields set directly: the frozen dataclass's __init__ costs a microsecond
+            result = new(_OneScanResult)
+            result.__dict__.update(safe_mask=mask, sigma_flat=sigma, is_min_flat=is_min,
+                                   offsets=_offsets(n), messages=msgs, x0=_NAN_X0,
+                                   p_s=_NAN_P_S, _filtered=out, _tau=tau)
+            return result
+
+        def process_many(ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
+            k = ranges.shape[0]
+            stacked = np.zeros((2 * k, size))
+            prepare_batch(ranges, range_m, threshold, stacked)
+            out = filtered(stacked, None, b.repeated_spectra(k))
+            mask, offsets = empty((k, m), bool), empty(k + 1, np.int64)
+            sigma, is_min = empty((k * width, 2)), empty(k * width, bool)
+            messages = empty((k, bound), np.uint8)
+            total = finish_batch(out, *constants, mask, sigma, is_min, offsets, messages,
+                                 *tables)
+            sigma, is_min = sigma[:total], is_min[:total]
+            counts = np.diff(offsets).tolist()
+            if compact and max(counts) <= 255:
+                msgs = [row[: 3 * n + 4].tobytes() for row, n in zip(messages, counts)]
+            else:  # float32 layout, or too many extrema (pack_messages raises)
+                msgs = pack_messages(sigma, is_min, counts, layout=layout, range_m=range_m)
+            return result_of(mask, out[:k, tau : tau + m], out[k:, tau : tau + m], sigma,
+                             is_min, offsets, msgs, with_p_s)
+
+        return process_one, process_many
 
     def _result(self, mask: np.ndarray, y1: np.ndarray, y2: np.ndarray, flat: np.ndarray,
                 flat_min: np.ndarray, off: np.ndarray, msgs: list[bytes],

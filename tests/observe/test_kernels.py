@@ -32,8 +32,19 @@ FIELDS = ("safe_mask", "y1", "y2", "sigma_flat", "is_min_flat", "offsets", "x0",
 
 
 def differences(fast: Pipeline, slow: Pipeline, scans: np.ndarray) -> list[str]:
-    """Names of the outputs that differ between the two pipelines, with the first scan."""
+    """Names of the outputs that differ between the two pipelines: for the whole batch (if it
+    has several scans), then scan by scan (naming the first scan that differs)."""
     found = []
+    if len(scans) > 1:
+        for with_p_s in (True, False):
+            a, b = fast.process(scans, with_p_s=with_p_s), slow.process(scans, with_p_s=with_p_s)
+            found += [f"{name} (batch)" for name in FIELDS
+                      if not np.array_equal(getattr(a, name), getattr(b, name), equal_nan=True)
+                      or getattr(a, name).shape != getattr(b, name).shape]
+            if a.messages != b.messages or a.offsets.dtype != b.offsets.dtype:
+                found.append("messages or offsets (batch)")
+            if found:
+                return found
     for i, scan in enumerate(scans):
         for with_p_s in (True, False):
             a, b = fast.process(scan, with_p_s=with_p_s), slow.process(scan, with_p_s=with_p_s)
@@ -116,20 +127,28 @@ def test_compiled_needs_numba(monkeypatch):
 
 
 # Mutation check: each mutant is one plausible slip in a kernel; the comparison above must see
-# it on the first Radish log plus a few synthetic scans. The mutants run as plain Python.
+# it on the first Radish log plus a few synthetic scans. The mutants run as plain Python, called
+# by the plain-Python versions of the kernels that wrap them.
 MUTANTS = {
-    "finish": [
+    "_scan": [
         ("col = (last + 1 + j) // 2", "col = (last + 2 + j) // 2"),  # plateau middle rounded up
         ("minimum = last_sign < 0", "minimum = last_sign > 0"),  # maxima and minima swapped
         ("value = value if value <= range_m else range_m", "pass"),  # no clipping to R
-        ("mask[i] = out[0, tau + i] >= limit", "mask[i] = out[0, tau + i] > limit + 1e-6"),
+        ("mask[row, i] = out[h1, tau + i] >= limit",
+         "mask[row, i] = out[h1, tau + i] > limit + 1e-6"),
         ("if valid[col]:", "if True:"),  # extrema in the blind sector / at the ends
+        ("message[1] = n & 0xFF", "message[1] = (n + 1) & 0xFF"),  # count in the header
+        ("crc ^= crc_heads[n & 0xFF]", "pass"),  # header not in the CRC
+        ("crc = 0  # CRC-16", "crc = 0xFFFF  # CRC-16"),  # payload's CRC from the wrong state
+        ("message[3 + 3 * n] = crc & 0xFF", "message[3 + 3 * n] = crc >> 8"),
+        ("sigma[start + n, 0] = angle", "sigma[n, 0] = angle"),  # batch: rows of scan 0
     ],
-    "prepare": [
+    "_prepare_row": [
         ("d = 0.0", "d = range_m"),  # NaN read as open
-        ("work[0, i] = s if s <= threshold else threshold", "work[0, i] = s"),  # h1 unclipped
+        ("work[clipped, i] = s if s <= threshold else threshold", "work[clipped, i] = s"),
     ],
 }
+WRAPPERS = ("prepare", "prepare_batch", "finish", "finish_batch")
 
 
 def mutant(name: str, before: str, after: str):
@@ -141,18 +160,57 @@ def mutant(name: str, before: str, after: str):
     return namespace[name]
 
 
-@pytest.mark.parametrize(("name", "before", "after"),
-                         [(n, b, a) for n, ms in MUTANTS.items() for b, a in ms])
-def test_a_broken_kernel_is_caught(monkeypatch, name, before, after):
+def mutation_cases() -> list[tuple[tuple[Pipeline, Pipeline], np.ndarray]]:
+    """Pipelines built now (they take the kernels when they are built) and their scans."""
     ranges = read_scans(RADISH[0]).ranges[::40]
     synthetic = np.full((2, ranges.shape[1]), 5.0)
     synthetic[0, 60:70] = np.nan
     synthetic[1, :] = 20.0
     real = pair(REAL_ROBOT, beams=ranges.shape[1], fov_rad=math.pi, range_m=10.0)
-    cases = [(real, np.concatenate([synthetic, ranges])),
-             (SIM, trunk_scans(np.random.default_rng(0), 5)),  # 360 deg, blind sector
-             (SIM, np.random.default_rng(1).uniform(0.2, 3.0, (3, 360))),
-             (CIRCULAR, np.r_[np.full(4, 3.0), np.full(353, 1.0), np.full(3, 3.0)][None])]
-    assert all(differences(*p, scans) == [] for p, scans in cases)
+    return [(real, np.concatenate([synthetic, ranges])),
+            (pair(), trunk_scans(np.random.default_rng(0), 5)),  # 360 deg, blind sector
+            (pair(), np.random.default_rng(1).uniform(0.2, 3.0, (3, 360))),
+            (pair(mode="circular"),
+             np.r_[np.full(4, 3.0), np.full(353, 1.0), np.full(3, 3.0)][None])]
+
+
+@pytest.mark.parametrize(("name", "before", "after"),
+                         [(n, b, a) for n, ms in MUTANTS.items() for b, a in ms])
+def test_a_broken_kernel_is_caught(monkeypatch, name, before, after):
+    assert all(differences(*p, scans) == [] for p, scans in mutation_cases())
+    for wrapper in WRAPPERS:  # plain Python, calling the module's (mutated) helpers
+        monkeypatch.setattr(kernels, wrapper, getattr(kernels, wrapper).py_func)
     monkeypatch.setattr(kernels, name, mutant(name, before, after))
-    assert any(differences(*p, scans) != [] for p, scans in cases)
+    assert any(differences(*p, scans) != [] for p, scans in mutation_cases())
+
+
+def test_the_pipeline_calls_compiled_entry_points():
+    """The single-scan path calls the kernels without numba's type dispatch (entry points
+    compiled for one signature, held by the path's closure), and takes strided scans too."""
+    for name in WRAPPERS:
+        assert type(kernels.entry(name)).__name__ == "builtin_function_or_method"
+    fast = Pipeline(SIM_ROBOT, compiled=True)
+    held = {type(cell.cell_contents).__name__ for cell in fast._process_one.__closure__}
+    assert "builtin_function_or_method" in held and "CPUDispatcher" not in held
+    scans = trunk_scans(np.random.default_rng(2), 3)
+    strided = np.asfortranarray(scans)[1]  # a non-contiguous row
+    assert not strided.flags.c_contiguous
+    assert differences(fast, SIM[1], strided[None]) == []
+
+
+def test_one_scan_result_behaves_as_a_pipeline_result():
+    """The compiled path's result makes y1 and y2 on first access; it still compares, copies,
+    replaces and pickles as a PipelineResult."""
+    import dataclasses
+    import pickle
+
+    fast, slow = SIM
+    scan = trunk_scans(np.random.default_rng(3), 1)[0]
+    a, b = fast.process(scan, with_p_s=False), slow.process(scan, with_p_s=False)
+    assert isinstance(a, type(b)) and a.y1.shape == b.y1.shape == (1, 360)
+    assert np.array_equal(a.y2, b.y2) and a.y1.base is a.y2.base
+    copy = pickle.loads(pickle.dumps(a))
+    assert np.array_equal(copy.y1, a.y1) and copy.messages == a.messages
+    replaced = dataclasses.replace(a, y1=np.zeros((1, 360)))
+    assert not replaced.y1.any() and np.array_equal(replaced.y2, a.y2)
+    assert dataclasses.asdict(a).keys() == dataclasses.asdict(b).keys()
