@@ -42,6 +42,7 @@ __all__ = ["Pipeline", "PipelineResult", "safe_limit"]
 _AXIS = (1,)
 #: The dtype of the scans the single-scan path takes as they are (native float64).
 _FLOAT64 = np.dtype(np.float64)
+_CONTIGUOUS = (_FLOAT64.itemsize,)  # strides of a C-contiguous scan (M,)
 #: The layout byte of compact messages, which the compiled kernel writes...
 _COMPACT_HEAD = LAYOUTS["compact"]
 #: ... and the payload-free parts of their CRCs.
@@ -183,6 +184,8 @@ class Pipeline:
         self.layout = layout
         self.angles_rad = beam_angles_rad(beams, fov_rad)
         self.compiled = kernels.AVAILABLE if compiled is None else bool(compiled)
+        # the shape of one scan that goes straight to the compiled path (None: none does)
+        self._one_scan = (beams,) if self.compiled else None
         if self.compiled:
             self._process_one, self._process_many = self._compiled_paths()
 
@@ -204,10 +207,10 @@ class Pipeline:
         Readings are sanitised first (``+inf`` and ``>= R``: open, NaN and negative: blocked);
         the input is not modified. ``with_p_s=False`` skips the quadrant areas and P_s (NaN).
         """
-        b = self.bank
-        if (self.compiled and type(ranges) is np.ndarray and ranges.dtype is _FLOAT64
-                and ranges.shape == (b.beams,) and ranges.flags.c_contiguous):
+        if (type(ranges) is np.ndarray and ranges.shape == self._one_scan
+                and ranges.dtype is _FLOAT64 and ranges.strides == _CONTIGUOUS):
             return self._process_one(ranges, with_p_s)  # one scan, nothing to convert or check
+        b = self.bank
         batch = as_scan_batch(ranges, beams=b.beams)[0]
         if self.compiled and batch.shape[0] == 1:
             return self._process_one(np.ascontiguousarray(batch[0]), with_p_s)
