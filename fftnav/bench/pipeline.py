@@ -3,10 +3,11 @@
 Timings run on one thread and, where the OS allows it, one CPU: the process is pinned to a
 single core with ``os.sched_setaffinity`` for the duration of the run; numpy's FFT (the 2D
 pipeline), ``numpy.convolve``, ``scipy.ndimage`` and ``scipy.fft`` (the 3D image, default one
-worker) are single-threaded (no BLAS call is involved). Alternatives are timed round-robin in
-the same loop, so a busy machine slows them alike; each timed call directly follows an untimed
-call of the same function (warm caches: the steady state of a robot running the pipeline on
-every scan); each figure is the median over the repeats.
+worker) are single-threaded (no BLAS call is involved). The alternatives are timed in three
+groups (one scan; batches of 15 scans; one 3D image), round-robin within each group, so a busy
+machine slows the alternatives of a group alike; each timed call directly follows
+:data:`WARM_CALLS` untimed calls of the same function (warm caches: the steady state of a robot
+running the pipeline on every scan); each figure is the median over the repeats.
 """
 
 from __future__ import annotations
@@ -33,6 +34,8 @@ from fftnav.world.scenes import trunk_scans
 __all__ = ["bench_pipeline", "format_pipeline", "record_csv"]
 
 BATCH = 15
+#: Untimed calls of an alternative right before each of its timed calls (see :func:`_median_us`).
+WARM_CALLS = 3
 
 
 @contextmanager
@@ -51,13 +54,16 @@ def _one_cpu():
 
 
 def _median_us(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str, float]:
-    """Median time (us) of each function; round-robin, each timed call right after an untimed
-    one of the same function, so every figure is the warm (steady-state) latency rather than
-    the cost of reloading caches emptied by the previous alternative."""
+    """Median time (us) of each function; round-robin, each timed call right after
+    ``WARM_CALLS`` untimed ones of the same function, so every figure is the warm
+    (steady-state) latency of a loop that runs this function alone, rather than the cost of
+    reloading the caches and branch history the previous alternative replaced; a busy machine
+    still slows every alternative alike."""
     times = {name: np.empty(repeats) for name in fns}
     for r in range(repeats):
         for name, fn in fns.items():
-            fn()
+            for _ in range(WARM_CALLS):
+                fn()
             t0 = time.perf_counter_ns()
             fn()
             times[name][r] = time.perf_counter_ns() - t0
