@@ -174,7 +174,7 @@ class Pipeline:
         layout: str = "compact",
         compiled: bool | None = None,
     ) -> None:
-        self.bank = b = FilterBank(
+        self.bank = FilterBank(
             geometry, beams=beams, fov_rad=fov_rad, range_m=range_m, mode=mode, blind_rad=blind_rad
         )
         check_choice("layout", layout, LAYOUTS)
@@ -313,7 +313,7 @@ class Pipeline:
             sigma, is_min = sigma[:total], is_min[:total]
             counts = np.diff(offsets).tolist()
             if compact and max(counts) <= 255:
-                msgs = [row[: 3 * n + 4].tobytes() for row, n in zip(messages, counts)]
+                msgs = [row[: 3 * n + 4].tobytes() for row, n in zip(messages, counts, strict=True)]
             else:  # float32 layout, or too many extrema (pack_messages raises)
                 msgs = pack_messages(sigma, is_min, counts, layout=layout, range_m=range_m)
             return result_of(mask, out[:k, tau : tau + m], out[k:, tau : tau + m], sigma,
