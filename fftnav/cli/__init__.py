@@ -18,6 +18,8 @@ import importlib
 import os
 import signal
 import sys
+import threading
+import time
 from collections.abc import Sequence
 from typing import Any
 
@@ -114,6 +116,11 @@ def _on_sigterm(signum: int, frame: object) -> None:
     raise Terminated
 
 
+def _interrupt_main_later(signum: int) -> None:
+    time.sleep(0.02)
+    _thread.interrupt_main(signum)
+
+
 def _redeliver(unraisable: Any) -> None:
     """``sys.unraisablehook``: a first Ctrl-C or SIGTERM whose exception landed where Python
     ignores exceptions (a finaliser, logging's at-fork hook) would be printed as a traceback and
@@ -124,7 +131,13 @@ def _redeliver(unraisable: Any) -> None:
                                                       (KeyboardInterrupt, Terminated)):
         signum = signal.SIGTERM if issubclass(unraisable.exc_type, Terminated) else signal.SIGINT
         signal.signal(signum, _on_sigterm if signum == signal.SIGTERM else _on_sigint)
-        _thread.interrupt_main(signum)
+        # From another thread, a moment later: called here (or as soon as the thread starts),
+        # the handler would run before this hook returns, and its exception would be ignored
+        # again, and printed. Should it land in a finaliser again, this hook sends it again.
+        try:
+            threading.Thread(target=_interrupt_main_later, args=(signum,), daemon=True).start()
+        except RuntimeError:  # interpreter shutting down: nothing left to stop
+            pass
         return
     if not _stopping:
         sys.__unraisablehook__(unraisable)

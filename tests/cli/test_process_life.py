@@ -103,3 +103,26 @@ def test_double_ctrl_c_exits_130_at_once_in_one_line(tmp_path, gap_s):
     assert len(lines) == 1 and "Traceback" not in err, err
     assert lines[0].startswith("fftnav")
     _assert_gone(workers)
+
+
+@pytest.mark.parametrize("exc_type", ["KeyboardInterrupt", "Terminated"])
+def test_a_swallowed_first_interrupt_is_delivered_again_outside_the_hook(exc_type):
+    """A first Ctrl-C / SIGTERM whose exception Python ignored (it landed in a finaliser) is
+    raised again in the main thread's own code, not inside the unraisable hook (where it would
+    be ignored, and printed, a second time)."""
+    import types
+
+    from fftnav import cli
+
+    exc = KeyboardInterrupt if exc_type == "KeyboardInterrupt" else cli.Terminated
+    saved = {s: signal.getsignal(s) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        cli._redeliver(types.SimpleNamespace(exc_type=exc, exc_value=exc(), exc_traceback=None,
+                                             err_msg=None, object=None))  # returns normally
+        with pytest.raises(exc):
+            for _ in range(500):
+                time.sleep(0.01)
+    finally:
+        for s, handler in saved.items():
+            signal.signal(s, handler)
+        cli._stopping = False
