@@ -2,7 +2,9 @@
 
 Side by side in one run, on the world's 0.05 m grid inflated by r0: the readable heapq A*
 (:func:`fftnav.planning.astar.astar`, one query per robot), the batched compiled Dijkstra
-with 8-connected moves (the same lengths, checked) and with 32-connected moves (geodesic).
+with 8-connected moves (the same lengths, checked) and with 32-connected moves (geodesic), and
+the compiled A* of :mod:`fftnav.planning.gridsearch` (what ``optimal_lengths`` uses when numba
+is installed) with both move sets.
 """
 
 from __future__ import annotations
@@ -11,6 +13,7 @@ import time
 
 import numpy as np
 
+from fftnav.planning import gridsearch
 from fftnav.planning.astar import astar
 from fftnav.planning.gridgraph import shortest_paths
 from fftnav.planning.reference import robot_cells
@@ -46,6 +49,19 @@ def bench_optimal_paths(
     fast32 = shortest_paths(og.grid, starts, goals, connectivity=32)
     t3 = time.perf_counter()
     lengths8 = np.array([p.length_cells for p in fast8])
+    lengths32 = np.array([p.length_cells for p in fast32])
+    compiled: dict[str, float | None] = {"compiled_astar_8_s": None, "compiled_astar_32_s": None,
+                                         "compiled_max_rel_diff": None}
+    if gridsearch.AVAILABLE:
+        gridsearch.astar_lengths(og.grid, starts[:1], goals[:1])  # compiled or loaded once
+        t4 = time.perf_counter()
+        a8 = gridsearch.astar_lengths(og.grid, starts, goals, connectivity=8)
+        t5 = time.perf_counter()
+        a32 = gridsearch.astar_lengths(og.grid, starts, goals, connectivity=32)
+        t6 = time.perf_counter()
+        compiled = {"compiled_astar_8_s": t5 - t4, "compiled_astar_32_s": t6 - t5,
+                    "compiled_max_rel_diff": float(max(np.max(np.abs(a8 / lengths8 - 1)),
+                                                       np.max(np.abs(a32 / lengths32 - 1))))}
     return {
         "bench": "planning",
         "env": env,
@@ -59,8 +75,9 @@ def bench_optimal_paths(
             np.max(np.abs(lengths8 - [p.length_cells for p in reference]))
         ),
         "astar_m": float(lengths8.mean() * resolution_m),
-        "geodesic_m": float(np.mean([p.length_cells for p in fast32]) * resolution_m),
+        "geodesic_m": float(lengths32.mean() * resolution_m),
         "euclidean_m": float(np.hypot(*(world.goals - world.starts[:, :2]).T).mean()),
+        **compiled,
     }
 
 
@@ -74,6 +91,10 @@ def format_optimal_paths(result: dict) -> str:
             f"  csgraph Dijkstra 8-conn        {r['csgraph_8_s']:.3f} s"
             f"  (max length diff {r['max_length_diff_cells']:.1e} cells)",
             f"  csgraph Dijkstra 32-conn       {r['csgraph_32_s']:.3f} s",
+            *([] if r["compiled_astar_8_s"] is None else [
+                f"  compiled A* 8-conn / 32-conn   {r['compiled_astar_8_s']:.3f} s / "
+                f"{r['compiled_astar_32_s']:.3f} s  (max relative length diff "
+                f"{r['compiled_max_rel_diff']:.1e})"]),
             f"  mean length: A* {r['astar_m']:.3f} m, geodesic {r['geodesic_m']:.3f} m, "
             f"straight line {r['euclidean_m']:.3f} m",
         ]

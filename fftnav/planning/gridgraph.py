@@ -38,6 +38,7 @@ __all__ = [
     "max_excess",
     "check_grid",
     "check_cell",
+    "check_pairs",
     "grid_graph",
     "shortest_paths",
 ]
@@ -179,6 +180,21 @@ def check_cell(occupied: np.ndarray, cell: object, name: str) -> tuple[int, int]
     return rc
 
 
+def check_pairs(occupied: np.ndarray, starts: object,
+                goals: object) -> list[tuple[tuple[int, int], tuple[int, int]]]:
+    """Validate start/goal cells ``(N, 2)`` of one grid: the pairs as ``((r, c), (r, c))``."""
+    starts_arr, goals_arr = np.asarray(starts), np.asarray(goals)
+    if starts_arr.ndim != 2 or starts_arr.shape != goals_arr.shape:
+        raise ValueError(
+            "starts and goals must be (N, 2) arrays of the same shape, "
+            f"got starts.shape={starts_arr.shape}, goals.shape={goals_arr.shape}"
+        )
+    return [
+        (check_cell(occupied, s, "start_cell"), check_cell(occupied, g, "goal_cell"))
+        for s, g in zip(starts_arr, goals_arr, strict=True)
+    ]
+
+
 def _allowed(occupied: np.ndarray, move: Move) -> np.ndarray:
     """(H, W) mask: the move from each cell stays on the grid and its footprint is free."""
     rows, cols = occupied.shape
@@ -252,16 +268,7 @@ def shortest_paths(
         If some goal cannot be reached from its start.
     """
     occupied = check_grid(occupied)
-    starts_arr, goals_arr = np.asarray(starts), np.asarray(goals)
-    if starts_arr.ndim != 2 or starts_arr.shape != goals_arr.shape:
-        raise ValueError(
-            "starts and goals must be (N, 2) arrays of the same shape, "
-            f"got starts.shape={starts_arr.shape}, goals.shape={goals_arr.shape}"
-        )
-    pairs = [
-        (check_cell(occupied, s, "start_cell"), check_cell(occupied, g, "goal_cell"))
-        for s, g in zip(starts_arr, goals_arr, strict=True)
-    ]
+    pairs = check_pairs(occupied, starts, goals)
     cols = occupied.shape[1]
     sources = sorted({s for s, _ in pairs})
     dist, pred = dijkstra(

@@ -3,9 +3,10 @@
 The paper (Sec. IV) takes l_i from grid A* at 0.05 m. The map is inflated by the robot's
 safety radius r0 (configuration space of a disc robot), start and goal positions are mapped to
 their grid cells, and two lengths are returned per robot: the 8-connected length (the paper's
-A* reference, exact, via :func:`fftnav.planning.gridgraph.shortest_paths`) and the
-near-Euclidean 32-connected geodesic length (:mod:`fftnav.planning.geodesic`), which does not
-carry the up-to-8 % excess of 8-connected paths.
+A* reference, exact) and the near-Euclidean 32-connected geodesic length, which does not carry
+the up-to-8 % excess of 8-connected paths; both by
+:func:`fftnav.planning.geodesic.geodesic_lengths` (the compiled A* of
+:mod:`fftnav.planning.gridsearch` when numba is installed, else scipy's Dijkstra).
 """
 
 from __future__ import annotations

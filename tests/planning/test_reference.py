@@ -10,6 +10,7 @@ import sys
 import numpy as np
 import pytest
 
+from fftnav.planning import gridsearch
 from fftnav.planning.astar import UnreachableGoalError
 from fftnav.planning.reference import optimal_lengths
 from fftnav.world import Circle, Polygon, World, generate_world
@@ -75,6 +76,9 @@ def test_cli_bench_planning_times_both_solvers_and_they_agree():
     assert result["max_length_diff_cells"] < 1e-6
     assert result["euclidean_m"] <= result["geodesic_m"] <= result["astar_m"]
     assert all(result[k] > 0 for k in ("heapq_astar_s", "csgraph_8_s", "csgraph_32_s"))
+    if gridsearch.AVAILABLE:  # the compiled A* the references use: same lengths
+        assert result["compiled_max_rel_diff"] < 1e-12
+        assert result["compiled_astar_8_s"] > 0 and result["compiled_astar_32_s"] > 0
 
 
 def test_cli_bench_planning_bad_r0_exits_2_with_one_line():
