@@ -7,6 +7,7 @@ this is equivalent to: every beam in the centred window of ``window_beams`` beam
 
 from __future__ import annotations
 
+import functools
 import math
 
 import numpy as np
@@ -122,6 +123,36 @@ def is_safe_direction(
     return m[np.arange(m.shape[0]), np.broadcast_to(idx, m.shape[:1])]
 
 
+@functools.lru_cache(maxsize=16)
+def _angles(beams: int, fov_rad: float) -> np.ndarray:
+    angles = beam_angles_rad(beams, fov_rad)
+    angles.flags.writeable = False
+    return angles
+
+
+def _nearest_safe_one(mask: np.ndarray, target_rad: float,
+                      fov_rad: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`nearest_safe_headings` of one scan ``(M,)`` and one target: the same beams, from
+    the safe beams' offsets to the target beam (a handful of numpy calls instead of (K, M)
+    arrays; the planner calls this three times per robot and tick)."""
+    beams, _, full = _beam_params(mask, fov_rad)
+    safe = np.flatnonzero(mask)
+    if safe.size == 0:
+        return np.float64(np.nan), np.float64(np.nan)
+    j = int(beam_index(target_rad, beams=beams, fov_rad=fov_rad))
+    angles = _angles(beams, fov_rad)
+    out = []
+    for offset in (safe - j, j - safe):  # CCW offsets, CW offsets
+        if full:
+            offset %= beams
+            out.append(angles[safe[np.argmin(offset)]])
+        else:
+            ahead = offset >= 0
+            out.append(angles[safe[ahead][np.argmin(offset[ahead])]] if ahead.any()
+                       else np.float64(np.nan))
+    return out[0], out[1]
+
+
 def nearest_safe_headings(
     mask: np.ndarray, target_rad: np.ndarray | float, *, fov_rad: float
 ) -> tuple[np.ndarray, np.ndarray]:
@@ -138,6 +169,8 @@ def nearest_safe_headings(
     """
     m = np.asarray(mask, dtype=bool)
     single = m.ndim == 1
+    if single and np.ndim(target_rad) == 0:  # one scan, one target: the planner's call
+        return _nearest_safe_one(m, target_rad, fov_rad)
     m2 = np.atleast_2d(m)
     beams, _, full = _beam_params(m2, fov_rad)
     j = np.broadcast_to(beam_index(target_rad, beams=beams, fov_rad=fov_rad), m2.shape[:1])

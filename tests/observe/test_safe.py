@@ -118,6 +118,14 @@ def test_nearest_safe_headings_match_a_brute_force_walk(fov):
     )
     single = nearest_safe_headings(masks[1], a[j[1]], fov_rad=fov)
     np.testing.assert_array_equal(single, (left[1], right[1]))
+    # one scan and one target (the planner's call, its own code path), at any angle (also
+    # between beams and beyond a partial field of view): the same beams as the batch
+    targets = rng.uniform(-math.pi, math.pi, 40)
+    left, right = nearest_safe_headings(masks, targets, fov_rad=fov)
+    for k in range(40):
+        one = nearest_safe_headings(masks[k], float(targets[k]), fov_rad=fov)
+        np.testing.assert_array_equal(one, (left[k], right[k]))
+        assert np.ndim(one[0]) == 0 and np.ndim(one[1]) == 0
 
 
 def test_safe_sectors_error():
