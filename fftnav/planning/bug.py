@@ -21,6 +21,7 @@ import numpy as np
 from fftnav.config import SwarmConfig
 from fftnav.observe.safe import beam_index, nearest_safe_headings
 from fftnav.observe.scan import beam_angles_rad, wrap_angle
+from fftnav.planning import corridor
 from fftnav.validate import check_number
 
 __all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
@@ -48,8 +49,11 @@ def corridor_free(
     -------
     ndarray of bool, shape (K, M)
     """
-    free = np.ones(ranges_m.shape, dtype=bool)
     reach = math.hypot(lookahead_m, half_width_m)
+    if corridor.AVAILABLE:  # the same mask, bit for bit, by a compiled loop
+        return corridor.corridor_free_compiled(ranges_m, angles_rad, half_width_m=half_width_m,
+                                               lookahead_m=lookahead_m, reach_m=reach)
+    free = np.ones(ranges_m.shape, dtype=bool)
     near_all = (ranges_m > 0) & (ranges_m < reach)
     cos_h, sin_h = np.cos(angles_rad)[:, None], np.sin(angles_rad)[:, None]
     for k in np.flatnonzero(near_all.any(axis=1)):
