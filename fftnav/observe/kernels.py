@@ -31,8 +31,8 @@ import binascii
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "CRC_TABLE", "crc_heads", "entry", "finish", "finish_batch", "prepare",
-           "prepare_batch"]
+__all__ = ["AVAILABLE", "CRC_TABLE", "crc_heads", "entry", "finish", "finish_batch",
+           "nearest_safe_beams", "prepare", "prepare_batch"]
 
 try:  # optional dependency: pip install fftnav[fast]
     from numba import njit, types
@@ -279,3 +279,34 @@ def finish_batch(out: np.ndarray, tau: int, limit: float, valid: np.ndarray, cir
                   crc_heads)
         offsets[i + 1] = offsets[i] + n
     return offsets[k]
+
+
+@njit(cache=True, nogil=True)
+def nearest_safe_beams(mask: np.ndarray, start: np.ndarray, full: bool, left: np.ndarray,
+                       right: np.ndarray) -> None:
+    """For each row k of ``mask`` ``(K, M)``: the first safe beam from beam ``start[k]``
+    (included) turning counter-clockwise (``left[k]``, increasing index) and clockwise
+    (``right[k]``), wrapping around if ``full``; -1 where there is none
+    (:func:`fftnav.observe.safe.nearest_safe_headings`)."""
+    k_count, m = mask.shape
+    for k in range(k_count):
+        left[k] = -1
+        right[k] = -1
+        for offset in range(m):
+            i = start[k] + offset
+            if i >= m:
+                if not full:
+                    break
+                i -= m
+            if mask[k, i]:
+                left[k] = i
+                break
+        for offset in range(m):
+            i = start[k] - offset
+            if i < 0:
+                if not full:
+                    break
+                i += m
+            if mask[k, i]:
+                right[k] = i
+                break

@@ -101,8 +101,15 @@ def brute_nearest(mask, j, full):
     return out
 
 
+@pytest.mark.parametrize("compiled", [True, False])
 @pytest.mark.parametrize("fov", [2 * math.pi, math.radians(200)])
-def test_nearest_safe_headings_match_a_brute_force_walk(fov):
+def test_nearest_safe_headings_match_a_brute_force_walk(fov, compiled, monkeypatch):
+    """Both paths (the compiled walk when numba is installed, and numpy's)."""
+    from fftnav.observe import kernels
+
+    if compiled and not kernels.AVAILABLE:
+        pytest.skip("numba is not installed")
+    monkeypatch.setattr(kernels, "AVAILABLE", compiled)
     rng = np.random.default_rng(3)
     masks = rng.random((40, 72)) < 0.1
     masks[0] = False
