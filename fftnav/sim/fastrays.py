@@ -1,4 +1,4 @@
-"""Bullet's ray-triangle test, compiled, for the lidar's rays that can hit only obstacles.
+"""Bullet's ray tests, compiled: triangles (the obstacles) and spheres (the body robots).
 
 PyBullet (double precision) answers a ray against the obstacle mesh by walking its bounding
 volume hierarchy and running ``btTriangleRaycastCallback::processTriangle`` on the triangles
@@ -17,8 +17,15 @@ a side triangle is tested if the ray passes within ``margin`` of its footprint s
 plane (far beyond the edge tolerance's reach, at most ``1e-4`` times the face's width) and its
 obstacle's widened bounding circle comes within the ray. A nearest hit close to its triangle's
 edges is flagged (``sure`` False): Bullet's tree walk may skip such a triangle (a ray through a
-corner), so the caller asks Bullet for that ray. Needs numba (extra ``fast``); without
-it :data:`AVAILABLE` is False and the lidar casts these rays in Bullet.
+corner), so the caller asks Bullet for that ray.
+
+The robots of the "body" embodiment are spheres; :func:`cast_spheres` answers the rays in a
+robot's sector against them with Bullet's own ray-versus-convex arithmetic (PyBullet's
+``rayTestBatch`` uses ``btGjkConvexCast``: conservative advancement to within 1 mm of the
+surface, so its hits lie up to about a millimetre short of the exact entry point, more for
+grazing rays), operation for operation (``tests/sim/test_lidar.py`` compares it with Bullet on
+random and grazing rays). Needs numba (extra ``fast``); without it :data:`AVAILABLE` is False
+and the lidar casts these rays in Bullet.
 """
 
 from __future__ import annotations
@@ -205,3 +212,125 @@ def cast_static(starts, ends, robot, centres, triangles, footprints, first, circ
                                                    clear)
         out[i] = hit
         sure[i] = hit == 1.0 or clear
+
+
+# ----------------------------------------------------------------------------- robot spheres
+#
+# PyBullet's rayTestBatch answers a ray against a convex shape (the robots of the "body"
+# embodiment are spheres) with btGjkConvexCast: conservative advancement of the ray's point
+# towards the shape, each step a btGjkPairDetector query, until the point is within 1 mm of the
+# surface. Between a point and a sphere the GJK query has a closed form (both shapes' supports
+# without margin are their centres, so the simplex is one vertex w = a - c, and the distance is
+# |w| - r0 along w / |w|); :func:`cast_sphere` runs that arithmetic operation for operation.
+
+#: Bullet's SIMD_EPSILON (double precision: DBL_EPSILON).
+_SIMD_EPSILON = float(np.finfo(np.float64).eps)
+#: btGjkConvexCast: the cast stops within this distance (m) of the surface ("radius")...
+_GJK_CAST_RADIUS = 0.001
+#: ...or gives up after this many steps (MAX_ITERATIONS, double precision).
+_GJK_CAST_ITERATIONS = 64
+#: btPointCollector's initial distance and ClosestPointInput's maximum distance (BT_LARGE_FLOAT).
+_LARGE = 1e30
+#: A sphere is tested only if the ray passes within this distance (m) of its surface: Bullet's
+#: cast reports hits only where the ray comes within ``_GJK_CAST_RADIUS`` of it.
+SPHERE_MARGIN_M = 0.01
+
+
+@njit(cache=True, nogil=True)
+def _gjk_point_sphere(ax, ay, az, bx, by, bz, radius):
+    """``btGjkPairDetector::getClosestPointsNonVirtual`` for a point at ``a`` and a sphere of
+    ``radius`` centred at ``b``: (distance, normal on B); both centred on their midpoint first
+    (``positionOffset``)."""
+    ox, oy, oz = (ax + bx) * 0.5, (ay + by) * 0.5, (az + bz) * 0.5
+    wx = (ax - ox) - (bx - ox)
+    wy = (ay - oy) - (by - oy)
+    wz = (az - oz) - (bz - oz)
+    rlen = 1.0 / np.sqrt(wx * wx + wy * wy + wz * wz)
+    return (1.0 / rlen) - (0.0 + radius), wx * rlen, wy * rlen, wz * rlen
+
+
+@njit(cache=True, nogil=True)
+def cast_sphere(fx, fy, fz, tx, ty, tz, cx, cy, cz, radius):
+    """Bullet's ray test of ``from -> to`` against a sphere of ``radius`` centred at ``c``
+    (``btGjkConvexCast::calcTimeOfImpact`` of a point): ``(hit, fraction, sure)``; ``sure`` is
+    False where the cast ran out of steps or started at the sphere's centre (ask Bullet)."""
+    rx, ry, rz = (tx - fx) - (cx - cx), (ty - fy) - (cy - cy), (tz - fz) - (cz - cz)
+    if fx == cx and fy == cy and fz == cz:
+        return False, 1.0, False
+    # btPointCollector: keeps the smallest distance reported
+    dist, nx, ny, nz = _gjk_point_sphere(fx, fy, fz, cx, cy, cz, radius)
+    if not dist < _LARGE:
+        return False, 1.0, False
+    lam = 0.0
+    last = 0.0
+    steps = 0
+    while dist > _GJK_CAST_RADIUS:
+        steps += 1
+        if steps > _GJK_CAST_ITERATIONS:
+            return False, 1.0, False
+        projected = rx * nx + ry * ny + rz * nz
+        lam = lam - dist / projected
+        if lam > 1.0 or lam < 0.0 or lam <= last:
+            return False, 1.0, True
+        last = lam
+        s = 1.0 - lam
+        ax, ay, az = s * fx + lam * tx, s * fy + lam * ty, s * fz + lam * tz
+        bx, by, bz = s * cx + lam * cx, s * cy + lam * cy, s * cz + lam * cz
+        if ax == bx and ay == by and az == bz:
+            return False, 1.0, False
+        d, mx, my, mz = _gjk_point_sphere(ax, ay, az, bx, by, bz, radius)
+        if d < dist:  # the collector keeps the nearer result only
+            if d < 0.0:
+                return True, last, True
+            dist, nx, ny, nz = d, mx, my, mz
+    if nx * rx + ny * ry + nz * rz >= -0.0:
+        return False, 1.0, True
+    return True, lam, True
+
+
+@njit(cache=True, nogil=True)
+def cast_spheres(starts, ends, robot, centres, radius, reach, margin, out, sure):
+    """Hit fractions ``out`` of rays ``starts[i] -> ends[i]`` of robot ``robot[i]`` against the
+    robot spheres (centres ``(K, 3)``, one ``radius``) as Bullet's
+    closest-hit ray test computes them (1: no hit), and ``sure[i]`` (False: ask Bullet). Every
+    sphere the ray passes within ``margin`` of is tested, the ray's own robot included, as in
+    Bullet; ``reach`` (m) bounds the distance from a robot's centre to its rays' ends."""
+    k_robots = centres.shape[0]
+    near = np.empty((k_robots, k_robots), dtype=np.int64)
+    count = np.zeros(k_robots, dtype=np.int64)
+    r = reach + radius + margin
+    for k in range(k_robots):
+        for j in range(k_robots):
+            dx = centres[j, 0] - centres[k, 0]
+            dy = centres[j, 1] - centres[k, 1]
+            dz = centres[j, 2] - centres[k, 2]
+            if dx * dx + dy * dy + dz * dz <= r * r:
+                near[k, count[k]] = j
+                count[k] += 1
+    rho = radius + margin
+    for i in range(starts.shape[0]):
+        fx, fy, fz = starts[i, 0], starts[i, 1], starts[i, 2]
+        tx, ty, tz = ends[i, 0], ends[i, 1], ends[i, 2]
+        ux, uy, uz = tx - fx, ty - fy, tz - fz
+        length = np.sqrt(ux * ux + uy * uy + uz * uz)
+        ux, uy, uz = ux / length, uy / length, uz / length
+        best = 1.0
+        ok = True
+        k = robot[i]
+        for c in range(count[k]):
+            j = near[k, c]
+            qx, qy, qz = centres[j, 0] - fx, centres[j, 1] - fy, centres[j, 2] - fz
+            along = qx * ux + qy * uy + qz * uz
+            if along < -rho or along > length + rho:
+                continue
+            ex, ey, ez = qx - along * ux, qy - along * uy, qz - along * uz
+            if ex * ex + ey * ey + ez * ez > rho * rho:
+                continue
+            hit, fraction, certain = cast_sphere(fx, fy, fz, tx, ty, tz, centres[j, 0],
+                                                 centres[j, 1], centres[j, 2], radius)
+            if not certain:
+                ok = False
+            elif hit and fraction < best:
+                best = fraction
+        out[i] = best
+        sure[i] = ok

@@ -16,7 +16,11 @@ answers a ray there about twice as fast as in the client where the robots move, 
 hit fraction bit for bit (the same mesh, the same ray; ``tests/sim/test_lidar.py``). With
 numba, these rays are not even sent to Bullet: :mod:`fftnav.sim.fastrays` runs Bullet's
 ray-triangle arithmetic on the few triangles each ray can meet, with the same result bit for
-bit. The rays in a robot's sector are cast in the full client.
+bit. The rays in a robot's sector are answered against the robots alone: when the robots are
+spheres (``robot_spheres``) by :func:`fftnav.sim.fastrays.cast_spheres`, the compiled copy of
+Bullet's ray-versus-sphere cast (same fractions bit for bit, several times faster), else by
+Bullet in the full client with the robots' collision mask; the nearer of the obstacle and robot
+hits is the reading, as in Bullet.
 """
 
 from __future__ import annotations
@@ -86,6 +90,12 @@ class Lidar:
         ``static_mesh = None`` to cast every ray in Bullet.
     robot_mask : int, optional
         Bullet collision-filter mask that selects the robots alone.
+    robot_spheres : bool, optional
+        The robots are spheres of radius ``robot_radius_m`` (the "body" embodiment): with numba,
+        ``static_mesh`` and ``robot_mask``, the rays in a robot's sector are answered by
+        :func:`fftnav.sim.fastrays.cast_spheres` (Bullet's arithmetic, bit for bit), given the
+        spheres' centre heights (``scan(..., robot_z=...)``); the casts it is unsure of go to
+        Bullet.
     """
 
     def __init__(self, client: int, *, beams: int, range_m: float, fov_deg: float,
@@ -94,11 +104,12 @@ class Lidar:
                  robot_radius_m: float = 0.0, cull: bool = True,
                  static_client: int | None = None,
                  static_mesh: fastrays.StaticMesh | None = None,
-                 robot_mask: int | None = None) -> None:
+                 robot_mask: int | None = None, robot_spheres: bool = False) -> None:
         self._client = client
         self._static_client = static_client
         self.static_mesh = static_mesh if fastrays.AVAILABLE else None
         self._robot_mask = robot_mask
+        self.robot_spheres = bool(robot_spheres)
         self.range_m = float(range_m)
         self.angles_rad = beam_angles_rad(beams, math.radians(fov_deg))
         #: Beams outside the blind sector (the only ones cast). The edge is compared with a
@@ -129,13 +140,18 @@ class Lidar:
         #: Of the rays answered by the compiled obstacle test, those whose hit lay too near a
         #: triangle edge to be sure, re-cast in Bullet's static client.
         self.rays_asked_bullet = 0
+        #: Of the rays in a robot's sector answered by the compiled sphere cast, those it was
+        #: unsure of (re-cast in Bullet against the robots).
+        self.robot_rays_asked_bullet = 0
 
-    def scan(self, poses: np.ndarray) -> np.ndarray:
+    def scan(self, poses: np.ndarray, robot_z: np.ndarray | None = None) -> np.ndarray:
         """Ranges ``(K, M)`` in metres for robots at ``poses`` ``(K, 3)`` (x m, y m, yaw rad).
 
         The rays that can hit something (all live beams if ``cull`` is False) of all robots go
         in one ``rayTestBatch`` call (``fftnav.sim.rays.cast_rays``, split only above Bullet's
-        batch limit); the other live beams read R and blind-sector beams read 0.
+        batch limit) or to the compiled tests; the other live beams read R and blind-sector
+        beams read 0. ``robot_z`` ``(K,)``: height of each robot's sphere centre (m), for the
+        compiled sphere cast (``robot_spheres``); None casts robot rays in Bullet.
         """
         tic = time.perf_counter()
         poses = np.asarray(poses, dtype=float)
@@ -158,10 +174,9 @@ class Lidar:
             # the rays in a robot's sector also by Bullet against the robots alone; the nearer
             fractions[any_body] = self._cast_static(centres, poses, direction, any_body)
             if robots.any():
-                starts, ends, _ = self._rays(centres, direction, robots)
                 fractions[robots] = np.minimum(
-                    fractions[robots], cast_rays(self._client, starts, ends,
-                                                 mask=self._robot_mask))
+                    fractions[robots], self._cast_robots(centres, poses, direction, robots,
+                                                         robot_z))
             self.rays_cast += int(any_body.sum())
             self.rays_cast_static += int(any_body.sum() - robots.sum())
         else:
@@ -199,6 +214,25 @@ class Lidar:
             client = self._client if self._static_client is None else self._static_client
             hits[unsure] = cast_rays(client, starts[unsure], ends[unsure], mask=self._mask)
             self.rays_asked_bullet += int(unsure.sum())
+        return hits
+
+    def _cast_robots(self, centres: np.ndarray, poses: np.ndarray, direction: np.ndarray,
+                     cast: np.ndarray, robot_z: np.ndarray | None) -> np.ndarray:
+        """Hit fractions of the rays ``cast`` against the robots alone: by
+        :func:`fftnav.sim.fastrays.cast_spheres` for sphere robots with known centres (Bullet for
+        the casts it is unsure of), else by Bullet."""
+        starts, ends, robot = self._rays(centres, direction, cast)
+        if not (self.robot_spheres and robot_z is not None):
+            return cast_rays(self._client, starts, ends, mask=self._robot_mask)
+        spheres = np.c_[poses[:, :2], np.asarray(robot_z, dtype=float)]
+        hits, sure = np.empty(len(starts)), np.empty(len(starts), dtype=bool)
+        fastrays.cast_spheres(starts, ends, robot, spheres, self._robot_radius_m, self.range_m,
+                              fastrays.SPHERE_MARGIN_M, hits, sure)
+        unsure = ~sure
+        if unsure.any():
+            hits[unsure] = cast_rays(self._client, starts[unsure], ends[unsure],
+                                     mask=self._robot_mask)
+            self.robot_rays_asked_bullet += int(unsure.sum())
         return hits
 
     def _may_hit(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:

@@ -244,7 +244,7 @@ class SwarmSim:
                                 [o.mesh() for o in self.world.solids],
                                 [(x, y, r + CULL_MARGIN_M) for x, y, r in
                                  (o.bounding_circle() for o in self.world.solids)]),
-                            robot_mask=_ROBOT)
+                            robot_mask=_ROBOT, robot_spheres=not wheeled)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client
@@ -289,6 +289,7 @@ class SwarmSim:
         self._active = np.ones(k, dtype=bool)
         self._time_s = 0.0
         self._odometer = np.zeros(k)
+        self._z = np.zeros(k)  # height of each robot's base (the body sphere's centre)
         self._poses = self._read_poses(np.arange(k))
 
     # ------------------------------------------------------------------ API
@@ -420,13 +421,14 @@ class SwarmSim:
         for row, i in enumerate(which):
             pos, q = p.getBasePositionAndOrientation(self._robots[i], physicsClientId=self._client)
             poses[row] = pos[0], pos[1], p.getEulerFromQuaternion(q)[2]
+            self._z[i] = pos[2]
         return poses
 
     def _observe(self, obstacle_hit: np.ndarray, robot_hit: np.ndarray) -> Observation:
         cfg = self.config
         scans = np.full((self.num_robots, cfg.sensor.beams), np.nan)
         live = self._active
-        ranges = self._lidar.scan(self._poses[live])
+        ranges = self._lidar.scan(self._poses[live], robot_z=self._z[live])
         if cfg.sensor.noise_std_m > 0 or cfg.sensor.dropout > 0:
             noisy = ranges + self._rng.normal(0.0, cfg.sensor.noise_std_m, ranges.shape)
             hit = (ranges > 0) & (ranges < cfg.sensor.range_m)  # returns; blind, misses stay
