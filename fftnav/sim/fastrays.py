@@ -334,3 +334,114 @@ def cast_spheres(starts, ends, robot, centres, radius, reach, margin, out, sure)
                 best = fraction
         out[i] = best
         sure[i] = ok
+
+
+@njit(cache=True, nogil=True)
+def _beam_span(bearing, half, first, step, beams):
+    """Indices ``lo .. hi`` (clipped to the pattern) of the beams ``first + n step`` whose angle
+    lies within ``half`` (+ a 1e-9 rad pad) of ``bearing`` (rad, relative to the heading, any
+    turn); ``hi < lo`` for none."""
+    lo = max(int(np.ceil((bearing - half - 1e-9 - first) / step)), 0)
+    hi = min(int(np.floor((bearing + half + 1e-9 - first) / step)), beams - 1)
+    return lo, hi
+
+
+@njit(cache=True, nogil=True)
+def _span(px, py, yaw, bx, by, rho, range_m, first, step, beams, out):
+    """Write into ``out`` the beams (indices) of a robot at ``(px, py)`` heading ``yaw`` whose
+    rays can pass within ``rho`` of the point ``b`` (none if it lies beyond ``range_m + rho``):
+    the beams within ``asin(rho / d)`` of its bearing, the sector also taken one turn either way
+    (the pattern starts at -pi); return how many. A beam on the seam may come twice: testing a
+    ray twice against one body changes nothing."""
+    dx, dy = bx - px, by - py
+    d = np.sqrt(dx * dx + dy * dy)
+    if d > range_m + rho:
+        return 0
+    if d <= rho:
+        for n in range(beams):
+            out[n] = n
+        return beams
+    half = np.arcsin(rho / d)
+    bearing = np.arctan2(dy, dx) - yaw
+    bearing = (bearing + np.pi) % (2.0 * np.pi) - np.pi
+    count = 0
+    for turn in (-2.0 * np.pi, 0.0, 2.0 * np.pi):
+        lo, hi = _beam_span(bearing + turn, half, first, step, beams)
+        for n in range(lo, hi + 1):
+            out[count] = n
+            count += 1
+    return count
+
+
+@njit(cache=True, nogil=True)
+def _ray(px, py, height, u, start_m, range_m):
+    """Start and end of the ray of unit direction ``u`` from the lidar at ``(px, py, height)``,
+    as :meth:`fftnav.sim.lidar.Lidar._rays` computes them (centre + distance * direction)."""
+    return (px + start_m * u[0], py + start_m * u[1], height + start_m * u[2],
+            px + range_m * u[0], py + range_m * u[1], height + range_m * u[2])
+
+
+@njit(cache=True, nogil=True)
+def scan_swarm(poses, robot_z, direction, live_index, first, step, height, start_m, range_m,
+               triangles, footprints, first_triangle, circles, margin, radius, sphere_margin,
+               obstacle, obstacle_sure, robots, robot_sure, cast_obstacle, cast_robot):
+    """Every live ray of a swarm's scan against the obstacles' side triangles and the robot
+    spheres, the rays chosen per body by its angular span (a superset of the rays that can
+    reach it), with the arithmetic of :func:`cast_static` and :func:`cast_sphere`.
+
+    ``poses`` ``(K, 3)``, ``robot_z`` ``(K,)``: robots (x, y, yaw; sphere centre heights);
+    ``direction`` ``(K, L, 3)``: the live rays' unit directions, as the caller computes them;
+    ``live_index`` ``(M,)``: each beam's column among the L live ones (-1: blind); beam n points
+    at ``first + n step`` from the heading. Outputs ``(K, L)``: hit fractions against the
+    obstacles (``obstacle``, 1: none; ``obstacle_sure`` False where Bullet must decide) and the
+    robots (``robots``, ``robot_sure``), and which rays were tested against each
+    (``cast_obstacle``, ``cast_robot``)."""
+    k_robots = poses.shape[0]
+    beams = live_index.shape[0]
+    n_obstacles = circles.shape[0]
+    span = np.empty(3 * beams, dtype=np.int64)
+    for k in range(k_robots):
+        px, py, yaw = poses[k, 0], poses[k, 1], poses[k, 2]
+        # obstacles within reach: their side triangles, obstacle by obstacle (index order, as
+        # cast_static), on the rays of their span
+        for j in range(n_obstacles):
+            for i in range(_span(px, py, yaw, circles[j, 0], circles[j, 1],
+                                 circles[j, 2] + margin, range_m, first, step, beams, span)):
+                col = live_index[span[i]]
+                if col < 0:
+                    continue
+                cast_obstacle[k, col] = True
+                fx, fy, fz, tx, ty, tz = _ray(px, py, height, direction[k, col], start_m,
+                                              range_m)
+                vx, vy = tx - fx, ty - fy
+                length = np.sqrt(vx * vx + vy * vy)
+                vx, vy = vx / length, vy / length
+                hit, clear = obstacle[k, col], obstacle_sure[k, col]
+                for t in range(first_triangle[j], first_triangle[j + 1]):
+                    if _near_footprint(footprints, t, fx, fy, vx, vy, length, margin):
+                        hit, clear = _process_triangle(triangles, t, fx, fy, fz, tx, ty, tz,
+                                                       hit, clear)
+                obstacle[k, col], obstacle_sure[k, col] = hit, clear
+        # other robots within reach: Bullet's sphere cast on the rays of their span
+        for j in range(k_robots):
+            if j == k:  # a ray leaves its own robot's sphere: Bullet's cast never hits it
+                continue
+            cz = robot_z[j]
+            for i in range(_span(px, py, yaw, poses[j, 0], poses[j, 1], radius + sphere_margin,
+                                 range_m, first, step, beams, span)):
+                col = live_index[span[i]]
+                if col < 0:
+                    continue
+                cast_robot[k, col] = True
+                fx, fy, fz, tx, ty, tz = _ray(px, py, height, direction[k, col], start_m,
+                                              range_m)
+                hit, fraction, certain = cast_sphere(fx, fy, fz, tx, ty, tz, poses[j, 0],
+                                                     poses[j, 1], cz, radius)
+                if not certain:
+                    robot_sure[k, col] = False
+                elif hit and fraction < robots[k, col]:
+                    robots[k, col] = fraction
+    # a hit counts as sure when it is clear of its triangle's edges (cast_static's rule)
+    for k in range(k_robots):
+        for col in range(direction.shape[1]):
+            obstacle_sure[k, col] = obstacle[k, col] == 1.0 or obstacle_sure[k, col]

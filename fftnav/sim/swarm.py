@@ -354,15 +354,24 @@ class SwarmSim:
         index = {body: i for i, body in enumerate(self._robots)}
         obstacle_hit = np.zeros(self.num_robots, dtype=bool)
         robot_hit = np.zeros(self.num_robots, dtype=bool)
+        # The loop below runs physics_hz / control_hz times per robot and tick: pybullet's
+        # functions are bound once and called with positional arguments (cheaper to parse), and
+        # without contacts the velocities to set are those of the steered robots (a fixed list).
+        reset_velocity, step_physics = p.resetBaseVelocity, p.stepSimulation
+        contact_points, ground = p.getContactPoints, self._ground
+        steered_order = sorted(steered)
         touched = set(range(len(bodies)))  # every velocity is set before the first step
         for k in range(cfg.substeps):
-            for j in touched | steered if linear else ():
-                p.resetBaseVelocity(bodies[j], linear[k][j], angular[j], physicsClientId=cid)
-            p.stepSimulation(physicsClientId=cid)
+            if linear:
+                velocity = linear[k]
+                for j in (touched | steered) if touched else steered_order:
+                    reset_velocity(bodies[j], velocity[j], angular[j], cid)
+            step_physics(cid)
+            contacts = contact_points(physicsClientId=cid)
             touched = set()
-            for contact in p.getContactPoints(physicsClientId=cid):
+            for contact in contacts:
                 a, b = contact[1], contact[2]
-                if self._ground in (a, b):
+                if a == ground or b == ground:
                     continue
                 for this, other in ((a, b), (b, a)):
                     if this in index:

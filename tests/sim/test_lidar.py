@@ -246,15 +246,19 @@ def test_compiled_sphere_rays_equal_bullets_bit_for_bit():
     assert np.any(np.abs(got - exact)[sure] > 1e-4)
 
 
-def test_dense_swarm_scan_is_bitwise_equal_to_casting_every_ray():
-    # 60 robots packed on a 6 m x 6 m patch of forest: most rays in another robot's sector
-    world = generate_world("forest", 3)
+@pytest.mark.parametrize(("env", "beams", "fov_deg", "blind_deg"),
+                         [("forest", 360, 360.0, 15.0), ("rocky", 360, 360.0, 15.0),
+                          ("forest", 720, 360.0, 0.0), ("rocky", 200, 270.0, 0.0)])
+def test_dense_swarm_scan_is_bitwise_equal_to_casting_every_ray(env, beams, fov_deg, blind_deg):
+    # 60 robots packed on a 6 m x 6 m patch: most rays in another robot's span; the compiled
+    # scan (fastrays.scan_swarm) against every live ray cast in Bullet's full client
+    world = generate_world(env, 3)
     rng = np.random.default_rng(5)
     xy = rng.uniform(7.0, 13.0, (60, 2))
     poses = np.c_[xy, rng.uniform(-math.pi, math.pi, 60)]
-    probe = World("forest", 3, world.size_m, world.obstacles, poses, poses[:, :2],
-                  world.boundary)
-    with SwarmSim(probe) as sim:
+    probe = World(env, 3, world.size_m, world.obstacles, poses, poses[:, :2], world.boundary)
+    sensor = SensorConfig(beams=beams, fov_deg=fov_deg, blind_deg=blind_deg)
+    with SwarmSim(probe, config=SimConfig(sensor=sensor)) as sim:
         lidar = sim.lidar
         assert lidar.robot_spheres
         obs = sim.reset(seed=0)
