@@ -78,6 +78,12 @@ class StaticMesh:
         self.footprints = (np.concatenate(footprints) if footprints else np.zeros((0, 5)))
         self.first = np.array(first, dtype=np.int64)
         self.circles = np.asarray(circles, dtype=float).reshape(-1, 3)
+        #: Whether a triangle has the footprint of the one before it (of the same obstacle): the
+        #: two triangles of a side face; the compiled scan tests that footprint once.
+        self.same_footprint = np.zeros(len(self.footprints), dtype=bool)
+        if len(self.footprints) > 1:
+            self.same_footprint[1:] = np.all(self.footprints[1:] == self.footprints[:-1], axis=1)
+        self.same_footprint[self.first[:-1][self.first[:-1] < len(self.footprints)]] = False
 
 
 @njit(cache=True, nogil=True)
@@ -354,9 +360,10 @@ def _span(px, py, yaw, bx, by, rho, range_m, first, step, beams, out):
     (the pattern starts at -pi); return how many. A beam on the seam may come twice: testing a
     ray twice against one body changes nothing."""
     dx, dy = bx - px, by - py
-    d = np.sqrt(dx * dx + dy * dy)
-    if d > range_m + rho:
+    reach = range_m + rho
+    if dx * dx + dy * dy > reach * reach:
         return 0
+    d = np.sqrt(dx * dx + dy * dy)
     if d <= rho:
         for n in range(beams):
             out[n] = n
@@ -383,8 +390,9 @@ def _ray(px, py, height, u, start_m, range_m):
 
 @njit(cache=True, nogil=True)
 def scan_swarm(poses, robot_z, direction, live_index, first, step, height, start_m, range_m,
-               triangles, footprints, first_triangle, circles, margin, radius, sphere_margin,
-               obstacle, obstacle_sure, robots, robot_sure, cast_obstacle, cast_robot):
+               triangles, footprints, same_footprint, first_triangle, circles, margin, radius,
+               sphere_margin, obstacle, obstacle_sure, robots, robot_sure, cast_obstacle,
+               cast_robot):
     """Every live ray of a swarm's scan against the obstacles' side triangles and the robot
     spheres, the rays chosen per body by its angular span (a superset of the rays that can
     reach it), with the arithmetic of :func:`cast_static` and :func:`cast_sphere`.
@@ -405,6 +413,9 @@ def scan_swarm(poses, robot_z, direction, live_index, first, step, height, start
         # obstacles within reach: their side triangles, obstacle by obstacle (index order, as
         # cast_static), on the rays of their span
         for j in range(n_obstacles):
+            dx, dy, reach = circles[j, 0] - px, circles[j, 1] - py, range_m + circles[j, 2] + margin
+            if dx * dx + dy * dy > reach * reach:  # (first, without a call: most are far)
+                continue
             for i in range(_span(px, py, yaw, circles[j, 0], circles[j, 1],
                                  circles[j, 2] + margin, range_m, first, step, beams, span)):
                 col = live_index[span[i]]
@@ -417,15 +428,19 @@ def scan_swarm(poses, robot_z, direction, live_index, first, step, height, start
                 length = np.sqrt(vx * vx + vy * vy)
                 vx, vy = vx / length, vy / length
                 hit, clear = obstacle[k, col], obstacle_sure[k, col]
+                near = False
                 for t in range(first_triangle[j], first_triangle[j + 1]):
-                    if _near_footprint(footprints, t, fx, fy, vx, vy, length, margin):
+                    if not same_footprint[t]:  # else: the face's other triangle's answer
+                        near = _near_footprint(footprints, t, fx, fy, vx, vy, length, margin)
+                    if near:
                         hit, clear = _process_triangle(triangles, t, fx, fy, fz, tx, ty, tz,
                                                        hit, clear)
                 obstacle[k, col], obstacle_sure[k, col] = hit, clear
         # other robots within reach: Bullet's sphere cast on the rays of their span
         for j in range(k_robots):
-            if j == k:  # a ray leaves its own robot's sphere: Bullet's cast never hits it
-                continue
+            dx, dy, reach = poses[j, 0] - px, poses[j, 1] - py, range_m + radius + sphere_margin
+            if j == k or dx * dx + dy * dy > reach * reach:  # (a ray leaves its own robot's
+                continue  # sphere: Bullet's cast never hits it)
             cz = robot_z[j]
             for i in range(_span(px, py, yaw, poses[j, 0], poses[j, 1], radius + sphere_margin,
                                  range_m, first, step, beams, span)):

@@ -245,8 +245,9 @@ class Lidar:
         cast_obstacle, cast_robot = np.zeros(shape, dtype=bool), np.zeros(shape, dtype=bool)
         fastrays.scan_swarm(np.ascontiguousarray(poses), robot_z, direction, self._live_index,
                             self._first_rad, self._step_rad, self._height_m, self._start_m,
-                            self.range_m, mesh.triangles, mesh.footprints, mesh.first,
-                            mesh.circles, fastrays.MARGIN_M, self._robot_radius_m,
+                            self.range_m, mesh.triangles, mesh.footprints,
+                            mesh.same_footprint, mesh.first, mesh.circles, fastrays.MARGIN_M,
+                            self._robot_radius_m,
                             fastrays.SPHERE_MARGIN_M, obstacle, obstacle_sure, robots,
                             robot_sure, cast_obstacle, cast_robot)
         for sure, hits, client, mask in (
