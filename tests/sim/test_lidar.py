@@ -269,3 +269,27 @@ def test_dense_swarm_scan_is_bitwise_equal_to_casting_every_ray(env, beams, fov_
             lidar.cull = True
             assert obs.scans.tobytes() == full.tobytes()
             assert (obs.scans[:, lidar.live] < 2.9).mean() > 0.3  # mostly robots in view
+
+
+@pytest.mark.parametrize("path", ["compiled scan", "culled, compiled obstacles", "culled, Bullet"])
+@pytest.mark.parametrize("env", ["forest", "rocky"])
+def test_every_lidar_path_equals_casting_every_ray(env, path):
+    # the fallbacks of the compiled scan (the wheeled robot, no numba) stay bit-identical too
+    world = generate_world(env, 8)
+    rng = np.random.default_rng(9)
+    poses = np.c_[rng.uniform(2.0, 18.0, (25, 2)), rng.uniform(-math.pi, math.pi, 25)]
+    probe = World(env, 8, world.size_m, world.obstacles, poses, poses[:, :2], world.boundary)
+    with SwarmSim(probe) as sim:
+        obs = sim.reset(seed=0)
+        lidar, z = sim.lidar, sim.base_states()[:, 2]
+        if path != "compiled scan":
+            lidar.robot_spheres = False
+        if path == "culled, Bullet":
+            lidar.static_mesh = None
+        before = lidar.rays_cast
+        culled = lidar.scan(obs.poses, robot_z=z)
+        assert lidar.rays_cast > before
+        lidar.cull = False
+        full = lidar.scan(obs.poses)
+    assert culled.tobytes() == full.tobytes()
+    assert (culled[:, lidar.live] < 3.0).sum() > 500
