@@ -381,6 +381,15 @@ def _span(px, py, yaw, bx, by, rho, range_m, first, step, beams, out):
 
 
 @njit(cache=True, nogil=True)
+def _enters_beyond(qx, qy, qz, ux, uy, uz, rho, distance):
+    """Whether a ray from the origin along the unit vector ``u`` enters the ball of radius
+    ``rho`` about ``q`` only beyond ``distance`` (m) plus 1 um, or misses it."""
+    along = qx * ux + qy * uy + qz * uz
+    gap = rho * rho - (qx * qx + qy * qy + qz * qz - along * along)
+    return gap < 0.0 or along - np.sqrt(gap) > distance + 1e-6
+
+
+@njit(cache=True, nogil=True)
 def _ray(px, py, height, u, start_m, range_m):
     """Start and end of the ray of unit direction ``u`` from the lidar at ``(px, py, height)``,
     as :meth:`fftnav.sim.lidar.Lidar._rays` computes them (centre + distance * direction)."""
@@ -408,16 +417,29 @@ def scan_swarm(poses, robot_z, direction, live_index, first, step, height, start
     beams = live_index.shape[0]
     n_obstacles = circles.shape[0]
     span = np.empty(3 * beams, dtype=np.int64)
+    near_obstacles = np.empty(n_obstacles, dtype=np.int64)
+    near_robots = np.empty(k_robots, dtype=np.int64)
+    distances = np.empty(max(n_obstacles, k_robots))
+    # a sphere's cast stops within _GJK_CAST_RADIUS of its surface: a ray that stays farther
+    # than this from the centre never hits it (with room for rounding)
+    stop = radius + _GJK_CAST_RADIUS + 1e-4
     for k in range(k_robots):
         px, py, yaw = poses[k, 0], poses[k, 1], poses[k, 2]
-        # obstacles within reach: their side triangles, obstacle by obstacle (index order, as
-        # cast_static), on the rays of their span
+        # obstacles within reach, nearest first: their side triangles on the rays of their
+        # span; an obstacle whose widened circle a ray enters only beyond the ray's best hit so
+        # far cannot change it (its triangles lie in the circle), nor can a tie: the first
+        # triangle to reach the smallest distance keeps it, as in Bullet's smallest-hit rule
+        count = 0
         for j in range(n_obstacles):
             dx, dy, reach = circles[j, 0] - px, circles[j, 1] - py, range_m + circles[j, 2] + margin
-            if dx * dx + dy * dy > reach * reach:  # (first, without a call: most are far)
-                continue
-            for i in range(_span(px, py, yaw, circles[j, 0], circles[j, 1],
-                                 circles[j, 2] + margin, range_m, first, step, beams, span)):
+            if dx * dx + dy * dy <= reach * reach:  # (first, without a call: most are far)
+                near_obstacles[count] = j
+                distances[count] = dx * dx + dy * dy
+                count += 1
+        for j in near_obstacles[:count][np.argsort(distances[:count])]:
+            rho = circles[j, 2] + margin
+            for i in range(_span(px, py, yaw, circles[j, 0], circles[j, 1], rho, range_m, first,
+                                 step, beams, span)):
                 col = live_index[span[i]]
                 if col < 0:
                     continue
@@ -428,6 +450,9 @@ def scan_swarm(poses, robot_z, direction, live_index, first, step, height, start
                 length = np.sqrt(vx * vx + vy * vy)
                 vx, vy = vx / length, vy / length
                 hit, clear = obstacle[k, col], obstacle_sure[k, col]
+                if _enters_beyond(circles[j, 0] - fx, circles[j, 1] - fy, 0.0, vx, vy, 0.0,
+                                  rho, hit * length):
+                    continue
                 near = False
                 for t in range(first_triangle[j], first_triangle[j + 1]):
                     if not same_footprint[t]:  # else: the face's other triangle's answer
@@ -436,22 +461,33 @@ def scan_swarm(poses, robot_z, direction, live_index, first, step, height, start
                         hit, clear = _process_triangle(triangles, t, fx, fy, fz, tx, ty, tz,
                                                        hit, clear)
                 obstacle[k, col], obstacle_sure[k, col] = hit, clear
-        # other robots within reach: Bullet's sphere cast on the rays of their span
+        # other robots within reach, nearest first: Bullet's sphere cast on the rays of their
+        # span, unless the ray comes within the cast's stopping distance of the sphere only
+        # beyond its best sure hit so far (or never)
+        count = 0
         for j in range(k_robots):
             dx, dy, reach = poses[j, 0] - px, poses[j, 1] - py, range_m + radius + sphere_margin
-            if j == k or dx * dx + dy * dy > reach * reach:  # (a ray leaves its own robot's
-                continue  # sphere: Bullet's cast never hits it)
-            cz = robot_z[j]
-            for i in range(_span(px, py, yaw, poses[j, 0], poses[j, 1], radius + sphere_margin,
-                                 range_m, first, step, beams, span)):
+            if j != k and dx * dx + dy * dy <= reach * reach:  # (a ray leaves its own robot's
+                near_robots[count] = j  # sphere: Bullet's cast never hits it)
+                distances[count] = dx * dx + dy * dy
+                count += 1
+        for j in near_robots[:count][np.argsort(distances[:count])]:
+            cx, cy, cz = poses[j, 0], poses[j, 1], robot_z[j]
+            for i in range(_span(px, py, yaw, cx, cy, radius + sphere_margin, range_m, first,
+                                 step, beams, span)):
                 col = live_index[span[i]]
                 if col < 0:
                     continue
                 cast_robot[k, col] = True
-                fx, fy, fz, tx, ty, tz = _ray(px, py, height, direction[k, col], start_m,
-                                              range_m)
-                hit, fraction, certain = cast_sphere(fx, fy, fz, tx, ty, tz, poses[j, 0],
-                                                     poses[j, 1], cz, radius)
+                u = direction[k, col]
+                fx, fy, fz, tx, ty, tz = _ray(px, py, height, u, start_m, range_m)
+                best = robots[k, col]
+                if obstacle_sure[k, col] or obstacle[k, col] == 1.0:  # a sure obstacle hit
+                    best = min(best, obstacle[k, col])
+                if _enters_beyond(cx - fx, cy - fy, cz - fz, u[0], u[1], u[2], stop,
+                                  best * (range_m - start_m)):
+                    continue
+                hit, fraction, certain = cast_sphere(fx, fy, fz, tx, ty, tz, cx, cy, cz, radius)
                 if not certain:
                     robot_sure[k, col] = False
                 elif hit and fraction < robots[k, col]:
