@@ -10,13 +10,21 @@ a circle, or of a convex polygon's vertices) cannot hit anything, so it reads R 
 Bullet query. The shapes are widened by ``CULL_MARGIN_M``, so the scan is bit-identical to
 casting every ray.
 
-The rays that can hit an obstacle but no robot (outside every other robot's sector) go to a
-second, static physics client holding only the obstacles' mesh (``static_client``): Bullet
-answers a ray there about twice as fast as in the client where the robots move, with the same
-hit fraction bit for bit (the same mesh, the same ray; ``tests/sim/test_lidar.py``). With
-numba, these rays are not even sent to Bullet: :mod:`fftnav.sim.fastrays` runs Bullet's
-ray-triangle arithmetic on the few triangles each ray can meet, with the same result bit for
-bit. The rays in a robot's sector are cast in the full client.
+With numba and sphere robots (the "body" embodiment), the whole scan is one compiled kernel,
+:func:`fftnav.sim.fastrays.scan_swarm`: for each robot, each obstacle and each other robot
+within range R picks the rays of its angular span (its bounding circle widened by a margin),
+and those rays are answered with Bullet's own arithmetic: the ray-triangle test on the
+obstacle's side faces, the ray-sphere cast (``btGjkConvexCast``) on the robot; the nearer hit
+is the reading, as Bullet's closest hit. Both copies flag the rare casts whose outcome they
+cannot be sure of (a hit near a triangle's edge, a grazing cast that runs out of steps), and
+those rays alone go to Bullet. The scan is bit-identical to casting every ray in the full
+client (``tests/sim/test_lidar.py``, and ``fftnav bench sim`` checks it on every tick).
+
+Without numba (or for the wheeled robot), rays are culled by the exact sector of every body
+within range (``_may_hit``; widened by ``CULL_MARGIN_M``), the rays that can hit an obstacle but
+no robot go to a second, static physics client holding only the obstacles' mesh
+(``static_client``: about twice as fast as the client where the robots move, the same hit
+fraction bit for bit) and the rays in a robot's sector to the full client.
 """
 
 from __future__ import annotations
@@ -86,6 +94,10 @@ class Lidar:
         ``static_mesh = None`` to cast every ray in Bullet.
     robot_mask : int, optional
         Bullet collision-filter mask that selects the robots alone.
+    robot_spheres : bool, optional
+        The robots are spheres of radius ``robot_radius_m`` (the "body" embodiment): with numba,
+        ``cull``, ``static_mesh`` and ``robot_mask``, and given the spheres' centre heights
+        (``scan(..., robot_z=...)``), the scan is :func:`fftnav.sim.fastrays.scan_swarm`.
     """
 
     def __init__(self, client: int, *, beams: int, range_m: float, fov_deg: float,
@@ -94,11 +106,12 @@ class Lidar:
                  robot_radius_m: float = 0.0, cull: bool = True,
                  static_client: int | None = None,
                  static_mesh: fastrays.StaticMesh | None = None,
-                 robot_mask: int | None = None) -> None:
+                 robot_mask: int | None = None, robot_spheres: bool = False) -> None:
         self._client = client
         self._static_client = static_client
         self.static_mesh = static_mesh if fastrays.AVAILABLE else None
         self._robot_mask = robot_mask
+        self.robot_spheres = bool(robot_spheres)
         self.range_m = float(range_m)
         self.angles_rad = beam_angles_rad(beams, math.radians(fov_deg))
         #: Beams outside the blind sector (the only ones cast). The edge is compared with a
@@ -120,6 +133,13 @@ class Lidar:
             if xy is not None:
                 self._vertices[i] = np.concatenate([xy, np.repeat(xy[:1], size - len(xy), axis=0)])
         self._robot_radius_m = float(robot_radius_m)
+        # the beam pattern for the compiled scan: beam n at first + n step from the heading,
+        # and its column among the live beams (-1: blind)
+        m = self.angles_rad.size
+        self._first_rad = float(self.angles_rad[0])
+        self._step_rad = (float(self.angles_rad[-1] - self.angles_rad[0]) / (m - 1) if m > 1
+                          else 2.0 * math.pi)
+        self._live_index = np.where(self.live, np.cumsum(self.live) - 1, -1).astype(np.int64)
         self.cull = bool(cull)
         #: Wall-clock seconds spent in ``scan`` so far (read by the speed bench).
         self.seconds_spent = 0.0
@@ -129,13 +149,18 @@ class Lidar:
         #: Of the rays answered by the compiled obstacle test, those whose hit lay too near a
         #: triangle edge to be sure, re-cast in Bullet's static client.
         self.rays_asked_bullet = 0
+        #: Of the rays answered by the compiled sphere cast, those it was unsure of (re-cast in
+        #: Bullet against the robots).
+        self.robot_rays_asked_bullet = 0
 
-    def scan(self, poses: np.ndarray) -> np.ndarray:
+    def scan(self, poses: np.ndarray, robot_z: np.ndarray | None = None) -> np.ndarray:
         """Ranges ``(K, M)`` in metres for robots at ``poses`` ``(K, 3)`` (x m, y m, yaw rad).
 
         The rays that can hit something (all live beams if ``cull`` is False) of all robots go
         in one ``rayTestBatch`` call (``fftnav.sim.rays.cast_rays``, split only above Bullet's
-        batch limit); the other live beams read R and blind-sector beams read 0.
+        batch limit) or to the compiled tests; the other live beams read R and blind-sector
+        beams read 0. ``robot_z`` ``(K,)``: height of each robot's sphere centre (m), for the
+        compiled sphere cast (``robot_spheres``); None casts robot rays in Bullet.
         """
         tic = time.perf_counter()
         poses = np.asarray(poses, dtype=float)
@@ -146,13 +171,20 @@ class Lidar:
         theta = poses[:, 2:3] + self.angles_rad[self.live]
         direction = np.stack([np.cos(theta), np.sin(theta), np.zeros_like(theta)], axis=-1)
         fractions = np.ones(theta.shape)
+        centres = np.c_[poses[:, :2], np.full(k, self._height_m)]
+        if (self.cull and self.static_mesh is not None and self._robot_mask is not None
+                and self.robot_spheres and robot_z is not None):
+            out[:, self.live] = self._start_m + self._scan_compiled(
+                poses, np.asarray(robot_z, dtype=float), centres, direction) * (
+                    self.range_m - self._start_m)
+            self.seconds_spent += time.perf_counter() - tic
+            return out
         if self.cull:
             any_body, robots = self._may_hit(poses)
             static = any_body & ~robots if self._static_client is not None else None
             full = robots if static is not None else any_body
         else:
             full, static = np.ones(theta.shape, dtype=bool), None
-        centres = np.c_[poses[:, :2], np.full(k, self._height_m)]
         if self.cull and self.static_mesh is not None and self._robot_mask is not None:
             # obstacles: every cast ray by the compiled copy of Bullet's triangle test; robots:
             # the rays in a robot's sector also by Bullet against the robots alone; the nearer
@@ -200,6 +232,39 @@ class Lidar:
             hits[unsure] = cast_rays(client, starts[unsure], ends[unsure], mask=self._mask)
             self.rays_asked_bullet += int(unsure.sum())
         return hits
+
+    def _scan_compiled(self, poses: np.ndarray, robot_z: np.ndarray, centres: np.ndarray,
+                       direction: np.ndarray) -> np.ndarray:
+        """Hit fractions ``(K, L)`` of every live ray, by :func:`fftnav.sim.fastrays.scan_swarm`
+        (each body's rays chosen by its angular span; obstacles by Bullet's triangle test,
+        robots by Bullet's sphere cast), with Bullet deciding the casts it is unsure of: the
+        nearer of the obstacle and robot hits, as Bullet's closest hit."""
+        mesh, shape = self.static_mesh, direction.shape[:2]
+        obstacle, obstacle_sure = np.ones(shape), np.ones(shape, dtype=bool)
+        robots, robot_sure = np.ones(shape), np.ones(shape, dtype=bool)
+        cast_obstacle, cast_robot = np.zeros(shape, dtype=bool), np.zeros(shape, dtype=bool)
+        fastrays.scan_swarm(np.ascontiguousarray(poses), robot_z, direction, self._live_index,
+                            self._first_rad, self._step_rad, self._height_m, self._start_m,
+                            self.range_m, mesh.triangles, mesh.footprints,
+                            mesh.same_footprint, mesh.first, mesh.circles, fastrays.MARGIN_M,
+                            self._robot_radius_m,
+                            fastrays.SPHERE_MARGIN_M, obstacle, obstacle_sure, robots,
+                            robot_sure, cast_obstacle, cast_robot)
+        for sure, hits, client, mask in (
+                (obstacle_sure, obstacle, self._static_client, self._mask),
+                (robot_sure, robots, self._client, self._robot_mask)):
+            unsure = ~sure  # near a triangle's edge, or a cast out of steps: Bullet decides
+            if unsure.any():
+                starts, ends, _ = self._rays(centres, direction, unsure)
+                hits[unsure] = cast_rays(self._client if client is None else client, starts,
+                                         ends, mask=mask)
+                if hits is obstacle:
+                    self.rays_asked_bullet += int(unsure.sum())
+                else:
+                    self.robot_rays_asked_bullet += int(unsure.sum())
+        self.rays_cast += int((cast_obstacle | cast_robot).sum())
+        self.rays_cast_static += int((cast_obstacle & ~cast_robot).sum())
+        return np.minimum(obstacle, robots)
 
     def _may_hit(self, poses: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
         """``(K, L)`` masks of the live rays that point into the sector of a widened body

@@ -244,7 +244,7 @@ class SwarmSim:
                                 [o.mesh() for o in self.world.solids],
                                 [(x, y, r + CULL_MARGIN_M) for x, y, r in
                                  (o.bounding_circle() for o in self.world.solids)]),
-                            robot_mask=_ROBOT)
+                            robot_mask=_ROBOT, robot_spheres=not wheeled)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client
@@ -289,6 +289,7 @@ class SwarmSim:
         self._active = np.ones(k, dtype=bool)
         self._time_s = 0.0
         self._odometer = np.zeros(k)
+        self._z = np.zeros(k)  # height of each robot's base (the body sphere's centre)
         self._poses = self._read_poses(np.arange(k))
 
     # ------------------------------------------------------------------ API
@@ -353,15 +354,24 @@ class SwarmSim:
         index = {body: i for i, body in enumerate(self._robots)}
         obstacle_hit = np.zeros(self.num_robots, dtype=bool)
         robot_hit = np.zeros(self.num_robots, dtype=bool)
+        # The loop below runs physics_hz / control_hz times per robot and tick: pybullet's
+        # functions are bound once and called with positional arguments (cheaper to parse), and
+        # without contacts the velocities to set are those of the steered robots (a fixed list).
+        reset_velocity, step_physics = p.resetBaseVelocity, p.stepSimulation
+        contact_points, ground = p.getContactPoints, self._ground
+        steered_order = sorted(steered)
         touched = set(range(len(bodies)))  # every velocity is set before the first step
         for k in range(cfg.substeps):
-            for j in touched | steered if linear else ():
-                p.resetBaseVelocity(bodies[j], linear[k][j], angular[j], physicsClientId=cid)
-            p.stepSimulation(physicsClientId=cid)
+            if linear:
+                velocity = linear[k]
+                for j in (touched | steered) if touched else steered_order:
+                    reset_velocity(bodies[j], velocity[j], angular[j], cid)
+            step_physics(cid)
+            contacts = contact_points(physicsClientId=cid)
             touched = set()
-            for contact in p.getContactPoints(physicsClientId=cid):
+            for contact in contacts:
                 a, b = contact[1], contact[2]
-                if self._ground in (a, b):
+                if a == ground or b == ground:
                     continue
                 for this, other in ((a, b), (b, a)):
                     if this in index:
@@ -420,13 +430,14 @@ class SwarmSim:
         for row, i in enumerate(which):
             pos, q = p.getBasePositionAndOrientation(self._robots[i], physicsClientId=self._client)
             poses[row] = pos[0], pos[1], p.getEulerFromQuaternion(q)[2]
+            self._z[i] = pos[2]
         return poses
 
     def _observe(self, obstacle_hit: np.ndarray, robot_hit: np.ndarray) -> Observation:
         cfg = self.config
         scans = np.full((self.num_robots, cfg.sensor.beams), np.nan)
         live = self._active
-        ranges = self._lidar.scan(self._poses[live])
+        ranges = self._lidar.scan(self._poses[live], robot_z=self._z[live])
         if cfg.sensor.noise_std_m > 0 or cfg.sensor.dropout > 0:
             noisy = ranges + self._rng.normal(0.0, cfg.sensor.noise_std_m, ranges.shape)
             hit = (ranges > 0) & (ranges < cfg.sensor.range_m)  # returns; blind, misses stay

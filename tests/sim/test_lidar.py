@@ -192,3 +192,104 @@ def test_a_ray_grazing_a_corner_is_left_to_bullet():
         assert lidar._cast_static(centre, pose, direction[None, None], cast).tobytes() \
             == expected.tobytes()
         assert lidar.rays_asked_bullet == 1
+
+
+def test_compiled_sphere_rays_equal_bullets_bit_for_bit():
+    """fastrays.cast_spheres against Bullet's rayTestBatch on sphere robots (the body
+    embodiment), on random rays and on rays that graze a sphere within a few mm of its tangent
+    (where Bullet's 1 mm conservative advancement reports hits short of, or beside, the sphere)."""
+    from fftnav.sim import fastrays
+    from fftnav.sim.rays import cast_rays
+
+    if not fastrays.AVAILABLE:
+        pytest.skip("numba is not installed")
+    rng = np.random.default_rng(11)
+    k, r0 = 40, 0.15
+    xy = rng.uniform(0.5, 5.5, (k, 2))
+    world = World("x", 0, (6.0, 6.0), (), np.c_[xy, rng.uniform(-3, 3, k)], xy)
+    with SwarmSim(world) as sim:
+        sim.reset(seed=0)
+        for _ in range(3):  # spin and move the robots: orientations and positions are Bullet's
+            sim.step(np.c_[rng.uniform(0.0, 0.5, k), rng.uniform(-1.0, 1.0, k)])
+        centres = sim.base_states()[:, :3]
+        n = 20000
+        robot = rng.integers(0, k, n)
+        angle = rng.uniform(-math.pi, math.pi, n)
+        # half the rays aim at the tangent of another robot's sphere, offset by up to +-5 mm
+        other = rng.integers(0, k, n)
+        rel = centres[other, :2] - centres[robot, :2]
+        dist = np.hypot(rel[:, 0], rel[:, 1])
+        graze = (rng.random(n) < 0.5) & (dist > r0 + 0.01)
+        offset = np.arcsin((r0 + rng.uniform(-0.005, 0.005, n)) / np.maximum(dist, r0 + 0.01))
+        angle[graze] = (np.arctan2(rel[graze, 1], rel[graze, 0])
+                        + rng.choice([-1.0, 1.0], graze.sum()) * offset[graze])
+        direction = np.c_[np.cos(angle), np.sin(angle), np.zeros(n)]
+        origin = np.c_[centres[robot, :2], np.full(n, r0)]
+        starts, ends = origin + (r0 + 0.005) * direction, origin + 3.0 * direction
+        expected = cast_rays(sim._client, starts, ends, mask=4)  # the robots alone
+    got, sure = np.empty(n), np.empty(n, dtype=bool)
+    fastrays.cast_spheres(starts, ends, robot, centres, r0, 3.0, fastrays.SPHERE_MARGIN_M, got,
+                          sure)
+    # every answer the kernel is sure of is Bullet's, bit for bit (the others go to Bullet)
+    assert got[sure].tobytes() == expected[sure].tobytes()
+    assert sure.mean() > 0.99
+    assert 0.3 < (expected < 1.0).mean() < 0.9  # hits and misses
+    # Bullet's answer is its 1 mm conservative advancement, not the exact entry point: some
+    # grazing rays hit short of the sphere, or beside it
+    exact = np.ones(n)
+    for c in centres:
+        q = c - starts
+        along = (q * direction).sum(axis=1)
+        h = r0**2 - ((q * q).sum(axis=1) - along**2)
+        t = along - np.sqrt(np.maximum(h, 0.0))
+        exact = np.where((h >= 0) & (t >= 0) & (t < 2.845), np.minimum(exact, t / 2.845), exact)
+    assert np.any(np.abs(got - exact)[sure] > 1e-4)
+
+
+@pytest.mark.parametrize(("env", "beams", "fov_deg", "blind_deg"),
+                         [("forest", 360, 360.0, 15.0), ("rocky", 360, 360.0, 15.0),
+                          ("forest", 720, 360.0, 0.0), ("rocky", 200, 270.0, 0.0)])
+def test_dense_swarm_scan_is_bitwise_equal_to_casting_every_ray(env, beams, fov_deg, blind_deg):
+    # 60 robots packed on a 6 m x 6 m patch: most rays in another robot's span; the compiled
+    # scan (fastrays.scan_swarm) against every live ray cast in Bullet's full client
+    world = generate_world(env, 3)
+    rng = np.random.default_rng(5)
+    xy = rng.uniform(7.0, 13.0, (60, 2))
+    poses = np.c_[xy, rng.uniform(-math.pi, math.pi, 60)]
+    probe = World(env, 3, world.size_m, world.obstacles, poses, poses[:, :2], world.boundary)
+    sensor = SensorConfig(beams=beams, fov_deg=fov_deg, blind_deg=blind_deg)
+    with SwarmSim(probe, config=SimConfig(sensor=sensor)) as sim:
+        lidar = sim.lidar
+        assert lidar.robot_spheres
+        obs = sim.reset(seed=0)
+        for _ in range(5):
+            obs = sim.step(np.c_[rng.uniform(0.0, 0.5, 60), rng.uniform(-1.0, 1.0, 60)])
+            lidar.cull = False
+            full = lidar.scan(obs.poses)  # every live beam in the full client
+            lidar.cull = True
+            assert obs.scans.tobytes() == full.tobytes()
+            assert (obs.scans[:, lidar.live] < 2.9).mean() > 0.3  # mostly robots in view
+
+
+@pytest.mark.parametrize("path", ["compiled scan", "culled, compiled obstacles", "culled, Bullet"])
+@pytest.mark.parametrize("env", ["forest", "rocky"])
+def test_every_lidar_path_equals_casting_every_ray(env, path):
+    # the fallbacks of the compiled scan (the wheeled robot, no numba) stay bit-identical too
+    world = generate_world(env, 8)
+    rng = np.random.default_rng(9)
+    poses = np.c_[rng.uniform(2.0, 18.0, (25, 2)), rng.uniform(-math.pi, math.pi, 25)]
+    probe = World(env, 8, world.size_m, world.obstacles, poses, poses[:, :2], world.boundary)
+    with SwarmSim(probe) as sim:
+        obs = sim.reset(seed=0)
+        lidar, z = sim.lidar, sim.base_states()[:, 2]
+        if path != "compiled scan":
+            lidar.robot_spheres = False
+        if path == "culled, Bullet":
+            lidar.static_mesh = None
+        before = lidar.rays_cast
+        culled = lidar.scan(obs.poses, robot_z=z)
+        assert lidar.rays_cast > before
+        lidar.cull = False
+        full = lidar.scan(obs.poses)
+    assert culled.tobytes() == full.tobytes()
+    assert (culled[:, lidar.live] < 3.0).sum() > 500
