@@ -37,12 +37,15 @@ class BugController(Controller):
         The episode's message channel (the decider reads the inboxes from it).
     full_circle : bool
         Whether the scans cover 360 degrees.
+    area_m : (float, float), optional
+        Width and height (m) of the mission area (the world's map, corner at the origin): the
+        robots' own maps cover it (:class:`~fftnav.planning.bug.BugPlanner`).
     """
 
     uses_pipeline = True
 
     def __init__(self, setup: ControllerSetup, policy: Policy, channel: Channel, *,
-                 full_circle: bool) -> None:
+                 full_circle: bool, area_m: tuple[float, float] | None = None) -> None:
         super().__init__(setup)
         n = setup.n_robots
         self.policy, self.rng, self.channel = policy, setup.rng, channel
@@ -53,7 +56,8 @@ class BugController(Controller):
         self.poses = np.zeros((n, 3))
         self.goals = np.zeros((n, 2))
         self.planner = BugPlanner.for_swarm(
-            n, setup.config, self._decide, self._reconsider if policy.reconsiders else None)
+            n, setup.config, self._decide, self._reconsider if policy.reconsiders else None,
+            area_m=area_m)
 
     def _decide(self, i: int) -> int:
         ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
@@ -133,7 +137,7 @@ class BugController(Controller):
             "follow_time_s": float(planner.follow_ticks[robot] * dt),
             "stall_time_s": float(planner.stall_ticks[robot] * dt),
             "loop_flips": int(planner.loop_flips[robot]),
-            "contour_time_s": float(planner.contour_ticks[robot] * dt),
+            "escape_time_s": float(planner.escape_ticks[robot] * dt),
             "sides_remembered": int(planner.sides_remembered[robot]),
             "sides_reconsidered": int(planner.reconsidered[robot]),
             **{f"neighbours_{reason}": self.decider.neighbour_reasons[robot][reason]
