@@ -220,17 +220,15 @@ class BugPlanner:
         self.memory = [_Memory() for _ in range(self.n_robots)]
         self.decisions = np.zeros((self.n_robots, 2), dtype=np.int64)  # [left, right]
         #: Per robot: control ticks spent following a boundary, ticks in the stall fallback
-        #: (both while moving), and loop-detection side flips (diagnostics, docs/planner.md).
+        #: (both while moving), and loop detections (diagnostics, docs/planner.md).
         self.follow_ticks = np.zeros(self.n_robots, dtype=np.int64)
         self.stall_ticks = np.zeros(self.n_robots, dtype=np.int64)
         self.loop_flips = np.zeros(self.n_robots, dtype=np.int64)
-        #: Side changes by ``reconsider``; robots that left a boundary by the leave rule on
-        #: the last ``step`` (where they got past an obstacle: ``collab``'s passages).
+        #: Side changes by ``reconsider``.
         self.reconsidered = np.zeros(self.n_robots, dtype=np.int64)
         #: Ticks in escape; decisions taken from the tried-sides memory.
         self.escape_ticks = np.zeros(self.n_robots, dtype=np.int64)
         self.sides_remembered = np.zeros(self.n_robots, dtype=np.int64)
-        self.left_boundary = np.zeros(self.n_robots, dtype=bool)
         #: Each robot's map of its own scans (made at the first step, over the starts and goals).
         self.maps: OwnMaps | None = None
         self._tick = 0
@@ -318,7 +316,6 @@ class BugPlanner:
         self._tick += 1
         self._step = (poses, goals, safe)
         commands = np.zeros((k, 2))
-        self.left_boundary[:] = False
         for i in range(k):
             mem = self.memory[i]
             if mem.mode in (Mode.DONE, Mode.WAIT):
@@ -348,7 +345,6 @@ class BugPlanner:
         if mem.mode == Mode.FOLLOW:
             if clear and dist < mem.hit_dist_m - p.progress_m:
                 mem.mode = Mode.GO_TO_GOAL  # leave rule: goal direction safe and progress made
-                self.left_boundary[i] = True
             else:
                 if (self.reconsider is not None and not mem.reconsidered and not mem.escape
                         and mem.flips == 0):

@@ -74,6 +74,7 @@ class OwnMaps:
         di, dj = np.mgrid[-reach:reach + 1, -reach:reach + 1]
         self._disc = np.hypot(di, dj) * self.res <= clearance_m + 1e-9
         self._field: dict[int, np.ndarray] = {}
+        self._closed = np.zeros(self.shape, dtype=bool)  # the closed cells of the last plan
 
     def cell(self, xy: np.ndarray) -> np.ndarray:
         """``(row, col)`` of points ``(..., 2)`` (may lie outside the grid)."""
@@ -122,6 +123,16 @@ class OwnMaps:
             self.last_free[i, free[:, 0], free[:, 1]] = tick
             self.last_hit[i, hits[:, 0], hits[:, 1]] = tick
 
+    def add_segments(self, robot: int, tick: int, segments: np.ndarray) -> None:
+        """Mark the cells along line segments ``(n, 2, 2)`` (m; walls a neighbour saw) hit at
+        ``tick`` in robot ``robot``'s map (its own later looks through them clear them)."""
+        for a, b in np.asarray(segments, dtype=float).reshape(-1, 2, 2):
+            n = int(math.ceil(float(np.hypot(*(b - a))) / (self.res / 2.0))) + 1
+            cells = self.cell(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
+            cells = cells[self.inside(cells)]
+            self.last_hit[robot, cells[:, 0], cells[:, 1]] = np.maximum(
+                self.last_hit[robot, cells[:, 0], cells[:, 1]], tick)
+
     def occupied(self, robot: int) -> np.ndarray:
         """Robot ``robot``'s occupancy grid (True: its last look at the cell was a hit)."""
         return self.last_hit[robot] > self.last_free[robot]
@@ -137,11 +148,43 @@ class OwnMaps:
         closed = binary_dilation(self.occupied(robot), structure=self._disc)
         for r, c in (here, there):
             closed[max(r - 1, 0):r + 2, max(c - 1, 0):c + 2] = False
+        self._closed = closed
         graph = grid_graph(closed, connectivity=8)
         goal_index = int(there[0] * self.shape[1] + there[1])
         field = dijkstra(graph, directed=False, indices=goal_index)
         self._field[robot] = field.reshape(self.shape)
         return True
+
+    def side_costs(self, robot: int, xy: np.ndarray, goal: np.ndarray, *,
+                   radius_m: float) -> tuple[float, float]:
+        """Lengths (m) of the shortest ways to ``goal`` through robot ``robot``'s map that pass
+        left and right of the goal line: plans the field (:meth:`plan`), then for each side the
+        least ``way from xy to p + field at p`` over the cells p at ``radius_m`` (+- one cell)
+        on that side (more than one cell off the goal line); inf where there is none."""
+        if not self.plan(robot, xy, goal):
+            return math.inf, math.inf
+        field = self._field[robot]
+        here = self.cell(xy)
+        reach = int(math.ceil(radius_m / self.res)) + 1
+        r0, c0 = max(here[0] - reach, 0), max(here[1] - reach, 0)
+        r1, c1 = min(here[0] + reach + 1, self.shape[0]), min(here[1] + reach + 1, self.shape[1])
+        window = self._closed[r0:r1, c0:c1]
+        start = (here[0] - r0) * window.shape[1] + (here[1] - c0)
+        near = dijkstra(grid_graph(window, connectivity=8), directed=True, indices=start,
+                        limit=reach + 1).reshape(window.shape) * self.res
+        rows, cols = np.mgrid[r0:r1, c0:c1]
+        centres = self.lo + (np.stack([cols, rows], axis=-1) + 0.5) * self.res
+        rel = centres - np.asarray(xy, float)
+        to_goal = np.asarray(goal, float) - np.asarray(xy, float)
+        unit = to_goal / max(float(np.hypot(*to_goal)), 1e-9)
+        lateral = unit[0] * rel[..., 1] - unit[1] * rel[..., 0]
+        ring = np.abs(np.hypot(rel[..., 0], rel[..., 1]) - radius_m) <= self.res
+        cost = near + field[r0:r1, c0:c1] * self.res
+        out = []
+        for sign in (1, -1):
+            on_side = ring & (sign * lateral > self.res) & np.isfinite(cost)
+            out.append(float(cost[on_side].min()) if on_side.any() else math.inf)
+        return out[0], out[1]
 
     def waypoint(self, robot: int, xy: np.ndarray, lookahead_m: float) -> np.ndarray | None:
         """The point (m) about ``lookahead_m`` down the last planned field from ``xy`` (steepest
