@@ -86,7 +86,8 @@ class BugController(Controller):
         maps = self.planner.maps
         if maps is None:
             return None
-        left, right = maps.side_costs(i, self.poses[i, :2], self.goals[i], radius_m=SIDE_RADIUS_M)
+        left, right = maps.side_costs(i, self.poses[i, :2], self.goals[i], radius_m=SIDE_RADIUS_M,
+                                      shared_only=True)
         if min(left, right) == np.inf or abs(left - right) < SIDE_MARGIN_M:
             return None
         return 1 if left < right else -1

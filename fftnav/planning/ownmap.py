@@ -70,6 +70,8 @@ class OwnMaps:
         #: Control tick of the last hit in / beam through each cell, -1 never.
         self.last_hit = np.full((n_robots, *self.shape), -1, dtype=np.int32)
         self.last_free = np.full((n_robots, *self.shape), -1, dtype=np.int32)
+        #: Control tick at which a neighbour's segment last marked a cell (:meth:`add_segments`).
+        self.last_shared = np.full((n_robots, *self.shape), -1, dtype=np.int32)
         reach = int(math.floor(clearance_m / self.res + 1e-9))
         di, dj = np.mgrid[-reach:reach + 1, -reach:reach + 1]
         self._disc = np.hypot(di, dj) * self.res <= clearance_m + 1e-9
@@ -130,8 +132,9 @@ class OwnMaps:
             n = int(math.ceil(float(np.hypot(*(b - a))) / (self.res / 2.0))) + 1
             cells = self.cell(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
             cells = cells[self.inside(cells)]
-            self.last_hit[robot, cells[:, 0], cells[:, 1]] = np.maximum(
-                self.last_hit[robot, cells[:, 0], cells[:, 1]], tick)
+            for layer in (self.last_hit, self.last_shared):
+                layer[robot, cells[:, 0], cells[:, 1]] = np.maximum(
+                    layer[robot, cells[:, 0], cells[:, 1]], tick)
 
     def occupied(self, robot: int) -> np.ndarray:
         """Robot ``robot``'s occupancy grid (True: its last look at the cell was a hit)."""
@@ -156,33 +159,56 @@ class OwnMaps:
         return True
 
     def side_costs(self, robot: int, xy: np.ndarray, goal: np.ndarray, *,
-                   radius_m: float) -> tuple[float, float]:
-        """Lengths (m) of the shortest ways to ``goal`` through robot ``robot``'s map that pass
-        left and right of the goal line: plans the field (:meth:`plan`), then for each side the
-        least ``way from xy to p + field at p`` over the cells p at ``radius_m`` (+- one cell)
-        on that side (more than one cell off the goal line); inf where there is none."""
+                   radius_m: float, shared_only: bool = False) -> tuple[float, float]:
+        """Lengths (m) of the shortest ways from ``xy`` to ``goal`` through robot ``robot``'s map
+        that pass the obstacle ahead on its left and on its right.
+
+        The map's closed cells (:meth:`plan`) are cut along the goal line, from ``range_m``
+        behind the robot to the first closed cell ahead of it (the obstacle); a way on the left
+        then starts through a cell at ``radius_m`` left of that cut and cannot cross it, and
+        likewise on the right. Either length is ``radius_m`` plus the least distance to the goal
+        from such a cell; inf where there is none (both inf when nothing closed lies ahead
+        within ``range_m``, and when ``shared_only`` and no neighbour's segment still in the
+        map lies within ``range_m`` of that obstacle: nothing they said is about it)."""
         if not self.plan(robot, xy, goal):
             return math.inf, math.inf
-        field = self._field[robot]
+        xy, goal = np.asarray(xy, float), np.asarray(goal, float)
+        to_goal = goal - xy
+        unit = to_goal / max(float(np.hypot(*to_goal)), 1e-9)
+        step = self.res / 2.0
+        ahead = self.cell(xy + np.arange(step, self.range_m, step)[:, None] * unit)
+        ok = self.inside(ahead)
+        hit = np.flatnonzero(ok & self._closed[np.clip(ahead[:, 0], 0, self.shape[0] - 1),
+                                               np.clip(ahead[:, 1], 0, self.shape[1] - 1)])
+        if not len(hit):
+            return math.inf, math.inf
+        if shared_only:
+            block = ahead[hit[0]]
+            span = int(math.ceil(self.range_m / self.res))
+            r0, c0 = max(block[0] - span, 0), max(block[1] - span, 0)
+            told = (self.last_shared[robot, r0:block[0] + span + 1, c0:block[1] + span + 1]
+                    > self.last_free[robot, r0:block[0] + span + 1, c0:block[1] + span + 1])
+            if not told.any():
+                return math.inf, math.inf
+        cut = self.cell(xy + np.arange(-self.range_m, step * (hit[0] + 1), step)[:, None] * unit)
+        cut = cut[self.inside(cut)]
+        closed = self._closed.copy()
+        closed[cut[:, 0], cut[:, 1]] = True
+        there = self.cell(goal)
+        field = dijkstra(grid_graph(closed, connectivity=8), directed=True,
+                         indices=int(there[0] * self.shape[1] + there[1])).reshape(self.shape)
         here = self.cell(xy)
         reach = int(math.ceil(radius_m / self.res)) + 1
         r0, c0 = max(here[0] - reach, 0), max(here[1] - reach, 0)
         r1, c1 = min(here[0] + reach + 1, self.shape[0]), min(here[1] + reach + 1, self.shape[1])
-        window = self._closed[r0:r1, c0:c1]
-        start = (here[0] - r0) * window.shape[1] + (here[1] - c0)
-        near = dijkstra(grid_graph(window, connectivity=8), directed=True, indices=start,
-                        limit=reach + 1).reshape(window.shape) * self.res
         rows, cols = np.mgrid[r0:r1, c0:c1]
-        centres = self.lo + (np.stack([cols, rows], axis=-1) + 0.5) * self.res
-        rel = centres - np.asarray(xy, float)
-        to_goal = np.asarray(goal, float) - np.asarray(xy, float)
-        unit = to_goal / max(float(np.hypot(*to_goal)), 1e-9)
+        rel = self.lo + (np.stack([cols, rows], axis=-1) + 0.5) * self.res - xy
         lateral = unit[0] * rel[..., 1] - unit[1] * rel[..., 0]
         ring = np.abs(np.hypot(rel[..., 0], rel[..., 1]) - radius_m) <= self.res
-        cost = near + field[r0:r1, c0:c1] * self.res
+        cost = field[r0:r1, c0:c1] * self.res + radius_m
         out = []
         for sign in (1, -1):
-            on_side = ring & (sign * lateral > self.res) & np.isfinite(cost)
+            on_side = ring & (sign * lateral > 0) & np.isfinite(cost)
             out.append(float(cost[on_side].min()) if on_side.any() else math.inf)
         return out[0], out[1]
 
