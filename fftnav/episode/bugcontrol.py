@@ -4,8 +4,10 @@
 masks feed the :class:`~fftnav.planning.bug.BugPlanner`, which asks the decision policy for a side
 when a goal direction is blocked; with a policy whose messages are ``"observation"``
 (``fusion``) a robot whose goal direction is blocked broadcasts its compressed observation (or
-every tick, with ``comms.broadcast = "every_tick"``); with ``"passages"`` (``collab``) robots
-share the passages they found (:mod:`fftnav.episode.collab`). Its rows carry the policy's name,
+every tick, with ``comms.broadcast = "every_tick"``); with ``"walls"`` (``collab``) robots
+share the wall segments they see (:mod:`fftnav.episode.collab`), drawn into the receivers' own
+maps, and the policy may ask which side the way through that map passes
+(:meth:`~fftnav.planning.ownmap.OwnMaps.side_costs`). Its rows carry the policy's name,
 its decision counters, the planner's diagnostics and the neighbour accounting.
 """
 
@@ -14,14 +16,25 @@ from __future__ import annotations
 import numpy as np
 
 from fftnav import metrics
-from fftnav.episode.collab import PERIOD_TICKS, PassageBoard
+from fftnav.episode.collab import (
+    MAX_SEGMENTS_PER_MESSAGE,
+    PERIOD_TICKS,
+    decode_segments,
+    encode_segments,
+    scan_segments,
+)
 from fftnav.episode.comms import Channel
 from fftnav.episode.decider import Decider
 from fftnav.planning.bug import BugPlanner
 from fftnav.planning.controllers import Controller, ControllerSetup, SwarmStep
 from fftnav.planning.policies import DecisionContext, Policy
 
-__all__ = ["BugController"]
+__all__ = ["SIDE_MARGIN_M", "SIDE_RADIUS_M", "BugController"]
+
+#: ``collab``'s map says which side only when one side's way is this much shorter (m).
+SIDE_MARGIN_M = 2.0
+#: The two sides' ways are compared through the cells this far (m) from the robot.
+SIDE_RADIUS_M = 1.0
 
 
 class BugController(Controller):
@@ -37,23 +50,27 @@ class BugController(Controller):
         The episode's message channel (the decider reads the inboxes from it).
     full_circle : bool
         Whether the scans cover 360 degrees.
+    area_m : (float, float), optional
+        Width and height (m) of the mission area (the world's map, corner at the origin): the
+        robots' own maps cover it (:class:`~fftnav.planning.bug.BugPlanner`).
     """
 
     uses_pipeline = True
 
     def __init__(self, setup: ControllerSetup, policy: Policy, channel: Channel, *,
-                 full_circle: bool) -> None:
+                 full_circle: bool, area_m: tuple[float, float] | None = None) -> None:
         super().__init__(setup)
         n = setup.n_robots
         self.policy, self.rng, self.channel = policy, setup.rng, channel
         self.name = policy.name  # type: ignore[misc]  # its rows carry the policy's name
         self.decider = Decider(setup.config, channel, setup.rng, full_circle=full_circle)
-        self.board = PassageBoard(n)  # collab's passages (empty for the other policies)
-        self._seen = np.zeros(n, dtype=np.int64)  # board version at the last (re)decision
+        self.heard = np.zeros(n, dtype=np.int64)  # wall messages read (collab)
+        self._seen = np.zeros(n, dtype=np.int64)  # messages read at the last (re)decision
         self.poses = np.zeros((n, 3))
         self.goals = np.zeros((n, 2))
         self.planner = BugPlanner.for_swarm(
-            n, setup.config, self._decide, self._reconsider if policy.reconsiders else None)
+            n, setup.config, self._decide, self._reconsider if policy.reconsiders else None,
+            area_m=area_m)
 
     def _decide(self, i: int) -> int:
         ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
@@ -62,33 +79,46 @@ class BugController(Controller):
         return self.policy.decide(ctx)
 
     def _shared_side(self, i: int) -> int | None:
-        self._seen[i] = self.board.version[i]
-        return self.board.side(i, self.poses[i, :2], self.goals[i])
+        """The side (+1 left, -1 right of the goal) whose way to the goal through robot ``i``'s
+        map (its own scans and the walls its neighbours shared) is shorter by at least
+        SIDE_MARGIN_M; None if neither is."""
+        self._seen[i] = self.heard[i]
+        maps = self.planner.maps
+        if maps is None:
+            return None
+        left, right = maps.side_costs(i, self.poses[i, :2], self.goals[i], radius_m=SIDE_RADIUS_M,
+                                      shared_only=True)
+        if min(left, right) == np.inf or abs(left - right) < SIDE_MARGIN_M:
+            return None
+        return 1 if left < right else -1
 
     def _reconsider(self, i: int, side: int) -> int:
-        """A robot following on ``side`` takes the side of the best shared passage when its
-        board changed since it last decided (news arrived); otherwise it keeps its side."""
-        if self.board.version[i] == self._seen[i]:
+        """A following robot asks its policy again when news arrived since it last decided."""
+        if self.heard[i] == self._seen[i]:
             return side
-        shared = self._shared_side(i)
-        return side if shared is None else shared
+        return self._decide(i)
 
-    def _read_passages(self, tick: int, present: np.ndarray) -> None:
+    def _read_walls(self, tick: int, present: np.ndarray) -> None:
+        maps, delay = self.planner.maps, self.config.comms.delay_ticks
+        if maps is None:
+            return
         for r in np.flatnonzero(present):
-            for pkt in self.channel.inbox(int(r), tick=tick, max_age_ticks=PERIOD_TICKS):
-                self.board.receive(int(r), pkt.sender, pkt.tick, pkt.payload)
+            for pkt in self.channel.inbox(int(r), tick=tick, max_age_ticks=1 + delay):
+                if pkt.tick == tick - 1 - delay:  # each packet once, when it arrives
+                    maps.add_segments(int(r), tick, decode_segments(pkt.payload))
+                    self.heard[r] += 1
 
-    def _passages(self, tick: int, idx: np.ndarray) -> dict[int, bytes]:
-        """``collab``: robots that just got past an obstacle learn a passage and tell it at
-        once; every robot that knows passages repeats them every PERIOD_TICKS ticks."""
-        fresh = {int(i) for i in idx if self.planner.left_boundary[i]
-                 and self.board.add(int(i), self.poses[i, :2])}
+    def _walls(self, swarm: SwarmStep, idx: np.ndarray) -> dict[int, bytes]:
+        """``collab``: every PERIOD_TICKS ticks a robot broadcasts the longest wall segments of
+        its current scan (robots take turns by index)."""
         outgoing: dict[int, bytes] = {}
         for i in idx.tolist():
-            if i in fresh or (tick + i) % PERIOD_TICKS == 0:
-                payload = self.board.message(i)
-                if payload is not None:
-                    outgoing[i] = payload
+            if (swarm.tick + i) % PERIOD_TICKS:
+                continue
+            segments = scan_segments(swarm.poses[i], swarm.ranges_m[i], swarm.angles_rad,
+                                     range_m=self.config.sensor.range_m)
+            if len(segments):
+                outgoing[i] = encode_segments(segments[:MAX_SEGMENTS_PER_MESSAGE])
         return outgoing
 
     def step(self, swarm: SwarmStep) -> tuple[np.ndarray, dict[int, bytes]]:
@@ -100,13 +130,13 @@ class BugController(Controller):
             present[idx] = True
         self.poses, self.goals = swarm.poses, swarm.goals
         self.decider.observe(swarm.tick, swarm.poses, swarm.goals, idx, sigma, present=present)
-        if self.policy.messages == "passages":
-            self._read_passages(swarm.tick, present)
+        if self.policy.messages == "walls":
+            self._read_walls(swarm.tick, present)
         commands, blocked = self.planner.step(swarm.time_s, swarm.poses, swarm.goals,
                                               swarm.safe, swarm.ranges_m, swarm.y1)
         outgoing: dict[int, bytes] = {}
-        if self.policy.messages == "passages":
-            outgoing = self._passages(swarm.tick, idx)
+        if self.policy.messages == "walls":
+            outgoing = self._walls(swarm, idx)
         elif self.policy.messages == "observation":
             every_tick = self.config.comms.broadcast == "every_tick"
             for j, i in enumerate(idx.tolist()):
@@ -133,7 +163,7 @@ class BugController(Controller):
             "follow_time_s": float(planner.follow_ticks[robot] * dt),
             "stall_time_s": float(planner.stall_ticks[robot] * dt),
             "loop_flips": int(planner.loop_flips[robot]),
-            "contour_time_s": float(planner.contour_ticks[robot] * dt),
+            "escape_time_s": float(planner.escape_ticks[robot] * dt),
             "sides_remembered": int(planner.sides_remembered[robot]),
             "sides_reconsidered": int(planner.reconsidered[robot]),
             **{f"neighbours_{reason}": self.decider.neighbour_reasons[robot][reason]

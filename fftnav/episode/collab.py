@@ -1,20 +1,18 @@
-"""What ``collab`` robots share: passages, the places where a robot got past an obstacle.
+"""What ``collab`` robots share: the walls they see, as a few line segments.
 
-A robot that was blocked, followed the obstacle's boundary and left it with progress (the Bug
-planner's leave rule) has found a *passage*: its position at that moment lies beyond an obstacle,
-on a way that works. Each robot keeps a board of the passages it found and those it heard of, and
-broadcasts the newest ones once a second through the episode's lossy, delayed, range-limited
-:class:`~fftnav.episode.comms.Channel` (receivers store them, so a passage travels from robot to
-robot: relaying what robots ahead have seen). A passage message is at most
-:data:`MAX_MESSAGE_BYTES` bytes.
+Every second each robot fits line segments to the readings of its current lidar scan
+(:func:`scan_segments`: chains of neighbouring readings simplified by Douglas-Peucker, the ones at
+least :data:`MIN_SEGMENT_M` long: walls and long obstacle sides, not trunks or robots) and
+broadcasts the :data:`MAX_SEGMENTS_PER_MESSAGE` longest through the episode's lossy, delayed,
+range-limited :class:`~fftnav.episode.comms.Channel`, in at most :data:`MAX_MESSAGE_BYTES` bytes
+(:func:`encode_segments`: a count byte, then the end points in centimetres as int16). A receiver
+draws them into its own map (:meth:`fftnav.planning.ownmap.OwnMaps.add_segments`): a robot at a
+wall then knows where its neighbours saw the wall go on, and where they saw it end.
 
-When a robot is blocked, :meth:`PassageBoard.side` looks for the known passage ahead of it
-(toward its goal, within ``PASSAGE_RANGE_M``) that minimises the straight-line estimate of the
-way through it, ``|p - x| + |g - p|``, and returns the side it lies on (left +1 or right -1
-of the goal direction), or None when no passage lies clearly to one side. The ``collab`` policy
-(:mod:`fftnav.planning.policies`) takes that side when its own view is not decisive, and the
-planner reconsiders a side being followed when news arrives (docs/planner.md, "collab").
-Pure numpy; no ground truth beyond the robot's own pose and its neighbours' messages.
+At a decision ``collab`` compares the two sides by the length of the way to the goal through
+that map (:meth:`fftnav.planning.ownmap.OwnMaps.side_costs`) and takes the clearly shorter one
+(docs/planner.md, "collab"). Pure numpy; nothing but the robot's own scan and pose and its
+neighbours' messages.
 """
 
 from __future__ import annotations
@@ -24,107 +22,95 @@ import struct
 
 import numpy as np
 
-__all__ = ["MAX_MESSAGE_BYTES", "PassageBoard", "decode_passages", "encode_passages"]
+__all__ = [
+    "MAX_MESSAGE_BYTES",
+    "MAX_SEGMENTS_PER_MESSAGE",
+    "PERIOD_TICKS",
+    "decode_segments",
+    "encode_segments",
+    "scan_segments",
+]
 
-#: Upper bound of a passage message (issue 10: at most 64 bytes per message).
+#: Upper bound of a message (issue 10: at most 64 bytes per message).
 MAX_MESSAGE_BYTES = 64
-#: Passages per message: 1 count byte + 4 bytes each (x and y in cm, int16) = 49 bytes.
-MAX_PASSAGES_PER_MESSAGE = 12
-#: Two passages closer than this (m) are one.
-MERGE_RADIUS_M = 0.5
-#: Only passages within this distance (m) of a robot are considered (3 R for R = 3 m).
-PASSAGE_RANGE_M = 9.0
-#: A passage less than this (m) to either side of the goal line says nothing about the side.
-MIN_LATERAL_M = 0.5
-#: A robot broadcasts its passages every this many control ticks (once a second at 10 Hz).
+#: Segments per message: 1 count byte + 8 bytes each (two end points, x and y in cm) = 57 bytes.
+MAX_SEGMENTS_PER_MESSAGE = 7
+#: Only segments at least this long (m) are shared (a trunk or a robot is shorter).
+MIN_SEGMENT_M = 0.6
+#: Two neighbouring readings farther apart than this (m) belong to different obstacles.
+CHAIN_GAP_M = 0.35
+#: Douglas-Peucker tolerance (m): no reading lies farther than this from its segment.
+FIT_TOLERANCE_M = 0.08
+#: A robot broadcasts its segments every this many control ticks (once a second at 10 Hz).
 PERIOD_TICKS = 10
 
 
-def encode_passages(points: np.ndarray) -> bytes:
-    """``points`` ``(n, 2)`` (m, at most :data:`MAX_PASSAGES_PER_MESSAGE`, inside +-327 m) as
-    bytes: a count byte, then x and y in centimetres as little-endian int16.
+def encode_segments(segments: np.ndarray) -> bytes:
+    """``segments`` ``(n, 2, 2)`` (m, at most :data:`MAX_SEGMENTS_PER_MESSAGE`, inside +-327 m)
+    as bytes: a count byte, then x0, y0, x1, y1 in centimetres as little-endian int16.
 
-    >>> encode_passages(np.array([[1.0, 2.5]])).hex()
-    '016400fa00'
+    >>> encode_segments(np.array([[[1.0, 2.5], [0.0, -1.0]]])).hex()
+    '016400fa0000009cff'
     """
-    pts = np.asarray(points, dtype=float).reshape(-1, 2)
-    if len(pts) > MAX_PASSAGES_PER_MESSAGE:
-        raise ValueError(f"points must hold at most {MAX_PASSAGES_PER_MESSAGE} passages, "
-                         f"got points with {len(pts)}")
-    cm = np.round(pts * 100.0)
+    seg = np.asarray(segments, dtype=float).reshape(-1, 2, 2)
+    if len(seg) > MAX_SEGMENTS_PER_MESSAGE:
+        raise ValueError(f"segments must hold at most {MAX_SEGMENTS_PER_MESSAGE} segments, "
+                         f"got segments with {len(seg)}")
+    cm = np.round(seg * 100.0)
     if np.any(np.abs(cm) > 32767):
-        raise ValueError(f"points must lie within +-327.67 m, got points={pts.tolist()}")
-    return struct.pack(f"<B{2 * len(pts)}h", len(pts), *cm.astype(int).ravel().tolist())
+        raise ValueError(f"segments must lie within +-327.67 m, got segments={seg.tolist()}")
+    return struct.pack(f"<B{4 * len(seg)}h", len(seg), *cm.astype(int).ravel().tolist())
 
 
-def decode_passages(data: bytes) -> np.ndarray:
-    """The passages ``(n, 2)`` (m) of a message written by :func:`encode_passages`."""
-    if len(data) < 1 or len(data) != 1 + 4 * data[0]:
-        raise ValueError(f"data must be a passage message (1 + 4 n bytes), got {len(data)} bytes")
-    values = struct.unpack(f"<{2 * data[0]}h", data[1:])
-    return np.asarray(values, dtype=float).reshape(-1, 2) / 100.0
+def decode_segments(data: bytes) -> np.ndarray:
+    """The segments ``(n, 2, 2)`` (m) of a message written by :func:`encode_segments`."""
+    if len(data) < 1 or len(data) != 1 + 8 * data[0]:
+        raise ValueError(f"data must be a segment message (1 + 8 n bytes), got {len(data)} bytes")
+    values = struct.unpack(f"<{4 * data[0]}h", data[1:])
+    return np.asarray(values, dtype=float).reshape(-1, 2, 2) / 100.0
 
 
-class PassageBoard:
-    """The passages each of ``n_robots`` robots knows, newest last.
-
-    Parameters
-    ----------
-    n_robots : int
-        Robots of the episode.
-    """
-
-    def __init__(self, n_robots: int) -> None:
-        self.known: list[list[tuple[float, float]]] = [[] for _ in range(n_robots)]
-        #: Per robot: how many times its board changed (a new passage was learned).
-        self.version = np.zeros(n_robots, dtype=np.int64)
-        self._heard: dict[tuple[int, int], int] = {}  # (receiver, sender) -> tick last read
-
-    def add(self, robot: int, point: np.ndarray) -> bool:
-        """Learn a passage (own or heard); False if a known one lies within MERGE_RADIUS_M."""
-        x, y = (float(v) for v in point)
-        for px, py in self.known[robot]:
-            if math.hypot(px - x, py - y) < MERGE_RADIUS_M:
-                return False
-        self.known[robot].append((x, y))
-        self.version[robot] += 1
-        return True
-
-    def message(self, robot: int) -> bytes | None:
-        """The message robot ``robot`` broadcasts: its newest passages (None: it knows none)."""
-        if not self.known[robot]:
-            return None
-        return encode_passages(np.array(self.known[robot][-MAX_PASSAGES_PER_MESSAGE:]))
-
-    def receive(self, robot: int, sender: int, tick: int, payload: bytes) -> None:
-        """Read a packet from ``sender`` sent at ``tick`` (a packet read before is skipped)."""
-        if self._heard.get((robot, sender)) == tick:
+def _simplify(points: np.ndarray, out: list[tuple[np.ndarray, np.ndarray]]) -> None:
+    """Douglas-Peucker: split the chain at its reading farthest from the end-to-end line."""
+    a, b = points[0], points[-1]
+    ab = b - a
+    length = float(np.hypot(*ab))
+    if len(points) > 2:
+        rel = points - a
+        if length > 0:
+            off = np.abs(ab[0] * rel[:, 1] - ab[1] * rel[:, 0]) / length
+        else:
+            off = np.hypot(rel[:, 0], rel[:, 1])
+        k = int(np.argmax(off))
+        if off[k] > FIT_TOLERANCE_M:
+            _simplify(points[:k + 1], out)
+            _simplify(points[k:], out)
             return
-        self._heard[(robot, sender)] = tick
-        for point in decode_passages(payload):
-            self.add(robot, point)
+    out.append((a, b))
 
-    def side(self, robot: int, position: np.ndarray, goal: np.ndarray) -> int | None:
-        """The side (+1 left, -1 right of the goal direction) of the best known passage ahead
-        of a robot at ``position`` driving to ``goal``; None if there is none, or if it lies
-        less than MIN_LATERAL_M off the goal line."""
-        if not self.known[robot]:
-            return None
-        pts = np.array(self.known[robot])
-        to_goal = np.asarray(goal, float) - np.asarray(position, float)
-        dist = float(np.hypot(*to_goal))
-        if dist == 0.0:
-            return None
-        ahead = to_goal / dist
-        rel = pts - np.asarray(position, float)
-        along = rel @ ahead
-        lateral = ahead[0] * rel[:, 1] - ahead[1] * rel[:, 0]  # left positive
-        reach = np.hypot(rel[:, 0], rel[:, 1])
-        ok = (along > 0.0) & (along < dist) & (reach <= PASSAGE_RANGE_M)
-        if not ok.any():
-            return None
-        cost = np.where(ok, reach + np.hypot(*(np.asarray(goal, float) - pts).T), np.inf)
-        best = int(np.argmin(cost))
-        if abs(lateral[best]) < MIN_LATERAL_M:
-            return None
-        return 1 if lateral[best] > 0 else -1
+
+def scan_segments(pose: np.ndarray, ranges_m: np.ndarray, angles_rad: np.ndarray, *,
+                  range_m: float) -> np.ndarray:
+    """Line segments ``(n, 2, 2)`` (world frame, m, longest first) fitted to a scan's readings.
+
+    Readings below ``range_m`` (zero: no reading) taken in beam order form chains while
+    neighbours lie within CHAIN_GAP_M; each chain is simplified to segments no reading of
+    which lies farther than FIT_TOLERANCE_M from it; segments shorter than MIN_SEGMENT_M are
+    dropped.
+    """
+    r = np.asarray(ranges_m, dtype=float)
+    hit = (r > 0) & (r < range_m * (1.0 - 1e-6))
+    x, y, yaw = (float(v) for v in pose)
+    pts = np.stack([x + r * np.cos(angles_rad + yaw), y + r * np.sin(angles_rad + yaw)], axis=1)
+    idx = np.flatnonzero(hit)
+    if len(idx) < 2:
+        return np.zeros((0, 2, 2))
+    jump = np.hypot(*(pts[idx[1:]] - pts[idx[:-1]]).T) > CHAIN_GAP_M
+    breaks = np.flatnonzero(jump | (np.diff(idx) > 1)) + 1
+    segments: list[tuple[np.ndarray, np.ndarray]] = []
+    for chain in np.split(idx, breaks):
+        if len(chain) >= 2:
+            _simplify(pts[chain], segments)
+    kept = [(a, b) for a, b in segments if math.hypot(*(b - a)) >= MIN_SEGMENT_M]
+    kept.sort(key=lambda s: -math.hypot(*(s[1] - s[0])))
+    return np.array(kept, dtype=float).reshape(-1, 2, 2)

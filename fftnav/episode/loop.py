@@ -85,7 +85,8 @@ class _Swarm:
         setup = ControllerSetup(n, config, rng)
         if policy.policy is not None:
             self.controller: Controller = BugController(setup, policy.policy, self.channel,
-                                                        full_circle=self.pipe.bank.full_circle)
+                                                        full_circle=self.pipe.bank.full_circle,
+                                                        area_m=world.size_m)
         else:
             assert policy.controller is not None
             self.controller = policy.controller(setup)

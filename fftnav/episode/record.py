@@ -50,9 +50,10 @@ class EpisodeRow:
         Time (s) the planner spent following a boundary, and in its stall fallback (no safe
         heading on the chosen side).
     loop_flips : int
-        Side flips by the planner's loop detection.
-    contour_time_s : float
-        Time (s) in the planner's contour mode.
+        Loop detections of the planner (a follow without progress: escape, or a side flip
+        when escaping did not help).
+    escape_time_s : float
+        Time (s) the planner steered along the way to the goal through the robot's own map.
     sides_remembered : int
         Decisions taken from the planner's tried-sides memory (the policy not asked).
     sides_reconsidered : int
@@ -84,7 +85,7 @@ neighbours_no_message, neighbours_lost : int
     follow_time_s: float = 0.0
     stall_time_s: float = 0.0
     loop_flips: int = 0
-    contour_time_s: float = 0.0
+    escape_time_s: float = 0.0
     sides_remembered: int = 0
     sides_reconsidered: int = 0
     neighbours_fused: int = 0

@@ -22,7 +22,8 @@ from fftnav.config import SwarmConfig
 from fftnav.observe.safe import beam_index, nearest_safe_headings
 from fftnav.observe.scan import beam_angles_rad, wrap_angle
 from fftnav.planning import corridor
-from fftnav.validate import check_number
+from fftnav.planning.ownmap import OwnMaps
+from fftnav.validate import check_integer, check_number
 
 __all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
 
@@ -90,16 +91,25 @@ class PlannerParams:
         Leave rule: the goal distance must be this much below the distance at the hit point.
     loop_timeout_s : float
         Loop detection: following for this long without getting ``progress_m`` closer to the
-        goal than ever before during the follow flips the side.
-    loop_growth : float
-        Each further flip within one follow waits ``loop_growth`` times longer (25, 50, 100 s):
-        a robot cannot swing between two sides that each fail within the first timeout, and
-        explores farther on each side in turn.
+        goal than ever before during the follow (circling, shuttling in a corner, boxed in by
+        other robots) starts an escape.
     retreat_m : float
-        Contour mode: once a following robot is this much farther from the goal than its best
-        distance of the follow, it follows the obstacle's contour (the first safe heading met
-        turning from its obstacle side, not from the goal direction) until it beats its best
-        distance again.
+        Once a following robot is this much farther from the goal than its best distance of
+        the follow (it backs out of a pocket, or runs along a wall away from the goal), it
+        escapes too. An escaping robot steers along the shortest way to its goal through its
+        own map (:class:`~fftnav.planning.ownmap.OwnMaps`) instead of toward the goal, until
+        the leave rule.
+    map_resolution_m, map_clearance_m : float
+        Cell size of the robots' own maps, and the distance from a seen obstacle within which
+        the escape way may not pass.
+    map_margin_m : float
+        The own maps cover the mission area, the swarm's starts and goals, and this margin
+        around them.
+    escape_lookahead_m, replan_s : float
+        An escaping robot steers to the point this far along its way, replanned every
+        ``replan_s`` seconds from its map as it is then.
+    map_every : int
+        The own maps take every other beam of the scans of one control tick in ``map_every``.
     memory_radius_m : float
         Tried sides: at a new decision within this distance of one of its earlier hit points,
         and no closer to the goal than it was there, a robot takes the side it did not take
@@ -114,20 +124,26 @@ class PlannerParams:
     control_hz: float = 10.0
     heading_tol_rad: float = math.radians(3.0)
     progress_m: float = 0.05
-    loop_timeout_s: float = 25.0
+    loop_timeout_s: float = 10.0
     clearance_m: float = 0.03
     lookahead_m: float = 0.1
-    loop_growth: float = 2.0
     retreat_m: float = 0.5
     memory_radius_m: float = 1.0
+    map_resolution_m: float = 0.2
+    map_clearance_m: float = 0.3
+    map_margin_m: float = 2.0
+    escape_lookahead_m: float = 1.0
+    replan_s: float = 1.0
+    map_every: int = 2
 
     def __post_init__(self) -> None:
         for name in ("v_max_mps", "w_max_radps", "control_hz", "heading_tol_rad", "loop_timeout_s",
-                     "retreat_m"):
+                     "retreat_m", "map_resolution_m", "escape_lookahead_m", "replan_s"):
             check_number(name, getattr(self, name), low=0, low_open=True)
-        for name in ("progress_m", "clearance_m", "lookahead_m", "memory_radius_m"):
+        for name in ("progress_m", "clearance_m", "lookahead_m", "memory_radius_m",
+                     "map_clearance_m", "map_margin_m"):
             check_number(name, getattr(self, name), low=0)
-        check_number("loop_growth", self.loop_growth, low=1)
+        check_integer("map_every", self.map_every, low=1)
 
     @classmethod
     def for_swarm(cls, config: SwarmConfig, **constants: float) -> PlannerParams:
@@ -144,9 +160,11 @@ class _Memory:
     hit_dist_m: float = math.inf
     best_dist_m: float = math.inf
     best_time_s: float = 0.0
-    flips: int = 0  # loop-detection flips in this follow
+    flips: int = 0  # loop detections in this follow
     reconsidered: bool = False  # the side was changed by reconsider in this follow
-    contour: bool = False  # contour mode (retreated beyond retreat_m)
+    escape: bool = False  # steering along the own map's way to the goal
+    planned_s: float = -math.inf  # when the escape way was last planned
+    turn: int = 0  # escape: the side turned to while the way's bearing is unsafe (0: none)
     #: Hit points: (x m, y m, goal distance m, side taken).
     hits: list[tuple[float, float, float, int]] = field(default_factory=list)
 
@@ -171,9 +189,14 @@ class BugPlanner:
         ``decide(robot) -> +1 (left) | -1 (right)``, called once per decision.
     reconsider : callable, optional
         ``reconsider(robot, side) -> side``, called on the ticks a robot follows a boundary
-        before any loop flip and outside contour mode (policies that revise a side when news
+        before any loop detection and outside escape (policies that revise a side when news
         arrives: ``collab``); a different side is taken at once (the loop-detection timer
         restarts), at most once per follow. None: never.
+    range_m : float
+        Lidar range R (readings of R are "no return" in the robots' own maps).
+    area_m : (float, float), optional
+        Width and height (m) of the mission area, corner at the origin. The robots' own maps
+        cover it, the starts and the goals, and ``map_margin_m`` around them.
     """
 
     n_robots: int
@@ -183,31 +206,36 @@ class BugPlanner:
     decide: Callable[[int], int]
     params: PlannerParams = field(default_factory=PlannerParams)
     reconsider: Callable[[int, int], int] | None = None
+    range_m: float = 3.0
+    area_m: tuple[float, float] | None = None
 
     @classmethod
     def for_swarm(cls, n_robots: int, config: SwarmConfig, decide: Callable[[int], int],
-                  reconsider: Callable[[int, int], int] | None = None) -> BugPlanner:
+                  reconsider: Callable[[int, int], int] | None = None, *,
+                  area_m: tuple[float, float] | None = None) -> BugPlanner:
         """The planner of ``n_robots`` robots of a swarm configuration (its geometry, lidar field
-        of view, speed limits and control rate)."""
+        of view, speed limits and control rate) in a mission area ``area_m``."""
         return cls(n_robots, l_th_m=config.geometry.l_th_m, r0_m=config.robot.r0_m,
                    fov_rad=config.sensor.fov_rad, decide=decide,
-                   params=PlannerParams.for_swarm(config), reconsider=reconsider)
+                   params=PlannerParams.for_swarm(config), reconsider=reconsider,
+                   range_m=config.sensor.range_m, area_m=area_m)
 
     def __post_init__(self) -> None:
         self.memory = [_Memory() for _ in range(self.n_robots)]
         self.decisions = np.zeros((self.n_robots, 2), dtype=np.int64)  # [left, right]
         #: Per robot: control ticks spent following a boundary, ticks in the stall fallback
-        #: (both while moving), and loop-detection side flips (diagnostics, docs/planner.md).
+        #: (both while moving), and loop detections (diagnostics, docs/planner.md).
         self.follow_ticks = np.zeros(self.n_robots, dtype=np.int64)
         self.stall_ticks = np.zeros(self.n_robots, dtype=np.int64)
         self.loop_flips = np.zeros(self.n_robots, dtype=np.int64)
-        #: Side changes by ``reconsider``; robots that left a boundary by the leave rule on
-        #: the last ``step`` (where they got past an obstacle: ``collab``'s passages).
+        #: Side changes by ``reconsider``.
         self.reconsidered = np.zeros(self.n_robots, dtype=np.int64)
-        #: Ticks in contour mode; decisions taken from the tried-sides memory.
-        self.contour_ticks = np.zeros(self.n_robots, dtype=np.int64)
+        #: Ticks in escape; decisions taken from the tried-sides memory.
+        self.escape_ticks = np.zeros(self.n_robots, dtype=np.int64)
         self.sides_remembered = np.zeros(self.n_robots, dtype=np.int64)
-        self.left_boundary = np.zeros(self.n_robots, dtype=bool)
+        #: Each robot's map of its own scans (made at the first step, over the starts and goals).
+        self.maps: OwnMaps | None = None
+        self._tick = 0
 
     def finish(self, robot: int) -> None:
         """Mark a robot as done (arrived or failed): it gets zero commands from now on."""
@@ -278,10 +306,20 @@ class BugPlanner:
         left, right = nearest_safe_headings(safe, beta, fov_rad=self.fov_rad)
         # contour headings: the first safe beam turning from the right side (passing on the
         # left, obstacle on the right) counter-clockwise, or from the left side clockwise
-        contour_left = nearest_safe_headings(safe, -math.pi / 2, fov_rad=self.fov_rad)[0]
-        contour_right = nearest_safe_headings(safe, math.pi / 2, fov_rad=self.fov_rad)[1]
+        moving = np.array([m.mode in (Mode.GO_TO_GOAL, Mode.FOLLOW) for m in self.memory])
+        if self.maps is None:
+            reach = np.concatenate([poses[:, :2], goals]
+                                   + ([[[0.0, 0.0], list(self.area_m)]] if self.area_m else []))
+            self.maps = OwnMaps(k, reach.min(axis=0) - p.map_margin_m,
+                                reach.max(axis=0) + p.map_margin_m,
+                                resolution_m=p.map_resolution_m, range_m=self.range_m,
+                                clearance_m=p.map_clearance_m)
+        if self._tick % p.map_every == 0:
+            self.maps.update(self._tick, np.flatnonzero(moving), poses, ranges_m, angles,
+                             beam_step=2)
+        self._tick += 1
+        self._step = (poses, goals, safe)
         commands = np.zeros((k, 2))
-        self.left_boundary[:] = False
         for i in range(k):
             mem = self.memory[i]
             if mem.mode in (Mode.DONE, Mode.WAIT):
@@ -290,8 +328,7 @@ class BugPlanner:
                 commands[i] = self._command(float(beta[i]))
                 continue
             target = self._target(i, mem, time_s, poses[i, :2], float(dist[i]), bool(clear[i]),
-                                  beta[i], (left[i], right[i]),
-                                  (contour_left[i], contour_right[i]))
+                                  beta[i], (left[i], right[i]))
             self.follow_ticks[i] += mem.mode == Mode.FOLLOW
             if math.isnan(target):  # no safe heading on the chosen side: stall fallback
                 self.stall_ticks[i] += 1
@@ -303,19 +340,17 @@ class BugPlanner:
 
     def _target(
         self, i: int, mem: _Memory, t: float, xy: np.ndarray, dist: float, clear: bool,
-        beta: float, nearest: tuple[float, float], contour: tuple[float, float],
+        beta: float, nearest: tuple[float, float],
     ) -> float:
         """Heading (rad, robot frame) to steer to; NaN if the chosen side has no safe beam.
-        ``nearest``: the nearest safe headings left and right of the goal; ``contour``: those
-        of contour mode."""
+        ``nearest``: the nearest safe headings left and right of the goal."""
         p = self.params
         left, right = nearest
         if mem.mode == Mode.FOLLOW:
             if clear and dist < mem.hit_dist_m - p.progress_m:
                 mem.mode = Mode.GO_TO_GOAL  # leave rule: goal direction safe and progress made
-                self.left_boundary[i] = True
             else:
-                if (self.reconsider is not None and not mem.reconsidered and not mem.contour
+                if (self.reconsider is not None and not mem.reconsidered and not mem.escape
                         and mem.flips == 0):
                     side = self.reconsider(i, mem.side)
                     if side != mem.side:  # at most once per follow, before any loop trouble
@@ -323,19 +358,16 @@ class BugPlanner:
                         mem.side, mem.best_time_s, mem.reconsidered = side, t, True
                 if dist < mem.best_dist_m - p.progress_m:
                     mem.best_dist_m, mem.best_time_s = dist, t
-                    mem.contour = False
-                elif t - mem.best_time_s > p.loop_timeout_s * p.loop_growth ** mem.flips:
-                    self.loop_flips[i] += 1  # loop detection: flip the side
-                    mem.side = -mem.side
-                    mem.hit_dist_m = mem.best_dist_m = dist
-                    mem.best_time_s = t
-                    mem.flips += 1
-                    mem.contour = False
-                if dist > mem.best_dist_m + p.retreat_m:
-                    mem.contour = True
-                if mem.contour:
-                    self.contour_ticks[i] += 1
-                    return contour[0] if mem.side > 0 else contour[1]
+                looping = t - mem.best_time_s > p.loop_timeout_s
+                if not mem.escape and (looping or dist > mem.best_dist_m + p.retreat_m):
+                    self.loop_flips[i] += looping  # loop detection
+                    mem.flips += looping
+                    mem.escape, mem.planned_s, mem.turn = True, -math.inf, 0
+                if mem.escape:  # until the leave rule (no way: follow side s meanwhile)
+                    heading = self._escape_heading(i, mem, t)
+                    if heading is not None:
+                        self.escape_ticks[i] += 1
+                        return heading
                 if clear:
                     return beta
                 return left if mem.side > 0 else right
@@ -354,9 +386,40 @@ class BugPlanner:
         mem.mode, mem.side = Mode.FOLLOW, side
         mem.hit_dist_m = mem.best_dist_m = dist
         mem.best_time_s = t
-        mem.flips, mem.contour, mem.reconsidered = 0, False, False
+        mem.flips, mem.escape, mem.reconsidered = 0, False, False
         mem.hits.append((float(xy[0]), float(xy[1]), dist, side))
         return left if side > 0 else right
+
+    def _escape_heading(self, i: int, mem: _Memory, t: float) -> float | None:
+        """Heading toward the point ``escape_lookahead_m`` along the way to the goal through
+        robot ``i``'s own map (replanned every ``replan_s``): that bearing if it is safe, else
+        the nearest safe heading to it on either side; None without a way (or a safe heading)."""
+        p, maps = self.params, self.maps
+        assert maps is not None
+        poses, goals, safe = self._step
+        xy, yaw = poses[i, :2], float(poses[i, 2])
+        if t - mem.planned_s >= p.replan_s - 1e-9:
+            mem.planned_s = t
+            maps.plan(i, xy, goals[i])
+        point = maps.waypoint(i, xy, p.escape_lookahead_m)
+        if point is None:
+            return None
+        bearing = float(wrap_angle(math.atan2(point[1] - xy[1], point[0] - xy[0]) - yaw))
+        beams = safe.shape[1]
+        if abs(bearing) <= self.fov_rad / 2.0 + 1e-9:
+            if safe[i, beam_index(np.array([bearing]), beams=beams, fov_rad=self.fov_rad)[0]]:
+                mem.turn = 0
+                return bearing
+        left, right = (float(h[0]) for h in nearest_safe_headings(
+            safe[i:i + 1], np.array([bearing]), fov_rad=self.fov_rad))
+        if mem.turn == 0:  # the nearer side, kept until the bearing is safe (no dithering)
+            dev = [abs(float(wrap_angle(h - bearing))) if not math.isnan(h) else math.inf
+                   for h in (left, right)]
+            if min(dev) == math.inf:
+                return None
+            mem.turn = 1 if dev[0] <= dev[1] else -1
+        heading = left if mem.turn > 0 else right
+        return None if math.isnan(heading) else heading
 
     def _tried_side(self, mem: _Memory, xy: np.ndarray, dist: float) -> int | None:
         """The side not taken at the latest earlier hit point within ``memory_radius_m`` from

@@ -16,11 +16,10 @@ Registered policies:
 ``random``
     A seeded coin per decision.
 ``collab``
-    Ours (issue 10): robots share *passages* (where they got past an obstacle, relayed from robot
-    to robot, :mod:`fftnav.episode.collab`); at a decision the side of the best known passage
-    ahead, unless the robot's own view is decisive (``|P_s - 0.5| >= COLLAB_TRUST_OWN``) or no
-    passage lies clearly to one side, then P_s as ``own-only``. While following, the planner
-    reconsiders the side when news arrives (``reconsiders``).
+    Ours (issue 10): robots share the *walls* they see (a few line segments a second,
+    :mod:`fftnav.episode.collab`), drawn into the receivers' own maps; at a decision the side
+    whose way to the goal through that map is clearly shorter (by 2 m), else P_s as
+    ``own-only``.
 """
 
 from __future__ import annotations
@@ -31,7 +30,6 @@ from dataclasses import dataclass
 import numpy as np
 
 __all__ = [
-    "COLLAB_TRUST_OWN",
     "LEFT",
     "MESSAGES",
     "RIGHT",
@@ -61,8 +59,9 @@ class DecisionContext:
     rng : numpy.random.Generator
         The episode's generator (for ``random``).
     shared_side : callable
-        ``() -> int | None``: the side of the best passage the robot knows of (``collab``'s
-        messages), None if it knows none that says which side.
+        ``() -> int | None``: the side whose way to the goal through the robot's own map (its
+        scans and the walls its neighbours shared, ``collab``'s messages) is clearly shorter,
+        None if neither is.
     """
 
     robot: int
@@ -73,8 +72,8 @@ class DecisionContext:
 
 
 #: What a policy's robots broadcast: nothing, their compressed observation (the paper's
-#: Sigma, ``fusion``) or the passages they know (``collab``).
-MESSAGES: tuple[str | None, ...] = (None, "observation", "passages")
+#: Sigma, ``fusion``) or the wall segments they see (``collab``).
+MESSAGES: tuple[str | None, ...] = (None, "observation", "walls")
 
 
 @dataclass(frozen=True)
@@ -158,15 +157,11 @@ def _fusion(ctx: DecisionContext) -> int:
     return LEFT if ctx.fused_probability() > 0.5 else RIGHT
 
 
-#: ``collab`` trusts its own view over shared passages when P_s is at least this far from 1/2.
-COLLAB_TRUST_OWN = 0.25
-
-
-@register_policy("collab", messages="passages", reconsiders=True)
+@register_policy("collab", messages="walls", reconsiders=False)
 def _collab(ctx: DecisionContext) -> int:
-    """The side of the best shared passage ahead, unless the own view is decisive; else P_s."""
-    p_s = ctx.own_probability()
-    shared = ctx.shared_side() if abs(p_s - 0.5) < COLLAB_TRUST_OWN else None
+    """The side whose way to the goal through the robot's map (its own scans and the walls its
+    neighbours shared) is clearly shorter; else P_s, as ``own-only``."""
+    shared = ctx.shared_side()
     if shared is not None:
         return shared
-    return LEFT if p_s > 0.5 else RIGHT
+    return LEFT if ctx.own_probability() > 0.5 else RIGHT

@@ -1,4 +1,5 @@
-"""collab: passage messages (<= 64 bytes), the passage board, determinism in episodes."""
+"""collab: wall-segment messages (<= 64 bytes), segments fitted to scans, the side of the
+shorter way through a map with shared walls, determinism in episodes."""
 
 from __future__ import annotations
 
@@ -11,52 +12,80 @@ from fftnav.config import EpisodeConfig, SwarmConfig
 from fftnav.episode import episode_csv, run_episode
 from fftnav.episode.collab import (
     MAX_MESSAGE_BYTES,
-    MAX_PASSAGES_PER_MESSAGE,
-    PassageBoard,
-    decode_passages,
-    encode_passages,
+    MAX_SEGMENTS_PER_MESSAGE,
+    decode_segments,
+    encode_segments,
+    scan_segments,
 )
+from fftnav.planning.ownmap import OwnMaps
 from fftnav.world import Polygon, World
 
 UP = math.pi / 2
+R = 3.0
+ANGLES = -math.pi + np.arange(360) * 2 * math.pi / 360
 
 
 def test_messages_round_trip_to_the_centimetre_and_stay_within_64_bytes():
     rng = np.random.default_rng(0)
-    for n in range(MAX_PASSAGES_PER_MESSAGE + 1):
-        pts = rng.uniform(-300, 300, (n, 2))
-        data = encode_passages(pts)
-        assert len(data) == 1 + 4 * n <= MAX_MESSAGE_BYTES
-        np.testing.assert_allclose(decode_passages(data), pts, atol=0.005 + 1e-9)
-    with pytest.raises(ValueError, match="points must hold at most 12 passages"):
-        encode_passages(np.zeros((13, 2)))
-    with pytest.raises(ValueError, match=r"points must lie within \+-327.67 m"):
-        encode_passages(np.array([[400.0, 0.0]]))
-    with pytest.raises(ValueError, match="data must be a passage message"):
-        decode_passages(b"\x02\x00")
-    board = PassageBoard(1)
-    for k in range(40):  # a board of many passages still sends one message of <= 64 bytes
-        board.add(0, (k * 1.0, 3.0))
-    assert len(board.message(0)) <= MAX_MESSAGE_BYTES
-    assert decode_passages(board.message(0))[-1].tolist() == [39.0, 3.0]  # the newest
+    for n in range(MAX_SEGMENTS_PER_MESSAGE + 1):
+        seg = rng.uniform(-300, 300, (n, 2, 2))
+        data = encode_segments(seg)
+        assert len(data) == 1 + 8 * n <= MAX_MESSAGE_BYTES
+        np.testing.assert_allclose(decode_segments(data), seg, atol=0.005 + 1e-9)
+    with pytest.raises(ValueError, match="segments must hold at most 7 segments"):
+        encode_segments(np.zeros((8, 2, 2)))
+    with pytest.raises(ValueError, match=r"segments must lie within \+-327.67 m"):
+        encode_segments(np.array([[[400.0, 0.0], [0.0, 0.0]]]))
+    with pytest.raises(ValueError, match="data must be a segment message"):
+        decode_segments(b"\x02\x00")
 
 
-def test_board_merges_close_passages_and_picks_the_side_of_the_best_way():
-    board = PassageBoard(2)
-    assert board.side(0, (5.0, 2.0), (5.0, 12.0)) is None  # knows nothing
-    assert board.add(0, (9.0, 6.0)) and not board.add(0, (9.2, 6.1))  # merged
-    assert board.version.tolist() == [1, 0]
-    assert board.side(0, (5.0, 2.0), (5.0, 12.0)) == -1  # x = 9 is right of a robot going up
-    board.add(0, (3.0, 6.0))  # closer to the straight way: left wins
-    assert board.side(0, (5.0, 2.0), (5.0, 12.0)) == 1
-    assert board.side(0, (5.0, 8.0), (5.0, 12.0)) is None  # both behind the robot
-    board.add(1, (5.2, 6.0))
-    assert board.side(1, (5.0, 2.0), (5.0, 12.0)) is None  # straight ahead: no side
-    board.receive(1, 0, 7, board.message(0))
-    assert len(board.known[1]) == 3
-    board.known[1].clear()
-    board.receive(1, 0, 7, board.message(0))  # the same packet again is not read twice
-    assert board.known[1] == []
+def _ranges(x, y, yaw, walls=(), discs=()):
+    """Exact ranges (R: no return) against segments ((x0, y0), (x1, y1)) and discs (x, y, r)."""
+    out = np.full(len(ANGLES), R)
+    for k, a in enumerate(ANGLES + yaw):
+        d = np.array([math.cos(a), math.sin(a)])
+        for p0, p1 in walls:
+            p0, e = np.asarray(p0, float), np.asarray(p1, float) - np.asarray(p0, float)
+            m = np.array([d, -e]).T
+            if abs(np.linalg.det(m)) > 1e-12:
+                t, u = np.linalg.solve(m, p0 - np.array([x, y]))
+                if t > 0 and 0 <= u <= 1:
+                    out[k] = min(out[k], t)
+        for cx, cy, r in discs:
+            f = np.array([x - cx, y - cy])
+            b, c = f @ d, f @ f - r * r
+            if b * b - c >= 0 and -b - math.sqrt(b * b - c) > 0:
+                out[k] = min(out[k], -b - math.sqrt(b * b - c))
+    return out
+
+
+def test_scan_segments_find_the_wall_and_not_the_trunk():
+    """A wall y = 1.5 from x = -1 to 2 and a trunk of radius 0.2 at (-1, -1.5): one segment,
+    along the wall's seen part (readings closer than R), none for the trunk."""
+    ranges = _ranges(0.0, 0.0, 0.0, walls=[((-1.0, 1.5), (2.0, 1.5))], discs=[(-1.0, -1.5, 0.2)])
+    seg = scan_segments(np.zeros(3), ranges, ANGLES, range_m=R)
+    assert seg.shape == (1, 2, 2)
+    np.testing.assert_allclose(seg[0, :, 1], [1.5, 1.5], atol=0.01)
+    assert sorted(seg[0, :, 0]) == pytest.approx([-1.0, 2.0], abs=0.06)
+
+
+def test_shared_walls_turn_the_shorter_side():
+    """A robot at (5, 3) below a wall y = 4 that it sees from x = 2.5 to 7.5: through its own
+    map the ways round the two seen ends are equally long; a neighbour's segment saying the
+    wall goes on to x = 9.8 on the right makes the left way shorter by more than 2 m."""
+    maps = OwnMaps(1, np.array([0.0, 0.0]), np.array([10.0, 10.0]), resolution_m=0.2,
+                   range_m=R, clearance_m=0.3)
+    pose = np.array([5.0, 3.0, UP])
+    wall = [((0.2, 4.0), (9.8, 4.0))]
+    maps.update(0, np.array([0]), pose[None], _ranges(*pose, walls=wall)[None], ANGLES)
+    goal = np.array([5.0, 8.0])
+    left, right = maps.side_costs(0, pose[:2], goal, radius_m=1.0)
+    assert abs(left - right) < 0.5
+    maps.add_segments(0, 1, np.array([[[7.0, 4.0], [9.8, 4.0]]]))
+    left, right = maps.side_costs(0, pose[:2], goal, radius_m=1.0)
+    assert right - left > 2.0
+    assert math.isfinite(left)
 
 
 def _barrier_world():
@@ -68,7 +97,7 @@ def _barrier_world():
                  np.array([[x, 8.0] for x in xs]), "walls")
 
 
-def test_collab_episodes_are_deterministic_and_share_passages():
+def test_collab_episodes_are_deterministic_and_share_walls():
     world = _barrier_world()
     cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=60.0, departure="staggered",
                                             stagger_s=4.0)).replace({"packet_loss": 0.3})

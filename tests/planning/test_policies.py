@@ -19,20 +19,20 @@ def test_registry_has_the_six_policies():
     assert set(POLICIES) == {"bug-left", "bug-right", "fusion", "own-only", "random", "collab"}
     assert [n for n, p in POLICIES.items() if p.uses_messages] == ["fusion", "collab"]
     assert POLICIES["fusion"].messages == "observation" and not POLICIES["fusion"].reconsiders
-    assert POLICIES["collab"].messages == "passages" and POLICIES["collab"].reconsiders
+    assert POLICIES["collab"].messages == "walls" and not POLICIES["collab"].reconsiders
 
 
-def test_collab_takes_the_shared_side_unless_its_own_view_is_decisive():
+def test_collab_takes_the_side_of_the_shorter_way_through_its_map_else_its_own_view():
     def ctx(p_s, shared):
         return DecisionContext(0, lambda: p_s, lambda: 0.5, np.random.default_rng(0),
                                lambda: shared)
 
     collab = get_policy("collab").decide
     assert collab(ctx(0.6, RIGHT)) == RIGHT and collab(ctx(0.4, LEFT)) == LEFT
-    assert collab(ctx(0.9, RIGHT)) == LEFT and collab(ctx(0.1, LEFT)) == RIGHT  # decisive P_s
+    assert collab(ctx(0.9, RIGHT)) == RIGHT and collab(ctx(0.1, LEFT)) == LEFT  # the map wins
     assert collab(ctx(0.6, None)) == LEFT and collab(ctx(0.4, None)) == RIGHT  # as own-only
     with pytest.raises(ValueError, match=r"messages must be one of \[None, 'observation', "
-                                         r"'passages'\], got messages='gossip'"):
+                                         r"'walls'\], got messages='gossip'"):
         register_policy("x", messages="gossip")
 
 

@@ -1,0 +1,123 @@
+"""The robots' own maps (fftnav.planning.ownmap) against hand geometry and grid A*."""
+
+import math
+
+import numpy as np
+import pytest
+
+from fftnav.planning.astar import astar
+from fftnav.planning.ownmap import OwnMaps
+
+R = 3.0
+ANGLES = -math.pi + np.arange(360) * 2 * math.pi / 360
+
+
+def _maps(n=1, lo=(-4.0, -4.0), hi=(8.0, 8.0)):
+    return OwnMaps(n, np.array(lo), np.array(hi), resolution_m=0.2, range_m=R, clearance_m=0.3)
+
+
+def _scan_of_segments(x, y, yaw, segments):
+    """Exact ranges (R = no return) from (x, y, yaw) against line segments ((x0, y0), (x1, y1))."""
+    out = np.full(len(ANGLES), R)
+    for k, a in enumerate(ANGLES + yaw):
+        d = np.array([math.cos(a), math.sin(a)])
+        for p0, p1 in segments:
+            p0, p1 = np.asarray(p0, float), np.asarray(p1, float)
+            e = p1 - p0
+            m = np.array([d, -e]).T
+            if abs(np.linalg.det(m)) < 1e-12:
+                continue
+            t, u = np.linalg.solve(m, p0 - np.array([x, y]))
+            if t > 0 and 0 <= u <= 1:
+                out[k] = min(out[k], t)
+    return out
+
+
+def test_a_wall_is_occupied_free_space_is_free_and_unseen_space_unknown():
+    maps = _maps()
+    wall = [((2.1, -1.0), (2.1, 1.0))]
+    ranges = _scan_of_segments(0.0, 0.0, 0.0, wall)[None, :]
+    maps.update(0, np.array([0]), np.array([[0.0, 0.0, 0.0]]), ranges, ANGLES)
+    occ = maps.occupied(0)
+    for y in np.linspace(-0.9, 0.9, 10):  # every cell of the wall's face
+        r, c = maps.cell(np.array([2.1, y]))
+        assert occ[r, c], y
+    assert occ.sum() <= 12  # nothing else (the face spans 2 m = 10 or 11 cells)
+    for xy in ((1.0, 0.0), (-2.0, 0.5), (0.0, 2.0)):  # seen through: free
+        r, c = maps.cell(np.array(xy))
+        assert maps.last_free[0, r, c] == 0 and not occ[r, c]
+    r, c = maps.cell(np.array([6.0, 6.0]))  # never seen
+    assert maps.last_free[0, r, c] == -1 and maps.last_hit[0, r, c] == -1
+
+
+def test_a_robot_that_moved_away_is_cleared_but_a_grazed_wall_is_not():
+    maps = _maps()
+    robot = [((1.5, -0.15), (1.5, 0.15))]  # another robot's front, then it leaves
+    back = [((2.9, -2.0), (2.9, 2.0))]
+    maps.update(0, np.array([0]), np.zeros((1, 3)), _scan_of_segments(0, 0, 0, robot + back)[None],
+                ANGLES)
+    r, c = maps.cell(np.array([1.5, 0.0]))
+    assert maps.occupied(0)[r, c]
+    maps.update(1, np.array([0]), np.zeros((1, 3)), _scan_of_segments(0, 0, 0, back)[None],
+                ANGLES)
+    assert not maps.occupied(0)[r, c]
+    # a robot driving along a wall 0.59 m away: beams graze the wall's face far ahead of their
+    # hits; no cell of the face it ever hit is cleared by them (without the guard around the
+    # hits of the same scan, 4 of these 48 cells would be)
+    maps = _maps()
+    wall = [((-3.0, 0.59), (7.0, 0.59))]
+    hit = np.zeros(maps.shape, dtype=bool)
+    for k, x in enumerate(np.arange(0.0, 4.0, 0.1)):
+        maps.update(k, np.array([0]), np.array([[x, 0.0, 0.0]]),
+                    _scan_of_segments(x, 0.0, 0.0, wall)[None], ANGLES, beam_step=2)
+        hit |= maps.last_hit[0] == k
+    assert hit.sum() >= 40 and np.array_equal(maps.occupied(0) & hit, hit)
+
+
+def _closed_by_brute_force(occ, res, clearance):
+    closed = np.zeros_like(occ)
+    rows, cols = np.nonzero(occ)
+    for i in range(occ.shape[0]):
+        for j in range(occ.shape[1]):
+            closed[i, j] = np.any(np.hypot(rows - i, cols - j) * res <= clearance + 1e-9)
+    return closed
+
+
+def test_distance_field_equals_grid_astar_and_the_waypoints_lead_to_the_goal():
+    rng = np.random.default_rng(3)
+    maps = _maps(lo=(0.0, 0.0), hi=(5.8, 5.8))
+    occ = rng.random(maps.shape) < 0.06
+    start, goal = np.array([0.5, 0.5]), np.array([5.3, 5.3])
+    for xy in (start, goal):
+        r, c = maps.cell(xy)
+        occ[max(r - 2, 0):r + 3, max(c - 2, 0):c + 3] = False
+    maps.last_hit[0][occ] = 1  # occupied: hit, never seen free since
+    assert maps.plan(0, start, goal)
+    closed = _closed_by_brute_force(occ, 0.2, 0.3)
+    here, there = tuple(maps.cell(start)), tuple(maps.cell(goal))
+    path = astar(closed, here, there)
+    assert maps._field[0][here] == pytest.approx(path.length_cells, abs=1e-9)
+    # follow the waypoints: they reach the goal along free cells, never longer than A*'s path
+    xy, travelled = start.copy(), 0.0
+    for _ in range(200):
+        nxt = maps.waypoint(0, xy, 1.0)
+        assert nxt is not None and not closed[tuple(maps.cell(nxt))]
+        travelled += float(np.hypot(*(nxt - xy)))
+        xy = nxt
+        if tuple(maps.cell(xy)) == there:
+            break
+    assert tuple(maps.cell(xy)) == there
+    assert travelled <= path.length_cells * 0.2 + 0.3
+
+
+def test_outside_the_grid_there_is_no_way():
+    maps = _maps()
+    assert not maps.plan(0, np.array([50.0, 0.0]), np.array([1.0, 1.0]))
+    assert maps.waypoint(0, np.array([50.0, 0.0]), 1.0) is None
+
+
+def test_bad_parameters_are_named():
+    with pytest.raises(ValueError, match="resolution_m must be"):
+        OwnMaps(1, np.zeros(2), np.ones(2), resolution_m=0.0, range_m=3.0, clearance_m=0.3)
+    with pytest.raises(ValueError, match="clearance_m must be"):
+        OwnMaps(1, np.zeros(2), np.ones(2), resolution_m=0.2, range_m=3.0, clearance_m=-1.0)
