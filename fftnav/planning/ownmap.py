@@ -23,6 +23,8 @@ import numpy as np
 from scipy.ndimage import binary_dilation
 from scipy.sparse.csgraph import dijkstra
 
+from fftnav.observe import kernels
+from fftnav.observe.kernels import njit
 from fftnav.planning.gridgraph import grid_graph
 from fftnav.validate import check_number
 
@@ -98,6 +100,7 @@ class OwnMaps:
         cell of every reading below R is marked hit at ``tick``."""
         step = self.res / 2.0
         samples = np.arange(step, self.range_m, step)
+        size = int(math.ceil(2 * self.range_m / self.res)) + 6
         for i in np.asarray(robots, dtype=np.int64).tolist():
             r = ranges_m[i, ::beam_step]
             seen = r > 0
@@ -107,6 +110,12 @@ class OwnMaps:
             ang = angles_rad[::beam_step][seen] + yaw
             rr = np.minimum(r[seen], self.range_m)
             ux, uy = np.cos(ang), np.sin(ang)
+            corner = self.cell(np.array([x, y]) - self.range_m - 2 * self.res)
+            if kernels_available():  # the same cells, by a compiled loop
+                _mark(ux, uy, rr, float(x), float(y), samples, self.lo, self.res, self.range_m,
+                      CLEAR_BEFORE_HIT_M, int(corner[0]), int(corner[1]), size, tick,
+                      self.last_free[i], self.last_hit[i])
+                continue
             along = samples[None, :] <= (rr[:, None] - CLEAR_BEFORE_HIT_M)
             px = x + ux[:, None] * samples[None, :]
             py = y + uy[:, None] * samples[None, :]
@@ -114,8 +123,6 @@ class OwnMaps:
             hits = self.cell(np.stack([x + ux[hit] * rr[hit], y + uy[hit] * rr[hit]], axis=-1))
             hits = hits[self.inside(hits)]
             # the cells of this scan's hits and around them, in a window around the robot
-            corner = self.cell(np.array([x, y]) - self.range_m - 2 * self.res)
-            size = int(math.ceil(2 * self.range_m / self.res)) + 6
             near = np.zeros((size, size), dtype=bool)
             near[hits[:, 0] - corner[0], hits[:, 1] - corner[1]] = True
             near = binary_dilation(near, structure=_RING)
@@ -230,3 +237,49 @@ class OwnMaps:
                 break  # at the goal cell
             cell = nxt[best]
         return self.lo + (cell[::-1] + 0.5) * self.res
+
+
+def kernels_available() -> bool:
+    """Whether :meth:`OwnMaps.update` marks cells by the compiled loop (numba installed)."""
+    return kernels.AVAILABLE
+
+
+@njit(cache=True, nogil=True)
+def _mark(ux: np.ndarray, uy: np.ndarray, rr: np.ndarray, x: float, y: float,
+          samples: np.ndarray, lo: np.ndarray, res: float, range_m: float, clear_m: float,
+          corner_row: int, corner_col: int, size: int, tick: int, last_free: np.ndarray,
+          last_hit: np.ndarray) -> None:
+    """:meth:`OwnMaps.update` of one scan (beams of directions ``(ux, uy)`` and readings
+    ``rr``) into one robot's ``last_free`` / ``last_hit``: the same IEEE operations in the same
+    order as the numpy version (the points ``x + u * s``, the cells ``floor((p - lo) / res)``,
+    the 3 x 3 dilation of the hit cells in the window at ``corner``), so the same cells."""
+    rows, cols = last_free.shape
+    near = np.zeros((size, size), dtype=np.bool_)
+    limit = range_m * (1.0 - 1e-6)
+    for b in range(rr.shape[0]):
+        if rr[b] < limit:
+            col = np.int64(np.floor((x + ux[b] * rr[b] - lo[0]) / res))
+            row = np.int64(np.floor((y + uy[b] * rr[b] - lo[1]) / res))
+            if 0 <= row < rows and 0 <= col < cols:
+                last_hit[row, col] = tick
+                if 0 <= row - corner_row < size and 0 <= col - corner_col < size:
+                    near[row - corner_row, col - corner_col] = True
+    ring = np.zeros((size, size), dtype=np.bool_)  # binary_dilation by a 3 x 3 square
+    for a in range(size):
+        for c in range(size):
+            if near[a, c]:
+                for da in range(max(a - 1, 0), min(a + 2, size)):
+                    for dc in range(max(c - 1, 0), min(c + 2, size)):
+                        ring[da, dc] = True
+    for b in range(rr.shape[0]):
+        reach = rr[b] - clear_m
+        for s in range(samples.shape[0]):
+            if not samples[s] <= reach:
+                continue
+            col = np.int64(np.floor((x + ux[b] * samples[s] - lo[0]) / res))
+            row = np.int64(np.floor((y + uy[b] * samples[s] - lo[1]) / res))
+            if not (0 <= row < rows and 0 <= col < cols):
+                continue
+            a, c = row - corner_row, col - corner_col
+            if not (0 <= a < size and 0 <= c < size and ring[a, c]):
+                last_free[row, col] = tick

@@ -121,3 +121,30 @@ def test_bad_parameters_are_named():
         OwnMaps(1, np.zeros(2), np.ones(2), resolution_m=0.0, range_m=3.0, clearance_m=0.3)
     with pytest.raises(ValueError, match="clearance_m must be"):
         OwnMaps(1, np.zeros(2), np.ones(2), resolution_m=0.2, range_m=3.0, clearance_m=-1.0)
+
+
+@pytest.mark.parametrize("beam_step", [1, 2])
+def test_compiled_update_marks_the_same_cells_as_numpy(monkeypatch, beam_step):
+    """The compiled marking loop against the numpy version (the oracle), cell for cell: random
+    poses near and beyond the map's edges, readings of walls and random ranges with zeros
+    (no reading), NaN and R (no return), several ticks so that later scans overwrite earlier."""
+    from fftnav.planning import ownmap
+
+    if not ownmap.kernels_available():
+        pytest.skip("numba is not installed")
+    rng = np.random.default_rng(7)
+    walls = [((2.1, -1.0), (2.1, 1.0)), ((-3.0, 5.0), (6.0, 6.5))]
+    fast, slow = _maps(4), _maps(4)
+    for tick in range(6):
+        poses = np.c_[rng.uniform(-5.0, 9.0, (4, 2)), rng.uniform(-math.pi, math.pi, 4)]
+        ranges = np.stack([_scan_of_segments(*pose, walls) for pose in poses[:2]]
+                          + [rng.uniform(0.0, 4.0, 360) for _ in range(2)])
+        ranges[2, rng.random(360) < 0.2] = 0.0
+        ranges[3, rng.random(360) < 0.1] = np.nan
+        fast.update(tick, np.arange(4), poses, ranges, ANGLES, beam_step=beam_step)
+        monkeypatch.setattr(ownmap, "kernels_available", lambda: False)
+        slow.update(tick, np.arange(4), poses, ranges, ANGLES, beam_step=beam_step)
+        monkeypatch.undo()
+    assert np.array_equal(fast.last_free, slow.last_free)
+    assert np.array_equal(fast.last_hit, slow.last_hit)
+    assert (fast.last_hit >= 0).sum() > 50 and (fast.last_free >= 0).sum() > 500
