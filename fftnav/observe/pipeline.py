@@ -189,6 +189,19 @@ class Pipeline:
         if self.compiled:
             self._process_one, self._process_many = self._compiled_paths()
 
+    def __getstate__(self) -> dict:
+        """Pickled and copied without the compiled paths' closures (rebuilt on arrival, with
+        workspaces of their own)."""
+        state = self.__dict__.copy()
+        state.pop("_process_one", None)
+        state.pop("_process_many", None)
+        return state
+
+    def __setstate__(self, state: dict) -> None:
+        self.__dict__.update(state)
+        if self.compiled:
+            self._process_one, self._process_many = self._compiled_paths()
+
     def normalise(self, ranges: np.ndarray) -> np.ndarray:
         """Validated, sanitised ``(K, M)`` normalised scans ``d / R`` (a new array)."""
         batch, _ = as_scan_batch(ranges, beams=self.bank.beams)

@@ -214,3 +214,20 @@ def test_one_scan_result_behaves_as_a_pipeline_result():
     replaced = dataclasses.replace(a, y1=np.zeros((1, 360)))
     assert not replaced.y1.any() and np.array_equal(replaced.y2, a.y2)
     assert dataclasses.asdict(a).keys() == dataclasses.asdict(b).keys()
+
+
+def test_a_pipeline_pickles_and_copies_with_workspaces_of_its_own():
+    """The compiled paths are closures over per-pipeline workspaces: a pickled or copied
+    pipeline rebuilds its own (same results; the original's buffers are not shared)."""
+    import copy
+    import pickle
+
+    fast = Pipeline(SIM_ROBOT, compiled=True)
+    scans = trunk_scans(np.random.default_rng(5), 3)
+    for other in (pickle.loads(pickle.dumps(fast)), copy.deepcopy(fast)):
+        assert other._process_one is not fast._process_one
+        assert differences(other, SIM[1], scans) == []
+        mine = {id(c.cell_contents) for c in fast._process_one.__closure__}
+        theirs = {id(c.cell_contents) for c in other._process_one.__closure__
+                  if isinstance(c.cell_contents, np.ndarray) and c.cell_contents.flags.writeable}
+        assert not mine & theirs
