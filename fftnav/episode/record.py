@@ -50,8 +50,8 @@ class EpisodeRow:
         Time (s) the planner spent following a boundary, and in its stall fallback (no safe
         heading on the chosen side).
     loop_flips : int
-        Loop detections of the planner (a follow without progress: escape, or a side flip
-        when escaping did not help).
+        Loop detections of the planner (a follow that backs off or makes no progress starts
+        an escape; at most one per follow, since an escape runs until the leave rule).
     escape_time_s : float
         Time (s) the planner steered along the way to the goal through the robot's own map.
     sides_remembered : int

@@ -104,6 +104,12 @@ class PipelineResult:
         Per-scan views of ``sigma_flat`` (made on first access).
     is_min : list of ndarray of bool (n_k,)
         Per-scan views of ``is_min_flat`` (made on first access).
+
+    Notes
+    -----
+    Results are read, not written: in a result of one scan by the compiled path, ``offsets``
+    (and ``x0`` and ``p_s`` with ``with_p_s=False``) are shared, read-only arrays; copy them
+    before changing them.
     """
 
     safe_mask: np.ndarray

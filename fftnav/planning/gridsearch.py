@@ -31,7 +31,7 @@ from fftnav.planning.gridgraph import (
     move_table,
 )
 
-__all__ = ["AVAILABLE", "astar_lengths"]
+__all__ = ["AVAILABLE", "HEAP_SIZE", "astar_lengths"]
 
 
 def astar_lengths(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, *,
@@ -78,12 +78,16 @@ def astar_lengths(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, *
     allowed = np.stack([_allowed(occupied, move) for move in moves])
     steps = np.array([move.step for move in moves], dtype=np.int64)
     costs = np.array([move.cost for move in moves])
-    lengths = _search(allowed, steps, costs, pairs)
+    lengths = _search(allowed, steps, costs, pairs, HEAP_SIZE)
     unreachable = np.flatnonzero(~np.isfinite(lengths))
     if unreachable.size:
         row = pairs[unreachable[0]]
         raise UnreachableGoalError((int(row[0]), int(row[1])), (int(row[2]), int(row[3])))
     return lengths
+
+
+#: Initial capacity of the open list (it doubles when full; tests start it at 1).
+HEAP_SIZE = 1 << 16
 
 
 @njit(cache=True, nogil=True)
@@ -122,13 +126,13 @@ def _pop(keys: np.ndarray, nodes: np.ndarray, size: int) -> int:
 
 @njit(cache=True, nogil=True)
 def _search(allowed: np.ndarray, steps: np.ndarray, costs: np.ndarray,
-            pairs: np.ndarray) -> np.ndarray:
+            pairs: np.ndarray, heap_size: int) -> np.ndarray:
     """A* of every pair ``(start row, start col, goal row, goal col)``; inf if unreachable."""
     rows, cols = allowed.shape[1], allowed.shape[2]
     cost = np.empty(rows * cols)
     seen = np.zeros(rows * cols, np.int64)  # pair number + 1 where ``cost`` is this pair's
     done = np.zeros(rows * cols, np.int64)  # pair number + 1 where the cell is closed
-    keys, nodes = np.empty(1 << 16), np.empty(1 << 16, np.int64)
+    keys, nodes = np.empty(heap_size), np.empty(heap_size, np.int64)
     lengths = np.full(pairs.shape[0], np.inf)
     for p in range(pairs.shape[0]):
         tag = p + 1

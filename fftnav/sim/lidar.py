@@ -165,6 +165,9 @@ class Lidar:
         tic = time.perf_counter()
         poses = np.asarray(poses, dtype=float)
         k = len(poses)
+        if robot_z is not None and np.shape(robot_z) != (k,):
+            raise ValueError(f"robot_z must have shape ({k},), one height per pose, "
+                             f"got shape={np.shape(robot_z)}")
         out = np.zeros((k, self.angles_rad.size))
         if k == 0:
             return out

@@ -54,3 +54,11 @@ def test_equals_the_numpy_version_on_trunk_scans():
     fast, slow = both(scans, angles, half_width_m=0.25, lookahead_m=0.45)
     assert np.array_equal(fast, slow)
     assert not fast.all() and fast.any()  # the test sees both outcomes
+
+
+def test_angles_of_another_length_are_refused():
+    """The compiled loop reads one angle per beam: a shorter array is refused, not read past."""
+    with pytest.raises(ValueError, match=r"angles_rad \(M,\), got ranges_m.shape=\(2, 360\), "
+                                         r"angles_rad.shape=\(180,\)"):
+        corridor.corridor_free_compiled(np.ones((2, 360)), np.zeros(180), half_width_m=0.2,
+                                        lookahead_m=0.4, reach_m=0.5)

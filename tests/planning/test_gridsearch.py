@@ -104,3 +104,21 @@ def test_geodesic_lengths_methods(monkeypatch):
     assert np.array_equal(geodesic_lengths(occupied, starts, goals), dijkstra_m)
     with pytest.raises(ValueError, match="astar_lengths needs numba"):
         geodesic_lengths(occupied, starts, goals, method="astar")
+
+
+@settings(max_examples=60, deadline=None)
+@given(grids_with_pairs(), st.sampled_from([8, 32]))
+def test_the_open_list_grows_from_one_entry(case, connectivity):
+    """The heap starts at HEAP_SIZE entries and doubles when full: started at 1, every search
+    grows it, and the lengths still equal Dijkstra's."""
+    occupied, starts, goals = case
+    try:
+        expected = dijkstra_lengths(occupied, starts, goals, connectivity)
+    except UnreachableGoalError:
+        return
+    size, gridsearch.HEAP_SIZE = gridsearch.HEAP_SIZE, 1
+    try:
+        got = gridsearch.astar_lengths(occupied, starts, goals, connectivity=connectivity)
+    finally:
+        gridsearch.HEAP_SIZE = size
+    np.testing.assert_allclose(got, expected, rtol=1e-12, atol=0)

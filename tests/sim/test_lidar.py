@@ -293,3 +293,14 @@ def test_every_lidar_path_equals_casting_every_ray(env, path):
         full = lidar.scan(obs.poses)
     assert culled.tobytes() == full.tobytes()
     assert (culled[:, lidar.live] < 3.0).sum() > 500
+
+
+def test_robot_heights_of_another_length_are_refused():
+    """The compiled swarm scan reads one sphere height per pose: a shorter array would be read
+    past its end, so it is refused."""
+    world = generate_world("forest", 0, robots=3)
+    with SwarmSim(world) as sim:
+        poses = sim.reset(seed=0).poses
+        with pytest.raises(ValueError, match=r"robot_z must have shape \(3,\), one height per "
+                                             r"pose, got shape=\(1,\)"):
+            sim.lidar.scan(poses, robot_z=np.zeros(1))
