@@ -21,7 +21,10 @@ from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.run import write_atomic
 from fftnav.runner.summary import SWEEP_COLUMNS, gain_table
 
-__all__ = ["write_sweep_report"]
+__all__ = ["ALPHA", "verdict", "verdict_lines", "write_sweep_report"]
+
+#: Significance level of the verdicts.
+ALPHA = 0.05
 
 def _axis_of(cell: str) -> str:
     return cell.split("=")[0] if "=" in cell else ""
@@ -54,6 +57,46 @@ def _gain_figure(table: pd.DataFrame, axis: str, path: Path) -> Path:
     path.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(path)
     return path
+
+
+def verdict(gain: float, low: float, high: float, p: float, *, alpha: float = ALPHA) -> str:
+    """``"pays"`` when the gain's 95% interval lies above 0 and the paired p is below
+    ``alpha``, ``"costs"`` when it lies below 0 with p below ``alpha``, else ``"no clear
+    difference"`` (also without a gain).
+
+    >>> verdict(0.04, 0.01, 0.07, 0.003), verdict(-0.02, -0.03, -0.01, 0.01)
+    ('pays', 'costs')
+    >>> verdict(0.03, -0.01, 0.07, 0.15)
+    'no clear difference'
+    """
+    if any(pd.isna(v) for v in (gain, low, high, p)) or not p < alpha:
+        return "no clear difference"
+    if low > 0:
+        return "pays"
+    if high < 0:
+        return "costs"
+    return "no clear difference"
+
+
+def verdict_lines(table: pd.DataFrame) -> list[str]:
+    """Plain sentences from a sweep table (:data:`SWEEP_COLUMNS`): for ``collab`` and
+    ``fusion`` against ``own-only``, and ``collab`` against ``fusion``, the (cell, env) pairs
+    where the policy pays, where it costs, and how many show no clear difference."""
+    lines: list[str] = []
+    for policy, ref in (("collab", "own-only"), ("fusion", "own-only"), ("collab", "fusion")):
+        rows = table[(table["policy"] == policy) & (table["reference"] == ref)]
+        if not len(rows):
+            continue
+        found: dict[str, list[str]] = {"pays": [], "costs": [], "no clear difference": []}
+        for r in rows.itertuples(index=False):
+            word = verdict(r.gain, r.gain_ci_low, r.gain_ci_high, r.p_value)
+            found[word].append(f"{r.cell} / {r.env} ({100 * r.gain:+.1f}, p = {r.p_value:.2g})")
+        lines.append(f"- `{policy}` against `{ref}`, {len(rows)} (cell, env) pairs:")
+        for word in ("pays", "costs"):
+            lines.append(f"  - {word} in {len(found[word])}"
+                         + (": " + "; ".join(found[word]) if found[word] else "") + ".")
+        lines.append(f"  - no clear difference in {len(found['no clear difference'])}.")
+    return lines
 
 
 def _fmt(v: float, scale: float = 100.0, digits: int = 1) -> str:
@@ -91,6 +134,9 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
                               in zip(table["gain"], table["gain_ci_low"],
                                      table["gain_ci_high"], table["reference"], strict=True)],
         "p (Wilcoxon)": ["" if pd.isna(p) else f"{p:.2g}" for p in table["p_value"]],
+        "verdict": [verdict(g, lo, hi, p) if r else "" for g, lo, hi, p, r
+                    in zip(table["gain"], table["gain_ci_low"], table["gain_ci_high"],
+                           table["p_value"], table["reference"], strict=True)],
     })
     lines = [
         f"# Sweep `{config.name}`: does collaboration pay?",
@@ -101,6 +147,16 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
         "paired two-sided Wilcoxon signed-rank p over maps.",
         "",
         *([f"Cells not run (no episodes.csv): {', '.join(missing)}.", ""] if missing else []),
+        "## Where collaboration pays",
+        "",
+        f"A policy *pays* where its SPL gain's 95% interval lies above 0 and the paired p is "
+        f"below {ALPHA}; it *costs* where the interval lies below 0 with p below {ALPHA}; "
+        "elsewhere there is no clear difference (gain, in SPL points, and p in brackets).",
+        "",
+        *verdict_lines(table),
+        "",
+        "## Every cell",
+        "",
         "| " + " | ".join(view.columns) + " |",
         "|" + "---|" * len(view.columns),
         *("| " + " | ".join(str(v) for v in row) + " |" for row in view.itertuples(index=False)),

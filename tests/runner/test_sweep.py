@@ -108,3 +108,39 @@ def test_figure_sweep_cli_writes_the_report_of_a_results_folder(tmp_path):
     assert "| base | walls | collab | 2 |" in text and "10.0 [10.0, 10.0]" in text
     assert (tmp_path / "figures" / "gain_cells.png").exists()
     assert (tmp_path / "sweep_summary.csv").exists()
+
+
+@pytest.mark.parametrize(("gain", "low", "high", "p", "word"), [
+    (0.05, 0.01, 0.09, 0.01, "pays"),
+    (-0.05, -0.09, -0.01, 0.01, "costs"),
+    (0.05, 0.01, 0.09, 0.06, "no clear difference"),  # interval above 0, p not below 0.05
+    (0.02, -0.01, 0.05, 0.01, "no clear difference"),  # p below 0.05, interval across 0
+    (np.nan, np.nan, np.nan, np.nan, "no clear difference"),
+])
+def test_verdict_needs_both_the_interval_and_the_paired_test(gain, low, high, p, word):
+    from fftnav.report.sweep import verdict
+
+    assert verdict(gain, low, high, p) == word
+
+
+def test_verdict_lines_list_each_comparison_where_it_pays_and_costs():
+    from fftnav.report.sweep import verdict_lines
+    from fftnav.runner.summary import SWEEP_COLUMNS
+
+    base = dict.fromkeys(SWEEP_COLUMNS, 0.0)
+    rows = [
+        {**base, "cell": "base", "env": "walls", "policy": "collab", "reference": "own-only",
+         "gain": 0.08, "gain_ci_low": 0.03, "gain_ci_high": 0.12, "p_value": 0.002},
+        {**base, "cell": "range_m=6", "env": "walls", "policy": "collab",
+         "reference": "own-only", "gain": -0.02, "gain_ci_low": -0.04, "gain_ci_high": -0.01,
+         "p_value": 0.03},
+        {**base, "cell": "base", "env": "walls", "policy": "collab", "reference": "fusion",
+         "gain": 0.01, "gain_ci_low": -0.02, "gain_ci_high": 0.04, "p_value": 0.6},
+    ]
+    text = "\n".join(verdict_lines(pd.DataFrame(rows, columns=list(SWEEP_COLUMNS))))
+    assert "- `collab` against `own-only`, 2 (cell, env) pairs:" in text
+    assert "  - pays in 1: base / walls (+8.0, p = 0.002)." in text
+    assert "  - costs in 1: range_m=6 / walls (-2.0, p = 0.03)." in text
+    assert "- `collab` against `fusion`, 1 (cell, env) pairs:" in text
+    assert "  - pays in 0." in text and "  - no clear difference in 1." in text
+    assert "`fusion` against" not in text  # no such rows
