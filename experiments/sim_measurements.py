@@ -18,8 +18,7 @@ import time
 import numpy as np
 import pybullet as p
 
-import fftnav.sim.lidar as lidar_module
-from fftnav.sim.swarm import SimConfig, SwarmSim, _outline
+from fftnav.sim.swarm import SimConfig, SwarmSim
 from fftnav.world import (
     Polygon,
     World,
@@ -35,7 +34,7 @@ def lidar_errors(env: str, *, prisms: bool = False, seed: int = 4,
     see each other). ``prisms``: the analytic world holds the 64-gons that Bullet is given for
     the trunks instead of their circles."""
     world = generate_world(env, seed)
-    shapes = tuple(Polygon(tuple(map(tuple, _outline(o).tolist())), o.height)
+    shapes = tuple(Polygon(tuple(map(tuple, o.outline().tolist())), o.height)
                    for o in world.obstacles) if prisms else world.obstacles
     rng = np.random.default_rng(1)
     errors = []
@@ -60,30 +59,21 @@ def lidar_errors(env: str, *, prisms: bool = False, seed: int = 4,
 
 
 def hit_share(env: str, *, seconds: float = 20.0, seed: int = 0) -> float:
-    """Share of the rays cast by the lidar (after culling) that hit something, in the speed
-    bench's drive (random arcs, new commands every tick)."""
-    fractions: list[np.ndarray] = []
-    cast = lidar_module.cast_rays
-
-    def recording(*args, **kwargs):
-        out = cast(*args, **kwargs)
-        fractions.append(out)
-        return out
-
-    lidar_module.cast_rays = recording
-    try:
-        world = generate_world(env, seed)
-        rng = np.random.default_rng(seed)
-        config = SimConfig()
-        with SwarmSim(world, config=config) as sim:
-            sim.reset(seed=seed)
-            for _ in range(round(seconds * config.control_hz)):
-                sim.step(np.c_[rng.uniform(0, config.robot.v_max_mps, 15),
-                               rng.uniform(-1, 1, 15) * config.robot.w_max_radps])
-    finally:
-        lidar_module.cast_rays = cast
-    every = np.concatenate(fractions)
-    return float((every < 1.0).mean())
+    """Share of the rays the lidar casts (those left after culling, ``Lidar.rays_cast``) that
+    return a hit, in the speed bench's drive (random arcs, new commands every tick). Culling is
+    exact, so every reading below R comes from a cast ray: hits / cast."""
+    world = generate_world(env, seed)
+    rng = np.random.default_rng(seed)
+    config = SimConfig()
+    with SwarmSim(world, config=config) as sim:
+        sim.reset(seed=seed)
+        lidar = sim.lidar
+        cast, hits = lidar.rays_cast, 0
+        for _ in range(round(seconds * config.control_hz)):
+            obs = sim.step(np.c_[rng.uniform(0, config.robot.v_max_mps, 15),
+                                 rng.uniform(-1, 1, 15) * config.robot.w_max_radps])
+            hits += int((obs.scans[:, lidar.live] < lidar.range_m * (1.0 - 1e-9)).sum())
+        return hits / (lidar.rays_cast - cast)
 
 
 def physics_step_us(*, repeats: int = 7, steps: int = 200) -> tuple[float, float]:
