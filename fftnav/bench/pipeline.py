@@ -53,6 +53,13 @@ def _one_cpu():
         os.sched_setaffinity(0, before)
 
 
+def _read_all(result) -> tuple:
+    """Every field of a result, so that the ones a one-scan result makes on first access
+    (``y1``, ``y2``, ``sigma_flat``, ``is_min_flat``, ``offsets``) are made."""
+    return (result.safe_mask, result.y1, result.y2, result.sigma_flat, result.is_min_flat,
+            result.offsets, result.messages, result.x0, result.p_s)
+
+
 def _median_us(fns: dict[str, Callable[[], object]], repeats: int) -> dict[str, float]:
     """Median time (us) of each function; round-robin, each timed call right after
     ``WARM_CALLS`` untimed ones of the same function, so every figure is the warm
@@ -91,6 +98,8 @@ def bench_pipeline(*, repeats: int = 2000, seed: int = 0, runs: int = 1) -> dict
         ``single_us`` (one scan: safe mask, extrema, compact message; by the compiled kernels
         of :mod:`fftnav.observe.kernels` when numba is installed, ``compiled``),
         ``single_numpy_us`` (the same by the numpy path, timed side by side),
+        ``single_all_fields_us`` (one scan, then every field of the result read: a one-scan
+        result makes y1, y2, Sigma, its minima and the offsets on first access),
         ``batch15_us_per_scan``
         (same, batch of 15), ``batch15_with_p_s_us_per_scan`` (plus quadrant areas and P_s),
         the safe mask alone per scan in a batch of 15 by FFT (``mask_fft_us_per_scan``), by
@@ -126,6 +135,7 @@ def bench_pipeline(*, repeats: int = 2000, seed: int = 0, runs: int = 1) -> dict
     groups = [
         {
             "single": lambda: pipe.process(scans[0], with_p_s=False),
+            "single_all_fields": lambda: _read_all(pipe.process(scans[0], with_p_s=False)),
             "single_numpy": lambda: reference.process(scans[0], with_p_s=False),
         },
         {
@@ -146,6 +156,7 @@ def bench_pipeline(*, repeats: int = 2000, seed: int = 0, runs: int = 1) -> dict
     return {
         "single_us": round(us["single"], 2),
         "single_numpy_us": round(us["single_numpy"], 2),
+        "single_all_fields_us": round(us["single_all_fields"], 2),
         "compiled": pipe.compiled,
         "batch15_us_per_scan": round(us["batch"] / BATCH, 2),
         "batch15_with_p_s_us_per_scan": round(us["batch_p_s"] / BATCH, 2),
@@ -166,6 +177,8 @@ def format_pipeline(result: dict) -> str:
     rows = [
         ("pipeline, 1 scan (mask + extrema + message)", result["single_us"], "us"),
         ("same, numpy path (no compiled kernels)", result["single_numpy_us"], "us"),
+        ("same, then every field read (y1, y2, Sigma, ...)", result["single_all_fields_us"],
+         "us"),
         ("pipeline, batch of 15", result["batch15_us_per_scan"], "us/scan"),
         ("pipeline + P_s, batch of 15", result["batch15_with_p_s_us_per_scan"], "us/scan"),
         ("safe mask by FFT, batch of 15", result["mask_fft_us_per_scan"], "us/scan"),

@@ -32,7 +32,7 @@ import binascii
 import numpy as np
 
 __all__ = ["AVAILABLE", "CRC_TABLE", "crc_heads", "entry", "finish", "finish_batch",
-           "nearest_safe_beams", "prepare", "prepare_batch"]
+           "finish_constants", "nearest_safe_beams", "prepare", "prepare_batch"]
 
 try:  # optional dependency: pip install fftnav[fast]
     from numba import njit, types
@@ -59,8 +59,9 @@ def _crc_table() -> np.ndarray:
     return table
 
 
-#: :func:`binascii.crc_hqx`'s table, for the messages :func:`finish` writes.
+#: :func:`binascii.crc_hqx`'s table, for the messages :func:`finish` writes (read-only).
 CRC_TABLE = _crc_table()
+CRC_TABLE.flags.writeable = False
 
 
 def crc_heads(head: int) -> np.ndarray:
@@ -76,8 +77,8 @@ def _signatures() -> dict[str, tuple]:
     f8, i8, b1, u1 = types.float64, types.int64, types.boolean, types.uint8
     return {
         "prepare": (f8[::1], f8, f8, f8[:, ::1]),
-        "finish": (f8[:, ::1], i8, f8, b1[::1], b1, f8, f8[::1], f8, f8, f8, b1[:, ::1],
-                   f8[:, ::1], b1[::1], u1[::1], i8, i8[::1], i8[::1]),
+        "finish": (f8[:, ::1], f8[::1], i8[::1], b1[::1], f8[::1], b1[:, ::1], f8[:, ::1],
+                   b1[::1], u1[::1], i8[::1], i8[::1]),
         "prepare_batch": (f8[:, ::1], f8, f8, f8[:, ::1]),
         "finish_batch": (f8[:, ::1], i8, f8, b1[::1], b1, f8, f8[::1], f8, f8, f8, b1[:, ::1],
                          f8[:, ::1], b1[::1], i8[::1], u1[:, ::1], i8, i8[::1], i8[::1]),
@@ -251,14 +252,29 @@ def _scan(out: np.ndarray, h1: int, h2: int, tau: int, limit: float, valid: np.n
 
 
 @njit(cache=True, nogil=True)
-def finish(out: np.ndarray, tau: int, limit: float, valid: np.ndarray, circular: bool,
-           eps: float, angles: np.ndarray, range_m: float, angle_scale: float,
-           dist_scale: float, mask: np.ndarray, sigma: np.ndarray, is_min: np.ndarray,
-           message: np.ndarray, head: int, crc_table: np.ndarray, crc_heads: np.ndarray) -> int:
+def finish(out: np.ndarray, reals: np.ndarray, ints: np.ndarray, valid: np.ndarray,
+           angles: np.ndarray, mask: np.ndarray, sigma: np.ndarray, is_min: np.ndarray,
+           message: np.ndarray, crc_table: np.ndarray, crc_heads: np.ndarray) -> int:
     """:func:`_scan` of one scan: ``out`` ``(2, L)`` (y1, y2), ``mask`` ``(1, M)``; returns n,
-    the extrema in the first n rows of ``sigma`` and ``is_min``."""
-    return _scan(out, 0, 1, tau, limit, valid, circular, eps, angles, range_m, angle_scale,
-                 dist_scale, mask, 0, sigma, is_min, 0, message, head, crc_table, crc_heads)
+    the extrema in the first n rows of ``sigma`` and ``is_min``. The scalars come packed, as
+    :func:`finish_constants` packs them (fewer arguments to convert per call):
+    ``reals = [limit, eps, range_m, angle_scale, dist_scale]``, ``ints = [tau, circular,
+    head]``."""
+    return _scan(out, 0, 1, ints[0], reals[0], valid, ints[1] != 0, reals[1], angles, reals[2],
+                 reals[3], reals[4], mask, 0, sigma, is_min, 0, message, ints[2], crc_table,
+                 crc_heads)
+
+
+def finish_constants(tau: int, limit: float, valid: np.ndarray, circular: bool, eps: float,
+                     angles: np.ndarray, range_m: float, angle_scale: float, dist_scale: float,
+                     head: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """``(reals, ints, valid, angles)``: the constant arguments of :func:`finish` from those
+    of :func:`finish_batch` (read-only arrays)."""
+    reals = np.array([limit, eps, range_m, angle_scale, dist_scale], dtype=np.float64)
+    ints = np.array([tau, int(circular), head], dtype=np.int64)
+    for a in (reals, ints):
+        a.flags.writeable = False
+    return reals, ints, valid, angles
 
 
 @njit(cache=True, nogil=True)

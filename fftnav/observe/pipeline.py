@@ -47,6 +47,7 @@ _CONTIGUOUS = (_FLOAT64.itemsize,)  # strides of a C-contiguous scan (M,)
 _COMPACT_HEAD = LAYOUTS["compact"]
 #: ... and the payload-free parts of their CRCs.
 _CRC_HEADS = kernels.crc_heads(_COMPACT_HEAD)
+_CRC_HEADS.flags.writeable = False
 
 
 def _read_only(a: np.ndarray) -> np.ndarray:
@@ -136,16 +137,51 @@ class PipelineResult:
         return list(zip(bounds[:-1], bounds[1:], strict=True))
 
 
-class _OneScanResult(PipelineResult):
-    """:class:`PipelineResult` of one scan by the compiled path: ``y1`` and ``y2`` are views of
-    the filter output ``_filtered`` ``(2, L)`` from column ``_tau``, made on first access (two
-    views less per scan for the callers that use only the mask, Sigma and the message)."""
+class _made_once:  # noqa: N801 - used as a decorator, like functools.cached_property
+    """A field made on first access and kept in the instance's ``__dict__`` (which then
+    shadows this non-data descriptor): :func:`functools.cached_property` without its lock,
+    which costs about half a microsecond per access on Python 3.11 (one-scan results are not
+    shared between threads while they are made)."""
 
-    @cached_property
+    def __init__(self, make: Callable[[_OneScanResult], np.ndarray]) -> None:
+        self.make, self.name = make, make.__name__
+        self.__doc__ = make.__doc__
+
+    def __get__(self, obj: _OneScanResult | None, owner: type | None = None):
+        if obj is None:
+            return self
+        value = obj.__dict__[self.name] = self.make(obj)
+        return value
+
+
+class _OneScanResult(PipelineResult):
+    """:class:`PipelineResult` of one scan by the compiled path without P_s: ``y1`` and ``y2``
+    are views of the filter output ``_filtered`` ``(2, L)`` from column ``_tau``, and
+    ``sigma_flat``, ``is_min_flat`` and ``offsets`` the first ``_n`` rows of the kernel's
+    buffers ``_sigma`` and ``_is_min`` and ``[0, _n]``, all made on first access (five objects
+    less per scan for the callers that use only the mask and the message); ``x0`` and ``p_s``
+    are the shared NaN arrays."""
+
+    x0 = _NAN_X0
+    p_s = _NAN_P_S
+
+    @_made_once
+    def sigma_flat(self) -> np.ndarray:  # type: ignore[override]
+        return self._sigma[: self._n]
+
+    @_made_once
+    def is_min_flat(self) -> np.ndarray:  # type: ignore[override]
+        return self._is_min[: self._n]
+
+    @_made_once
+    def offsets(self) -> np.ndarray:  # type: ignore[override]
+        return _offsets(self._n)
+
+    @_made_once
     def y1(self) -> np.ndarray:  # type: ignore[override]
         return self._filtered[0:1, self._tau : self._tau + self.safe_mask.shape[1]]
 
-    @cached_property
+    @_made_once
     def y2(self) -> np.ndarray:  # type: ignore[override]
         return self._filtered[1:2, self._tau : self._tau + self.safe_mask.shape[1]]
 
@@ -193,20 +229,20 @@ class Pipeline:
         # the shape of one scan that goes straight to the compiled path (None: none does)
         self._one_scan = (beams,) if self.compiled else None
         if self.compiled:
-            self._process_one, self._process_many = self._compiled_paths()
+            self._process_one, self._process_many, self.process = self._compiled_paths()
 
     def __getstate__(self) -> dict:
         """Pickled and copied without the compiled paths' closures (rebuilt on arrival, with
         workspaces of their own)."""
         state = self.__dict__.copy()
-        state.pop("_process_one", None)
-        state.pop("_process_many", None)
+        for name in ("_process_one", "_process_many", "process"):
+            state.pop(name, None)
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         if self.compiled:
-            self._process_one, self._process_many = self._compiled_paths()
+            self._process_one, self._process_many, self.process = self._compiled_paths()
 
     def normalise(self, ranges: np.ndarray) -> np.ndarray:
         """Validated, sanitised ``(K, M)`` normalised scans ``d / R`` (a new array)."""
@@ -225,10 +261,17 @@ class Pipeline:
 
         Readings are sanitised first (``+inf`` and ``>= R``: open, NaN and negative: blocked);
         the input is not modified. ``with_p_s=False`` skips the quadrant areas and P_s (NaN).
+        (A compiled pipeline's ``process`` is a closure of :meth:`_compiled_paths` with this
+        signature, which takes one native float64 C-contiguous scan ``(M,)`` itself and hands
+        everything else to this method.)
         """
         if (type(ranges) is np.ndarray and ranges.shape == self._one_scan
                 and ranges.dtype is _FLOAT64 and ranges.strides == _CONTIGUOUS):
             return self._process_one(ranges, with_p_s)  # one scan, nothing to convert or check
+        return self._process_any(ranges, with_p_s)
+
+    def _process_any(self, ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
+        """:meth:`process` of anything but a native float64 C-contiguous scan ``(M,)``."""
         b = self.bank
         batch = as_scan_batch(ranges, beams=b.beams)[0]
         if self.compiled and batch.shape[0] == 1:
@@ -250,11 +293,14 @@ class Pipeline:
                             msgs, with_p_s)
 
     def _compiled_paths(self) -> tuple[Callable[[np.ndarray, bool], PipelineResult],
-                                       Callable[[np.ndarray, bool], PipelineResult]]:
+                                       Callable[[np.ndarray, bool], PipelineResult],
+                                       Callable[..., PipelineResult]]:
         """The compiled paths: ``process_one(ranges, with_p_s)`` for one C-contiguous float64
-        scan ``(M,)`` and ``process_many(ranges, with_p_s)`` for a C-contiguous float64 batch
+        scan ``(M,)``, ``process_many(ranges, with_p_s)`` for a C-contiguous float64 batch
         ``(K, M)``, by the compiled kernels around pocketfft (the same FFT calls as
-        :meth:`FilterBank.filter_ranges`).
+        :meth:`FilterBank.filter_ranges`), and ``process(ranges, *, with_p_s=True)``, the
+        instance's :meth:`process`: ``process_one`` inline for such a scan, else
+        :meth:`_process_any`.
 
         Closures over their workspaces and constants, so that a call does no attribute lookup:
         at a dozen microseconds per scan, the interpreter's own work is a tenth of the cost.
@@ -275,6 +321,9 @@ class Pipeline:
         constants = (tau, safe_limit(threshold), valid, not linear, EXTREMUM_EPS,
                      self.angles_rad, range_m, *codec_scales(range_m))
         tables = (_COMPACT_HEAD, kernels.CRC_TABLE, _CRC_HEADS)
+        # finish's arguments, its scalars packed into two arrays
+        reals, ints, valid, angles = kernels.finish_constants(*constants, _COMPACT_HEAD)
+        crc_table, crc_heads = kernels.CRC_TABLE, _CRC_HEADS
         compact, layout, result_of = self.layout == "compact", self.layout, self._result
         empty, multiply, new = np.empty, np.multiply, object.__new__
         prepare, finish = kernels.entry("prepare"), kernels.entry("finish")
@@ -303,7 +352,8 @@ class Pipeline:
             else:  # pragma: no cover - other scipy layouts
                 out = filtered(work, spec, spectra)
             mask, sigma, is_min = empty((1, m), bool), empty((m, 2)), empty(m, bool)
-            n = finish(out, *constants, mask, sigma, is_min, message, *tables)
+            n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, crc_table,
+                       crc_heads)
             sigma, is_min = sigma[:n], is_min[:n]
             if compact and n <= 255:
                 msgs = [message[: 3 * n + 4].tobytes()]
@@ -315,8 +365,37 @@ class Pipeline:
             # the fields set directly: the frozen dataclass's __init__ costs a microsecond
             result = new(_OneScanResult)
             result.__dict__.update(safe_mask=mask, sigma_flat=sigma, is_min_flat=is_min,
-                                   offsets=_offsets(n), messages=msgs, x0=_NAN_X0,
-                                   p_s=_NAN_P_S, _filtered=out, _tau=tau)
+                                   offsets=_offsets(n), messages=msgs, _filtered=out, _tau=tau)
+            return result
+
+        ndarray, any_scan, one_scan = np.ndarray, self._process_any, m
+
+        def process(ranges: np.ndarray, *, with_p_s: bool = True) -> PipelineResult:
+            # process_one(ranges, False) inline for a native float64 C-contiguous scan (M,):
+            # one Python call less (strides (8,) means one dimension, contiguous)
+            if (type(ranges) is not ndarray or ranges.strides != _CONTIGUOUS
+                    or len(ranges) != one_scan or ranges.dtype is not _FLOAT64):
+                return any_scan(ranges, with_p_s)
+            if with_p_s:
+                return process_one(ranges, True)
+            prepare(ranges, range_m, threshold, work)
+            if r2c is not None:
+                r2c(work, _AXIS, True, 0, spec, 1)
+                multiply(spec, spectra, spec)
+                out = c2r(spec, _AXIS, size, False, 2, None, 1)
+            else:  # pragma: no cover - other scipy layouts
+                out = filtered(work, spec, spectra)
+            mask, sigma, is_min = empty((1, m), bool), empty((m, 2)), empty(m, bool)
+            n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, crc_table,
+                       crc_heads)
+            if compact and n <= 255:
+                msgs = [message[: 3 * n + 4].tobytes()]
+            else:  # float32 layout, or too many extrema (pack_messages raises)
+                msgs = pack_messages(sigma[:n], is_min[:n], [n], layout=layout,
+                                     range_m=range_m)
+            result = new(_OneScanResult)
+            result.__dict__.update(safe_mask=mask, messages=msgs, _filtered=out, _tau=tau,
+                                   _sigma=sigma, _is_min=is_min, _n=n)
             return result
 
         def process_many(ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
@@ -338,7 +417,8 @@ class Pipeline:
             return result_of(mask, out[:k, tau : tau + m], out[k:, tau : tau + m], sigma,
                              is_min, offsets, msgs, with_p_s)
 
-        return process_one, process_many
+        process.__doc__ = Pipeline.process.__doc__
+        return process_one, process_many, process
 
     def _result(self, mask: np.ndarray, y1: np.ndarray, y2: np.ndarray, flat: np.ndarray,
                 flat_min: np.ndarray, off: np.ndarray, msgs: list[bytes],

@@ -9,6 +9,7 @@ from fftnav.bench.pipeline import bench_pipeline, format_pipeline, record_csv
 
 KEYS = {
     "single_us",
+    "single_all_fields_us",
     "batch15_us_per_scan",
     "batch15_with_p_s_us_per_scan",
     "mask_fft_us_per_scan",
