@@ -42,6 +42,7 @@ __all__ = ["Pipeline", "PipelineResult", "safe_limit"]
 _AXIS = (1,)
 #: The dtype of the scans the single-scan path takes as they are (native float64).
 _FLOAT64 = np.dtype(np.float64)
+_BOOL = np.dtype(bool)
 _CONTIGUOUS = (_FLOAT64.itemsize,)  # strides of a C-contiguous scan (M,)
 #: The layout byte of compact messages, which the compiled kernel writes...
 _COMPACT_HEAD = LAYOUTS["compact"]
@@ -314,6 +315,8 @@ class Pipeline:
         work = np.zeros((2, size))  # columns M.. stay 0: the zero padding
         spec, spectra = np.empty((2, size // 2 + 1), dtype=complex), b._spectra
         message = np.empty(bound, dtype=np.uint8)  # head, n, 3 bytes per extremum, CRC
+        view = memoryview(message)  # sliced and copied to bytes faster than the array
+        mask_shape, sigma_shape = (1, m), (m, 2)
         # columns of the row that may hold an extremum, as find_extrema_flat
         valid = np.zeros(width, bool)
         inner = self.angles_rad[1:-1] if linear else self.angles_rad
@@ -351,12 +354,12 @@ class Pipeline:
                 out = c2r(spec, _AXIS, size, False, 2, None, 1)
             else:  # pragma: no cover - other scipy layouts
                 out = filtered(work, spec, spectra)
-            mask, sigma, is_min = empty((1, m), bool), empty((m, 2)), empty(m, bool)
+            mask, sigma, is_min = empty(mask_shape, _BOOL), empty(sigma_shape), empty(m, _BOOL)
             n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, crc_table,
                        crc_heads)
             sigma, is_min = sigma[:n], is_min[:n]
             if compact and n <= 255:
-                msgs = [message[: 3 * n + 4].tobytes()]
+                msgs = [view[: 3 * n + 4].tobytes()]
             else:  # float32 layout, or too many extrema (pack_messages raises)
                 msgs = pack_messages(sigma, is_min, [n], layout=layout, range_m=range_m)
             if with_p_s:
@@ -385,11 +388,11 @@ class Pipeline:
                 out = c2r(spec, _AXIS, size, False, 2, None, 1)
             else:  # pragma: no cover - other scipy layouts
                 out = filtered(work, spec, spectra)
-            mask, sigma, is_min = empty((1, m), bool), empty((m, 2)), empty(m, bool)
+            mask, sigma, is_min = empty(mask_shape, _BOOL), empty(sigma_shape), empty(m, _BOOL)
             n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, crc_table,
                        crc_heads)
             if compact and n <= 255:
-                msgs = [message[: 3 * n + 4].tobytes()]
+                msgs = [view[: 3 * n + 4].tobytes()]
             else:  # float32 layout, or too many extrema (pack_messages raises)
                 msgs = pack_messages(sigma[:n], is_min[:n], [n], layout=layout,
                                      range_m=range_m)
