@@ -30,6 +30,7 @@ collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/core.toml
 	$(BIN)/fftnav figure sweep experiments/collab/core.toml
 	$(BIN)/fftnav run experiments/collab/walls_holdout.toml
+	$(BIN)/fftnav figure sweep experiments/collab/walls_holdout.toml
 	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)
