@@ -14,6 +14,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import cached_property
+from types import MethodType
 
 import numpy as np
 
@@ -187,6 +188,44 @@ class _OneScanResult(PipelineResult):
         return self._filtered[1:2, self._tau : self._tau + self.safe_mask.shape[1]]
 
 
+# A compiled pipeline's ``process`` (bound to it at construction, see Pipeline.process): the
+# single-scan path inline for a native float64 C-contiguous scan (M,) without P_s, one Python
+# call less than the method; anything else goes to the method's general path. A module-level
+# function bound as a method, so that ``pipe.process`` pickles (by pickle and cloudpickle) with
+# its pipeline, as the method does. Its docstring is the method's (set below the class).
+def _process_scan(self: Pipeline, ranges: np.ndarray, *,
+                  with_p_s: bool = True) -> PipelineResult:
+    (any_scan, process_one, m, prepare, range_m, threshold, work, spec, spectra, size,
+     mask_shape, sigma_shape, finish, reals, ints, valid, angles, message, view, compact,
+     layout, tau) = self._scan_state
+    # strides (8,) means one dimension, contiguous
+    if (type(ranges) is not _NDARRAY or ranges.strides != _CONTIGUOUS or len(ranges) != m
+            or ranges.dtype is not _FLOAT64):
+        return any_scan(ranges, with_p_s)
+    if with_p_s:
+        return process_one(ranges, True)
+    prepare(ranges, range_m, threshold, work)
+    _R2C(work, _AXIS, True, 0, spec, 1)
+    _MULTIPLY(spec, spectra, spec)
+    out = _C2R(spec, _AXIS, size, False, 2, None, 1)  # inorm=2: 1/n, as numpy.fft.irfft
+    mask, sigma, is_min = _EMPTY(mask_shape, _BOOL), _EMPTY(sigma_shape), _EMPTY(m, _BOOL)
+    n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, _CRC_TABLE,
+               _CRC_HEADS)
+    if compact and n <= 255:
+        msgs = [view[: 3 * n + 4].tobytes()]
+    else:  # float32 layout, or too many extrema (pack_messages raises)
+        msgs = pack_messages(sigma[:n], is_min[:n], [n], layout=layout, range_m=range_m)
+    result = _NEW(_OneScanResult)  # the fields set directly: no dataclass __init__
+    result.__dict__.update(safe_mask=mask, messages=msgs, _filtered=out, _tau=tau,
+                           _sigma=sigma, _is_min=is_min, _n=n)
+    return result
+
+
+_NDARRAY, _EMPTY, _MULTIPLY, _NEW = np.ndarray, np.empty, np.multiply, object.__new__
+_R2C, _C2R = (_pp.r2c, _pp.c2r) if _pp is not None else (None, None)
+_CRC_TABLE = kernels.CRC_TABLE
+
+
 class Pipeline:
     """Filter bank plus every per-scan step: safe mask, Sigma, compact message, P_s.
 
@@ -230,20 +269,27 @@ class Pipeline:
         # the shape of one scan that goes straight to the compiled path (None: none does)
         self._one_scan = (beams,) if self.compiled else None
         if self.compiled:
-            self._process_one, self._process_many, self.process = self._compiled_paths()
+            self._install_compiled_paths()
+
+    def _install_compiled_paths(self) -> None:
+        """Build the compiled paths; make the instance's ``process`` :func:`_process_scan`
+        bound to this pipeline, unless a subclass overrides :meth:`process`."""
+        self._process_one, self._process_many, self._scan_state = self._compiled_paths()
+        if type(self).process is Pipeline.process and _pp is not None:
+            self.process = MethodType(_process_scan, self)
 
     def __getstate__(self) -> dict:
         """Pickled and copied without the compiled paths' closures (rebuilt on arrival, with
         workspaces of their own)."""
         state = self.__dict__.copy()
-        for name in ("_process_one", "_process_many", "process"):
+        for name in ("_process_one", "_process_many", "_scan_state", "process"):
             state.pop(name, None)
         return state
 
     def __setstate__(self, state: dict) -> None:
         self.__dict__.update(state)
         if self.compiled:
-            self._process_one, self._process_many, self.process = self._compiled_paths()
+            self._install_compiled_paths()
 
     def normalise(self, ranges: np.ndarray) -> np.ndarray:
         """Validated, sanitised ``(K, M)`` normalised scans ``d / R`` (a new array)."""
@@ -263,8 +309,10 @@ class Pipeline:
         Readings are sanitised first (``+inf`` and ``>= R``: open, NaN and negative: blocked);
         the input is not modified. ``with_p_s=False`` skips the quadrant areas and P_s (NaN).
         (A compiled pipeline's ``process`` is a closure of :meth:`_compiled_paths` with this
-        signature, which takes one native float64 C-contiguous scan ``(M,)`` itself and hands
-        everything else to this method.)
+        signature, bound to the pipeline when it is made, which takes one native float64
+        C-contiguous scan ``(M,)`` itself and hands everything else to this method's general
+        path; a subclass that overrides ``process`` keeps its own, and a replacement of
+        ``Pipeline.process`` reaches pipelines made after it.)
         """
         if (type(ranges) is np.ndarray and ranges.shape == self._one_scan
                 and ranges.dtype is _FLOAT64 and ranges.strides == _CONTIGUOUS):
@@ -294,14 +342,13 @@ class Pipeline:
                             msgs, with_p_s)
 
     def _compiled_paths(self) -> tuple[Callable[[np.ndarray, bool], PipelineResult],
-                                       Callable[[np.ndarray, bool], PipelineResult],
-                                       Callable[..., PipelineResult]]:
+                                       Callable[[np.ndarray, bool], PipelineResult], tuple]:
         """The compiled paths: ``process_one(ranges, with_p_s)`` for one C-contiguous float64
         scan ``(M,)``, ``process_many(ranges, with_p_s)`` for a C-contiguous float64 batch
         ``(K, M)``, by the compiled kernels around pocketfft (the same FFT calls as
-        :meth:`FilterBank.filter_ranges`), and ``process(ranges, *, with_p_s=True)``, the
-        instance's :meth:`process`: ``process_one`` inline for such a scan, else
-        :meth:`_process_any`.
+        :meth:`FilterBank.filter_ranges`), and the state of :func:`_process_scan` (the
+        instance's ``process``: ``process_one`` inline for such a scan, else
+        :meth:`_process_any`).
 
         Closures over their workspaces and constants, so that a call does no attribute lookup:
         at a dozen microseconds per scan, the interpreter's own work is a tenth of the cost.
@@ -371,36 +418,6 @@ class Pipeline:
                                    offsets=_offsets(n), messages=msgs, _filtered=out, _tau=tau)
             return result
 
-        ndarray, any_scan, one_scan = np.ndarray, self._process_any, m
-
-        def process(ranges: np.ndarray, *, with_p_s: bool = True) -> PipelineResult:
-            # process_one(ranges, False) inline for a native float64 C-contiguous scan (M,):
-            # one Python call less (strides (8,) means one dimension, contiguous)
-            if (type(ranges) is not ndarray or ranges.strides != _CONTIGUOUS
-                    or len(ranges) != one_scan or ranges.dtype is not _FLOAT64):
-                return any_scan(ranges, with_p_s)
-            if with_p_s:
-                return process_one(ranges, True)
-            prepare(ranges, range_m, threshold, work)
-            if r2c is not None:
-                r2c(work, _AXIS, True, 0, spec, 1)
-                multiply(spec, spectra, spec)
-                out = c2r(spec, _AXIS, size, False, 2, None, 1)
-            else:  # pragma: no cover - other scipy layouts
-                out = filtered(work, spec, spectra)
-            mask, sigma, is_min = empty(mask_shape, _BOOL), empty(sigma_shape), empty(m, _BOOL)
-            n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, crc_table,
-                       crc_heads)
-            if compact and n <= 255:
-                msgs = [view[: 3 * n + 4].tobytes()]
-            else:  # float32 layout, or too many extrema (pack_messages raises)
-                msgs = pack_messages(sigma[:n], is_min[:n], [n], layout=layout,
-                                     range_m=range_m)
-            result = new(_OneScanResult)
-            result.__dict__.update(safe_mask=mask, messages=msgs, _filtered=out, _tau=tau,
-                                   _sigma=sigma, _is_min=is_min, _n=n)
-            return result
-
         def process_many(ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
             k = ranges.shape[0]
             stacked = np.zeros((2 * k, size))
@@ -420,8 +437,11 @@ class Pipeline:
             return result_of(mask, out[:k, tau : tau + m], out[k:, tau : tau + m], sigma,
                              is_min, offsets, msgs, with_p_s)
 
-        process.__doc__ = Pipeline.process.__doc__
-        return process_one, process_many, process
+        # what _process_scan needs, in the order it unpacks it
+        state = (self._process_any, process_one, m, prepare, range_m, threshold, work, spec,
+                 spectra, size, mask_shape, sigma_shape, finish, reals, ints, valid, angles,
+                 message, view, compact, layout, tau)
+        return process_one, process_many, state
 
     def _result(self, mask: np.ndarray, y1: np.ndarray, y2: np.ndarray, flat: np.ndarray,
                 flat_min: np.ndarray, off: np.ndarray, msgs: list[bytes],
@@ -456,3 +476,9 @@ class Pipeline:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Nearest safe heading left and right of each target (rad, NaN if none); batched."""
         return nearest_safe_headings(mask, target_rad, fov_rad=self.bank.fov_rad)
+
+
+_process_scan.__doc__ = Pipeline.process.__doc__
+# pickle reduces a bound method to getattr(instance, __name__): the pipeline's own process;
+# cloudpickle finds the function by module and __qualname__ (_process_scan)
+_process_scan.__name__ = "process"
