@@ -21,7 +21,7 @@ from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.run import write_atomic
 from fftnav.runner.summary import SWEEP_COLUMNS, gain_table
 
-__all__ = ["ALPHA", "verdict", "verdict_lines", "write_sweep_report"]
+__all__ = ["ALPHA", "figure_envs", "verdict", "verdict_lines", "write_sweep_report"]
 
 #: Significance level of the verdicts.
 ALPHA = 0.05
@@ -30,12 +30,19 @@ def _axis_of(cell: str) -> str:
     return cell.split("=")[0] if "=" in cell else ""
 
 
+def figure_envs(table: pd.DataFrame, axis: str) -> list[str]:
+    """The envs of an axis's figure: those with a cell of the axis (an axis of one env's
+    world, ``world.walls.wall_length_m``, ran that env only), else every env of the table."""
+    on_axis = table[[_axis_of(c) == axis and c != "base" for c in table["cell"]]]
+    return sorted((on_axis if axis and len(on_axis) else table)["env"].unique())
+
+
 def _gain_figure(table: pd.DataFrame, axis: str, path: Path) -> Path:
     """Gain of collab and fusion over own-only (SPL points) against the axis's cells."""
     cells = ["base", *[c for c in dict.fromkeys(table["cell"]) if _axis_of(c) == axis]]
     sub = table[table["cell"].isin(cells) & (table["reference"] == "own-only")
                 & table["policy"].isin(["collab", "fusion"])]
-    envs = sorted(sub["env"].unique())
+    envs = figure_envs(sub, axis)
     fig = Figure(figsize=(3.2 * max(len(envs), 1), 3.0), dpi=120)
     axes = fig.subplots(1, max(len(envs), 1), squeeze=False, sharey=True)
     for ax, env in zip(axes[0], envs, strict=False):

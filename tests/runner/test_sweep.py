@@ -146,3 +146,14 @@ def test_verdict_lines_list_each_comparison_where_it_pays_and_costs():
     assert "- `collab` against `fusion`, 1 (cell, env) pairs:" in text
     assert "  - pays in 0." in text and "  - no clear difference in 1." in text
     assert "`fusion` against" not in text  # no such rows
+
+
+def test_an_axis_of_one_envs_world_draws_that_env_only():
+    from fftnav.report.sweep import figure_envs
+
+    table = pd.DataFrame({"cell": ["base", "base", "wall_length_m=3-4.5", "range_m=1.5",
+                                   "range_m=1.5"],
+                          "env": ["forest", "walls", "walls", "forest", "walls"]})
+    assert figure_envs(table, "wall_length_m") == ["walls"]
+    assert figure_envs(table, "range_m") == ["forest", "walls"]
+    assert figure_envs(table[table.cell == "base"], "") == ["forest", "walls"]
