@@ -242,6 +242,12 @@ class Pipeline:
         Process single scans with the compiled kernels of :mod:`fftnav.observe.kernels`
         (bit-identical results, several times faster): None (default) uses them when numba is
         installed; False never does (the numpy path, the reference); True requires numba.
+
+    Notes
+    -----
+    A compiled pipeline writes each scan into workspaces of its own: use one pipeline per
+    thread (a copy, ``copy.copy(pipe)``, gets workspaces of its own). Results never share
+    them.
     """
 
     def __init__(
