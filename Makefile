@@ -25,12 +25,15 @@ benchmark: $(STAMP)
 	$(BIN)/fftnav run experiments/table1.toml --out results/table1
 
 # Issue 10: the core comparison (walls, traps; own-only, fusion, collab; 20 maps), its walls
-# holdout (maps 21-40) and the full sweep (docs/experiments.md, [sweep]); all resume when rerun.
+# holdouts (maps 21-40 and 41-60) and the full sweep (docs/experiments.md, [sweep]); all resume
+# when rerun.
 collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/core.toml
 	$(BIN)/fftnav figure sweep experiments/collab/core.toml
 	$(BIN)/fftnav run experiments/collab/walls_holdout.toml
 	$(BIN)/fftnav figure sweep experiments/collab/walls_holdout.toml
+	$(BIN)/fftnav run experiments/collab/walls_fresh.toml
+	$(BIN)/fftnav figure sweep experiments/collab/walls_fresh.toml
 	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)

@@ -29,10 +29,14 @@ from fftnav.planning.bug import BugPlanner
 from fftnav.planning.controllers import Controller, ControllerSetup, SwarmStep
 from fftnav.planning.policies import DecisionContext, Policy
 
-__all__ = ["SIDE_MARGIN_M", "SIDE_RADIUS_M", "BugController"]
+__all__ = ["SIDE_MARGIN_M", "SIDE_RADIUS_M", "UNKNOWN_COST", "BugController"]
 
 #: ``collab``'s map says which side only when one side's way is this much shorter (m).
-SIDE_MARGIN_M = 2.0
+SIDE_MARGIN_M = 1.0
+#: ... counting a step through a cell the robot has never seen (neither hit nor passed by its
+#: beams) as this many steps: the way round a wall end nobody has seen is dearer than the way
+#: through a gap the robot saw open.
+UNKNOWN_COST = 3.0
 #: The two sides' ways are compared through the cells this far (m) from the robot.
 SIDE_RADIUS_M = 1.0
 
@@ -87,7 +91,7 @@ class BugController(Controller):
         if maps is None:
             return None
         left, right = maps.side_costs(i, self.poses[i, :2], self.goals[i], radius_m=SIDE_RADIUS_M,
-                                      shared_only=True)
+                                      shared_only=True, unknown_cost=UNKNOWN_COST)
         if min(left, right) == np.inf or abs(left - right) < SIDE_MARGIN_M:
             return None
         return 1 if left < right else -1

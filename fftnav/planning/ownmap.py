@@ -166,7 +166,8 @@ class OwnMaps:
         return True
 
     def side_costs(self, robot: int, xy: np.ndarray, goal: np.ndarray, *,
-                   radius_m: float, shared_only: bool = False) -> tuple[float, float]:
+                   radius_m: float, shared_only: bool = False,
+                   unknown_cost: float = 1.0) -> tuple[float, float]:
         """Lengths (m) of the shortest ways from ``xy`` to ``goal`` through robot ``robot``'s map
         that pass the obstacle ahead on its left and on its right.
 
@@ -176,7 +177,11 @@ class OwnMaps:
         likewise on the right. Either length is ``radius_m`` plus the least distance to the goal
         from such a cell; inf where there is none (both inf when nothing closed lies ahead
         within ``range_m``, and when ``shared_only`` and no neighbour's segment still in the
-        map lies within ``range_m`` of that obstacle: nothing they said is about it)."""
+        map lies within ``range_m`` of that obstacle: nothing they said is about it). With
+        ``unknown_cost`` c, a step into or out of a cell never seen (neither hit nor passed) costs
+        (1 + c) / 2 times its length, and a step between two such cells c times: ways through
+        seen-free space are preferred to ways through the unknown."""
+        check_number("unknown_cost", unknown_cost, low=1.0)
         if not self.plan(robot, xy, goal):
             return math.inf, math.inf
         xy, goal = np.asarray(xy, float), np.asarray(goal, float)
@@ -202,7 +207,14 @@ class OwnMaps:
         closed = self._closed.copy()
         closed[cut[:, 0], cut[:, 1]] = True
         there = self.cell(goal)
-        field = dijkstra(grid_graph(closed, connectivity=8), directed=True,
+        graph = grid_graph(closed, connectivity=8)
+        if unknown_cost != 1.0:  # a move costs more through cells never seen
+            weight = np.where((self.last_free[robot] < 0) & (self.last_hit[robot] < 0),
+                              unknown_cost, 1.0).ravel()
+            graph = graph.tocoo()
+            graph.data = graph.data * (weight[graph.row] + weight[graph.col]) / 2.0
+            graph = graph.tocsr()
+        field = dijkstra(graph, directed=True,
                          indices=int(there[0] * self.shape[1] + there[1])).reshape(self.shape)
         here = self.cell(xy)
         reach = int(math.ceil(radius_m / self.res)) + 1

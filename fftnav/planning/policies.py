@@ -18,8 +18,8 @@ Registered policies:
 ``collab``
     Ours (issue 10): robots share the *walls* they see (a few line segments a second,
     :mod:`fftnav.episode.collab`), drawn into the receivers' own maps; at a decision the side
-    whose way to the goal through that map is clearly shorter (by 2 m), else P_s as
-    ``own-only``.
+    whose way to the goal through that map is clearly shorter (by 1 m, a step through a cell
+    the robot never saw counting three), else P_s as ``own-only``.
 """
 
 from __future__ import annotations

@@ -108,3 +108,30 @@ def test_collab_episodes_are_deterministic_and_share_walls():
     assert sum(r.bytes_sent for r in a.rows) > 0
     assert all(r.bytes_sent <= MAX_MESSAGE_BYTES * r.messages_sent for r in a.rows)
     assert sum(r.arrived for r in a.rows) >= 3
+
+
+def test_unknown_cells_cost_more_only_where_the_robot_has_not_looked():
+    """side_costs with unknown_cost: 1 is the plain length; in a map seen everywhere (every
+    cell passed by a beam) a higher cost changes nothing; in the real map, whose left way runs
+    through cells above the wall nobody saw, it makes that way dearer (the right one is closed
+    by the neighbour's segment to the map edge); below 1 it is refused."""
+    maps = OwnMaps(1, np.array([0.0, 0.0]), np.array([10.0, 10.0]), resolution_m=0.2,
+                   range_m=R, clearance_m=0.3)
+    pose = np.array([5.0, 3.0, UP])
+    wall = [((0.2, 4.0), (9.8, 4.0))]
+    maps.update(0, np.array([0]), pose[None], _ranges(*pose, walls=wall)[None], ANGLES)
+    maps.add_segments(0, 1, np.array([[[7.0, 4.0], [9.8, 4.0]]]))
+    goal = np.array([5.0, 8.0])
+    plain = maps.side_costs(0, pose[:2], goal, radius_m=1.0)
+    assert maps.side_costs(0, pose[:2], goal, radius_m=1.0, unknown_cost=1.0) == plain
+    dear = maps.side_costs(0, pose[:2], goal, radius_m=1.0, unknown_cost=3.0)
+    assert dear[0] > plain[0] + 5.0 and plain[1] == dear[1] == math.inf  # right: no way
+    seen = OwnMaps(1, maps.lo, np.array([10.0, 10.0]), resolution_m=0.2, range_m=R,
+                   clearance_m=0.3)
+    seen.last_hit[:], seen.last_shared[:] = maps.last_hit, maps.last_shared
+    seen.last_free[:] = np.where(maps.last_hit[0] >= 0, -1, 0)[None]  # every other cell seen
+    assert seen.side_costs(0, pose[:2], goal, radius_m=1.0, unknown_cost=3.0) == pytest.approx(
+        seen.side_costs(0, pose[:2], goal, radius_m=1.0))
+    with pytest.raises(ValueError, match=r"unknown_cost must be a finite number >= 1, "
+                                         r"got unknown_cost=0.5"):
+        maps.side_costs(0, pose[:2], goal, radius_m=1.0, unknown_cost=0.5)

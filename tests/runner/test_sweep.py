@@ -59,6 +59,8 @@ def test_bad_sweeps_are_refused_naming_the_key(sweep, message):
 def test_the_shipped_collab_configs_load():
     holdout = load_config(ROOT / "experiments" / "collab" / "walls_holdout.toml")
     assert holdout.envs == ("walls",) and holdout.maps == 20 and holdout.map_seed == 21
+    fresh = load_config(ROOT / "experiments" / "collab" / "walls_fresh.toml")
+    assert fresh.envs == ("walls",) and fresh.maps == 20 and fresh.map_seed == 41
     core = load_config(ROOT / "experiments" / "collab" / "core.toml")
     assert core.envs == ("walls", "traps") and core.maps == 20 and core.cells == ()
     assert {"own-only", "fusion", "collab"} <= set(core.policies)
