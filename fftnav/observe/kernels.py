@@ -265,16 +265,17 @@ def finish(out: np.ndarray, reals: np.ndarray, ints: np.ndarray, valid: np.ndarr
                  crc_heads)
 
 
-def finish_constants(tau: int, limit: float, valid: np.ndarray, circular: bool, eps: float,
-                     angles: np.ndarray, range_m: float, angle_scale: float, dist_scale: float,
-                     head: int) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """``(reals, ints, valid, angles)``: the constant arguments of :func:`finish` from those
-    of :func:`finish_batch` (read-only arrays)."""
+def finish_constants(tau: int, limit: float, circular: bool, eps: float, range_m: float,
+                     angle_scale: float, dist_scale: float,
+                     head: int) -> tuple[np.ndarray, np.ndarray]:
+    """``(reals, ints)``, the scalar arguments of :func:`finish` packed (read-only arrays):
+    ``reals = [limit, eps, range_m, angle_scale, dist_scale]``, ``ints = [tau, circular,
+    head]``."""
     reals = np.array([limit, eps, range_m, angle_scale, dist_scale], dtype=np.float64)
     ints = np.array([tau, int(circular), head], dtype=np.int64)
     for a in (reals, ints):
         a.flags.writeable = False
-    return reals, ints, valid, angles
+    return reals, ints
 
 
 @njit(cache=True, nogil=True)

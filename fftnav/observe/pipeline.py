@@ -314,11 +314,11 @@ class Pipeline:
 
         Readings are sanitised first (``+inf`` and ``>= R``: open, NaN and negative: blocked);
         the input is not modified. ``with_p_s=False`` skips the quadrant areas and P_s (NaN).
-        (A compiled pipeline's ``process`` is a closure of :meth:`_compiled_paths` with this
-        signature, bound to the pipeline when it is made, which takes one native float64
-        C-contiguous scan ``(M,)`` itself and hands everything else to this method's general
-        path; a subclass that overrides ``process`` keeps its own, and a replacement of
-        ``Pipeline.process`` reaches pipelines made after it.)
+        (A compiled pipeline's ``process`` is a module-level function with this signature,
+        bound to the pipeline when it is made, which takes one native float64 C-contiguous scan
+        ``(M,)`` itself and hands everything else to this method's general path; a subclass
+        that overrides ``process`` keeps its own, and a replacement of ``Pipeline.process``
+        reaches pipelines made after it.)
         """
         if (type(ranges) is np.ndarray and ranges.shape == self._one_scan
                 and ranges.dtype is _FLOAT64 and ranges.strides == _CONTIGUOUS):
@@ -374,12 +374,12 @@ class Pipeline:
         valid = np.zeros(width, bool)
         inner = self.angles_rad[1:-1] if linear else self.angles_rad
         np.less_equal(np.abs(inner), math.pi - b.blind_rad / 2.0, out=valid[1:-1])
-        constants = (tau, safe_limit(threshold), valid, not linear, EXTREMUM_EPS,
-                     self.angles_rad, range_m, *codec_scales(range_m))
-        tables = (_COMPACT_HEAD, kernels.CRC_TABLE, _CRC_HEADS)
-        # finish's arguments, its scalars packed into two arrays
-        reals, ints, valid, angles = kernels.finish_constants(*constants, _COMPACT_HEAD)
-        crc_table, crc_heads = kernels.CRC_TABLE, _CRC_HEADS
+        limit, scales, angles = safe_limit(threshold), codec_scales(range_m), self.angles_rad
+        constants = (tau, limit, valid, not linear, EXTREMUM_EPS, angles, range_m, *scales)
+        tables = (_COMPACT_HEAD, _CRC_TABLE, _CRC_HEADS)
+        # finish's scalars packed into two arrays (its tables are the module's)
+        reals, ints = kernels.finish_constants(tau, limit, not linear, EXTREMUM_EPS, range_m,
+                                               *scales, _COMPACT_HEAD)
         compact, layout, result_of = self.layout == "compact", self.layout, self._result
         empty, multiply, new = np.empty, np.multiply, object.__new__
         prepare, finish = kernels.entry("prepare"), kernels.entry("finish")
@@ -408,8 +408,8 @@ class Pipeline:
             else:  # pragma: no cover - other scipy layouts
                 out = filtered(work, spec, spectra)
             mask, sigma, is_min = empty(mask_shape, _BOOL), empty(sigma_shape), empty(m, _BOOL)
-            n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, crc_table,
-                       crc_heads)
+            n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, _CRC_TABLE,
+                       _CRC_HEADS)
             sigma, is_min = sigma[:n], is_min[:n]
             if compact and n <= 255:
                 msgs = [view[: 3 * n + 4].tobytes()]
