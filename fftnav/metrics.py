@@ -26,6 +26,7 @@ from typing import Any
 import numpy as np
 from numpy.typing import ArrayLike
 
+from fftnav.registry import Registry, first_line
 from fftnav.validate import check_number
 
 __all__ = [
@@ -276,7 +277,7 @@ class Measure:
 
 
 #: Measures by name, in the order of the summary columns (habitat-lab style registry).
-MEASURES: dict[str, Measure] = {}
+MEASURES: Registry[Measure] = Registry("measure", parameter="names")
 
 
 def register_measure(
@@ -286,10 +287,7 @@ def register_measure(
     """Decorator registering ``fn(table) -> float`` as measure ``name`` (see :class:`Measure`)."""
 
     def register(fn: Callable[[Table], float]) -> Callable[[Table], float]:
-        if name in MEASURES:
-            raise ValueError(f"measure {name!r} is already registered")
-        doc = (fn.__doc__ or "").strip().splitlines()
-        MEASURES[name] = Measure(name, fn, terms, interval, doc[0] if doc else "")
+        MEASURES.add(name, Measure(name, fn, terms, interval, first_line(fn.__doc__)))
         return fn
 
     return register
@@ -451,7 +449,4 @@ def evaluate(table: Table, names: Iterable[str] | None = None) -> dict[str, floa
     {'ar': 0.5, 'apl_m': 20.0, 'spl': 0.45}
     """
     names = list(MEASURES) if names is None else list(names)
-    unknown = [n for n in names if n not in MEASURES]
-    if unknown:
-        raise ValueError(f"names must be measures from {sorted(MEASURES)}, got unknown {unknown}")
-    return {n: MEASURES[n](table) for n in names}
+    return {n: MEASURES.lookup(n)(table) for n in names}

@@ -81,9 +81,16 @@ class Registry(dict[str, T]):
         if not isinstance(name, str) or not name:
             raise ValueError(f"a {self.kind} name must be a non-empty string, got name={name!r}")
         if name in self:
-            raise ValueError(f"{self.kind} name {name!r} is already registered")
+            raise ValueError(f"{self.kind} {name!r} is already registered")
         self[name] = item
         return item
+
+    def copy(self) -> Registry[T]:
+        """A registry of the same kind with the same entries (for tests that register more)."""
+        new: Registry[T] = Registry(self.kind, parameter=self.parameter,
+                                    entry_point_group=self.entry_point_group)
+        new.update(self)
+        return new
 
     def entry_point_names(self) -> tuple[str, ...]:
         """Names of the installed entry points of the registry's group (none without one)."""

@@ -161,7 +161,7 @@ def test_a_registered_measure_becomes_a_summary_column(monkeypatch):
     from fftnav.metrics import register_measure
     from fftnav.runner.summary import summarize, summary_columns
 
-    monkeypatch.setattr("fftnav.metrics.MEASURES", dict(MEASURES))
+    monkeypatch.setattr("fftnav.metrics.MEASURES", MEASURES.copy())
     monkeypatch.setattr("fftnav.runner.summary.MEASURES", __import__("fftnav").metrics.MEASURES)
     register_measure("longest_path_m")(lambda t: float(np.max(t["path_length_m"])))
     assert summary_columns()[-1] == "longest_path_m"
@@ -195,7 +195,8 @@ def test_a_registered_measure_becomes_a_summary_column(monkeypatch):
         (lambda: spl([True], [-1.0], [1.0]), r"path_length_m must be 1 finite lengths >= 0"),
         (lambda: spl([True], [1.0], [np.nan]), r"optimal_length_m must be 1 finite lengths >= 0"),
         (lambda: arrival_rate([2, 0]), r"success must be a non-empty 1-D array of booleans"),
-        (lambda: evaluate(episode_table(), ["nope"]), r"names must be measures from .*unknown \['nope'\]"),
+        (lambda: evaluate(episode_table(), ["nope"]),
+         r"names must be a registered measure \('ar', .*got names='nope'"),
         (lambda: MEASURES["spl"]({"arrived": [True]}), r"table must have a column 'path_length_m'"),
     ],
 )

@@ -26,21 +26,19 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from fftnav.registry import Registry
 from fftnav.validate import check_number, check_vector
 
 __all__ = ["SHAPES", "Circle", "Obstacle", "Polygon", "combined_mesh", "prism_mesh",
            "rectangle", "register_shape"]
 
 #: Shape classes by their JSON ``shape`` name.
-SHAPES: dict[str, type[Obstacle]] = {}
+SHAPES: Registry[type[Obstacle]] = Registry("shape", parameter="shape")
 
 
 def register_shape(cls: type[Obstacle]) -> type[Obstacle]:
     """Class decorator: make ``cls`` readable from world files under ``cls.shape``."""
-    if cls.shape in SHAPES:
-        raise ValueError(f"shape name {cls.shape!r} is already registered")
-    SHAPES[cls.shape] = cls
-    return cls
+    return SHAPES.add(cls.shape, cls)
 
 
 def prism_mesh(outline: np.ndarray, height_m: float) -> tuple[np.ndarray, np.ndarray]:

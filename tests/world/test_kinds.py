@@ -26,9 +26,11 @@ def test_builtin_kinds_and_their_presets_are_the_files_of_worlds():
 
 
 def test_unknown_kind_and_bad_preset_path_are_refused():
-    with pytest.raises(ValueError, match=r"env must be one of \['forest', 'rocky', 'walls', "
-                                         r"'traps'\], got env='x'"):
+    with pytest.raises(ValueError, match=r"env must be a registered world kind \('forest', "
+                                         r"'rocky', 'walls', 'traps'\), got env='x'$"):
         get_world_kind("x")
+    with pytest.raises(ValueError, match=r"got env='wals'; did you mean 'walls'\?"):
+        get_world_kind("wals")
     with pytest.raises(ValueError, match=r"env_or_path must be one of .* or a .toml path"):
         load_preset("x.json")
     with pytest.raises(ValueError, match="world kind 'forest' is already registered"):
@@ -52,7 +54,7 @@ def test_rocky_parameters_are_checked_by_the_kind():
 
 
 def test_a_kind_registered_from_outside_generates_worlds_and_appears_in_the_cli(monkeypatch):
-    monkeypatch.setattr("fftnav.world.kinds.WORLD_KINDS", dict(WORLD_KINDS))
+    monkeypatch.setattr("fftnav.world.kinds.WORLD_KINDS", WORLD_KINDS.copy())
     defaults = {**load_preset("forest"), "env": "pillars", "density_per_m2": 0.05}
 
     @register_world_kind("pillars", defaults=defaults)

@@ -82,8 +82,8 @@ def test_overrides_change_size_density_and_robots():
     assert len(world.obstacles) == 90 and len(world.starts) == 10
     with pytest.raises(ValueError, match=r"unknown world parameter\(s\) \['colour'\]"):
         generate_world("forest", 0, colour="red")
-    with pytest.raises(ValueError, match=r"env must be one of \[.forest., .rocky., .walls., .traps.\], "
-                                         r"got env=.desert."):
+    with pytest.raises(ValueError, match=r"env must be a registered world kind \(.forest., .rocky., "
+                                         r".walls., .traps.\), got env=.desert."):
         generate_world("desert", 0)
     with pytest.raises(ValueError, match="seed must be an integer >= 0, got seed=-1"):
         generate_world("forest", -1)

@@ -90,7 +90,7 @@ def test_prism_mesh_of_a_triangle():
 def test_registering_a_name_twice_is_refused():
     from fftnav.world.obstacles import register_shape
 
-    with pytest.raises(ValueError, match="shape name 'circle' is already registered"):
+    with pytest.raises(ValueError, match="shape 'circle' is already registered"):
         register_shape(Circle)
 
 

@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.registry import Registry, first_line
 from fftnav.world.obstacles import Obstacle
 
 try:
@@ -64,7 +65,7 @@ class WorldKind:
 
 
 #: Registered world kinds by name, in registration order.
-WORLD_KINDS: dict[str, WorldKind] = {}
+WORLD_KINDS: Registry[WorldKind] = Registry("world kind", parameter="env")
 
 
 def register_world_kind(name: str, *, check: Check | None = None,
@@ -78,11 +79,8 @@ def register_world_kind(name: str, *, check: Check | None = None,
     """
 
     def wrap(draw: Draw) -> Draw:
-        if name in WORLD_KINDS:
-            raise ValueError(f"world kind {name!r} is already registered")
-        doc = (draw.__doc__ or "").strip().splitlines()
-        WORLD_KINDS[name] = WorldKind(name, draw, check or (lambda params: None),
-                                      doc[0] if doc else "", defaults)
+        WORLD_KINDS.add(name, WorldKind(name, draw, check or (lambda params: None),
+                                        first_line(draw.__doc__), defaults))
         return draw
 
     return wrap
@@ -94,10 +92,9 @@ def world_kinds() -> tuple[str, ...]:
 
 
 def get_world_kind(name: str) -> WorldKind:
-    """The registered kind ``name``; ValueError listing the known kinds otherwise."""
-    if name not in WORLD_KINDS:
-        raise ValueError(f"env must be one of {list(WORLD_KINDS)}, got env={name!r}")
-    return WORLD_KINDS[name]
+    """The registered kind ``name``; ValueError listing the known kinds (and the closest)
+    otherwise."""
+    return WORLD_KINDS.lookup(name)
 
 
 def load_preset(env_or_path: str | Path) -> Params:
