@@ -24,7 +24,7 @@ lint: $(STAMP)
 benchmark: $(STAMP)
 	$(BIN)/fftnav run experiments/table1.toml --out results/table1
 
-# Issue 10: the core comparison (walls, traps; own-only, fusion, collab; 20 maps), its walls
+# collab: the core comparison (walls, traps; own-only, fusion, collab; 20 maps), its walls
 # holdouts (maps 21-40 and 41-60) and the full sweep (docs/experiments.md, [sweep]); all resume
 # when rerun.
 collab: $(STAMP)

@@ -92,7 +92,7 @@ def bench_sim(*, env: str = "forest", seconds: float = 20.0, seed: int = 0, robo
     runs : int
         Independent runs; the one with the best real-time factor is reported.
     compare_lidar : bool
-        After every tick also scan the same poses the old way, every ray in the full client
+        After every tick also scan the same poses with every ray cast in the full client
         (untimed in the real-time factor), to report both lidar costs side by side and check
         that the scans are identical.
 
@@ -102,7 +102,7 @@ def bench_sim(*, env: str = "forest", seconds: float = 20.0, seed: int = 0, robo
         ``real_time_factor`` (simulated / wall seconds), ``ms_per_robot_s`` (wall ms per
         simulated robot-second), ``lidar_ms_per_tick`` (wall ms of one swarm scan),
         ``lidar_full_client_ms_per_tick`` (the same scans with every culled ray cast by Bullet
-        in the full client, the previous way, timed on the same poses) and ``lidar_identical``,
+        in the full client without culling to the static client, timed on the same poses) and ``lidar_identical``,
         ``physics_ms_per_s`` (wall ms of physics and control per simulated second), ``wall_s``,
         ``rays_per_tick`` (live beams of the swarm), ``rays_cast_per_tick`` (those left after
         culling, mean), ``rays_static_per_tick`` (of those, the ones outside every robot's
@@ -142,7 +142,7 @@ def _run(world: World, env: str, seconds: float, seed: int, compare: bool) -> di
             wall += time.perf_counter() - tic
             if compare:
                 spent, counts = lidar.seconds_spent, (lidar.rays_cast, lidar.rays_cast_static)
-                # the previous way: every culled ray by Bullet, in the full client
+                # the same poses with every culled ray cast by Bullet in the full client
                 client, mesh = lidar._static_client, lidar.static_mesh
                 lidar._static_client = lidar.static_mesh = None
                 tic = time.perf_counter()
