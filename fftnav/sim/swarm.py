@@ -24,7 +24,7 @@ from fftnav.limits import MAX_RAYS_PER_TICK, check_limit
 from fftnav.sim.fastrays import StaticMesh
 from fftnav.sim.lidar import CULL_MARGIN_M, Lidar
 from fftnav.sim.mesh import MAX_MESH_INDICES, MAX_MESH_VERTICES, static_meshes
-from fftnav.validate import Checked, integer_field, number_field
+from fftnav.validate import Checked, check_integer, integer_field, number_field
 from fftnav.world import World
 
 __all__ = ["SimConfig", "Observation", "SwarmSim"]
@@ -389,8 +389,7 @@ class SwarmSim:
     def park(self, i: int) -> None:
         """Take robot ``i`` out of the world (it arrived or failed): it stops colliding, no longer
         appears in any lidar and is no longer driven; its pose and odometer are frozen."""
-        if not (isinstance(i, (int, np.integer)) and 0 <= i < self.num_robots):
-            raise ValueError(f"i must be a robot index in [0, {self.num_robots}), got i={i!r}")
+        check_integer("i", i, low=0, high=self.num_robots - 1)
         if not self._active[i]:
             return
         body, cid = self._robots[i], self._client

@@ -160,7 +160,7 @@ def test_parked_robot_leaves_the_world():
         for _ in range(20):
             obs = sim.step([[0.5, 0.0], [0.5, 0.0]])
         assert not obs.robot_contact.any() and obs.poses[0, 0] > 3.0
-        with pytest.raises(ValueError, match=r"i must be a robot index in \[0, 2\), got i=2"):
+        with pytest.raises(ValueError, match=r"i must be an integer in \[0, 1\], got i=2"):
             sim.park(2)
         with pytest.raises(ValueError, match=r"commands must be a finite array of shape \(2, 2\)"):
             sim.step([[0.5, 0.0]])
