@@ -7,8 +7,8 @@ about one obstacle per 5 m^2, 15 robots). Its ``boundary`` is ``"open"`` (the pa
 stops a robot at the map edge) or ``"walls"`` (the edge is an obstacle for the robots, the lidar,
 grids and A*: :attr:`World.solids` adds four walls just outside the rectangle). Pure numpy.
 
-World file (JSON); every key but ``boundary`` is required (a file without it is ``"open"``, as
-every file written before the option existed) and no other key is accepted::
+World file (JSON); every key but ``boundary`` is required (a file without it is ``"open"``) and
+no other key is accepted::
 
     {"env": "forest", "seed": 3, "size": [20.0, 20.0],
      "obstacles": [{"shape": "circle", "center": [x, y], "radius": r, "height": h},

@@ -55,7 +55,7 @@ def test_density_and_clear_strips_hold_for_50_seeds(env):
             assert 0.3 - 1e-3 <= min(across) and max(across) <= 1.2 + 1e-3, seed
 
 
-def test_generated_shapes_match_the_issue():
+def test_generated_shapes_match_their_presets():
     forest = generate_world("forest", 3)
     radii = [o.radius for o in forest.obstacles]
     assert all(isinstance(o, Circle) for o in forest.obstacles)

@@ -1,4 +1,4 @@
-"""World kinds walls and traps, the map boundary and departure schedules (issue 10, item 1)."""
+"""World kinds walls and traps, the map boundary and departure schedules."""
 
 from __future__ import annotations
 
