@@ -36,8 +36,7 @@ from typing import Any, ClassVar
 from fftnav.limits import MAX_BEAMS, MAX_EPISODE_PHYSICS_STEPS, MAX_MAP_SIDE_M, check_limit
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.pipeline import Pipeline
-from fftnav.validate import (Checked, check_multiple, choice_field, integer_field,
-                             number_field)
+from fftnav.validate import Checked, check_multiple, choice_field, integer_field, number_field
 
 __all__ = ["CommsConfig", "EpisodeConfig", "RobotConfig", "SensorConfig", "SwarmConfig",
            "check_rates"]

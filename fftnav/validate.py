@@ -23,6 +23,7 @@ A dataclass declares the check on each field instead (:func:`number_field`,
 :class:`Checked`, which runs them when an instance is made, then its rules between fields
 (:meth:`Checked._check_together`)::
 
+    >>> from dataclasses import dataclass
     >>> @dataclass(frozen=True)
     ... class Lidar(Checked):
     ...     beams: int = integer_field(360, low=8)
@@ -48,7 +49,7 @@ from __future__ import annotations
 import dataclasses
 import math
 from collections.abc import Callable, Iterable, Mapping
-from dataclasses import MISSING, dataclass
+from dataclasses import MISSING
 from functools import partial
 from typing import Any, TypeVar
 

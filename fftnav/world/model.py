@@ -30,8 +30,15 @@ import numpy as np
 
 from fftnav.files import parse_json, read_text, write_atomic
 from fftnav.limits import MAX_MAP_SIDE_M, MAX_OBSTACLES, check_limit
-from fftnav.validate import (Checked, check_choice, check_integer, check_number, check_vector,
-                             choice_field, integer_field)
+from fftnav.validate import (
+    Checked,
+    check_choice,
+    check_integer,
+    check_number,
+    check_vector,
+    choice_field,
+    integer_field,
+)
 from fftnav.world.obstacles import SHAPES, Obstacle, rectangle
 
 __all__ = ["BOUNDARIES", "OPTIONAL_WORLD_KEYS", "WORLD_KEYS", "World", "load_world",
