@@ -10,9 +10,9 @@ A :class:`SwarmConfig` has four sections, the tables of an experiment TOML file:
 The simulator (:class:`fftnav.sim.swarm.SimConfig` composes ``robot`` and ``sensor``), the
 observation pipeline (:meth:`SwarmConfig.pipeline`) and the planner
 (:meth:`fftnav.planning.bug.BugPlanner.for_swarm`) are all built from it. Every field declares
-its own check (``metadata["check"]``, the shared helpers of :mod:`fftnav.validate`), so the same
-rule refuses a bad value from Python, from a TOML file (``sensor.range_m must be ...``) or from
-``fftnav episode --set``:
+its own check (the field helpers of :mod:`fftnav.validate`, run by its
+:class:`~fftnav.validate.Checked` base), so the same rule refuses a bad value from Python, from a
+TOML file (``sensor.range_m must be ...``) or from ``fftnav episode --set``:
 
 >>> cfg = SwarmConfig.from_sections({"sensor": {"range_m": 5}, "comms": {"packet_loss": 0.2}})
 >>> cfg.sensor.range_m, cfg.comms.packet_loss, cfg.robot.v_max_mps
@@ -29,79 +29,38 @@ from __future__ import annotations
 
 import dataclasses
 import math
-from collections.abc import Callable, Mapping
+from collections.abc import Mapping
 from dataclasses import dataclass, field
-from functools import partial
 from typing import Any, ClassVar
 
 from fftnav.limits import MAX_BEAMS, MAX_EPISODE_PHYSICS_STEPS, MAX_MAP_SIDE_M, check_limit
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.pipeline import Pipeline
-from fftnav.validate import check_choice, check_integer, check_number
+from fftnav.validate import Checked, check_multiple, choice_field, integer_field, number_field
 
-__all__ = ["CommsConfig", "EpisodeConfig", "RobotConfig", "SensorConfig", "SwarmConfig"]
-
-Check = Callable[[str, Any], Any]
+__all__ = ["CommsConfig", "EpisodeConfig", "RobotConfig", "SensorConfig", "SwarmConfig",
+           "check_rates"]
 
 #: Upper bounds of the speed limits (a robot, not a projectile).
 MAX_SPEED_MPS = 100.0
 MAX_YAW_RATE_RADPS = 100.0
 
 
-def _number(default: float, **bounds: Any) -> Any:
-    """A float field checked by :func:`fftnav.validate.check_number` with ``bounds``."""
-    return field(default=default, metadata={"check": partial(check_number, **bounds),
-                                            "type": float})
+def check_rates(control_hz: float, physics_hz: float) -> int:
+    """Physics steps per control period: ``physics_hz`` must be an integer multiple of
+    ``control_hz`` (the rule of :class:`EpisodeConfig` and :class:`fftnav.sim.swarm.SimConfig`).
+
+    >>> check_rates(10.0, 240.0)
+    24
+    """
+    return check_multiple("physics_hz", physics_hz, "control_hz", control_hz)
 
 
-def _integer(default: int, **bounds: Any) -> Any:
-    return field(default=default, metadata={"check": partial(check_integer, **bounds),
-                                            "type": int})
-
-
-def _choice(default: str, choices: tuple[str, ...]) -> Any:
-    return field(default=default, metadata={"check": partial(check_choice, choices=choices),
-                                            "type": str})
-
-
-class _Section:
-    """Validation shared by the section dataclasses: each field's own check, then
-    ``_check_together`` (rules between fields)."""
+class _Section(Checked):
+    """A section of :class:`SwarmConfig`, the TOML table :attr:`name`."""
 
     #: The TOML table of the section.
     name: ClassVar[str]
-
-    @classmethod
-    def keys(cls) -> tuple[str, ...]:
-        """The section's keys, in declaration order."""
-        return tuple(f.name for f in dataclasses.fields(cls))  # type: ignore[arg-type]
-
-    @classmethod
-    def value_type(cls, key: str) -> type:
-        """Python type of a key's values (float, int or str)."""
-        return {f.name: f.metadata["type"] for f in dataclasses.fields(cls)}[key]  # type: ignore[arg-type]
-
-    @classmethod
-    def checked(cls, values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
-        """``values`` checked field by field (errors name ``prefix + key``), floats as float;
-        an unknown key is refused."""
-        fields = {f.name: f for f in dataclasses.fields(cls)}  # type: ignore[arg-type]
-        out = {}
-        for key, value in values.items():
-            if key not in fields:
-                raise ValueError(f"unknown key {prefix}{key}; expected one of {list(fields)}")
-            out[key] = fields[key].metadata["check"](f"{prefix}{key}", value)
-        return out
-
-    def __post_init__(self) -> None:
-        values = self.checked({f.name: getattr(self, f.name)
-                               for f in dataclasses.fields(self)})  # type: ignore[arg-type]
-        for key, value in values.items():
-            object.__setattr__(self, key, value)
-        self._check_together()
-
-    def _check_together(self) -> None:
-        """Rules between fields (none by default)."""
 
 
 @dataclass(frozen=True)
@@ -121,11 +80,11 @@ class RobotConfig(_Section):
     """
 
     name: ClassVar[str] = "robot"
-    r0_m: float = _number(0.15, low=0, low_open=True)
-    r_m: float = _number(0.30, low=0, low_open=True)
-    v_max_mps: float = _number(0.5, low=0, low_open=True, high=MAX_SPEED_MPS)
-    w_max_radps: float = _number(1.5, low=0, low_open=True, high=MAX_YAW_RATE_RADPS)
-    embodiment: str = _choice("body", ("body", "wheeled"))
+    r0_m: float = number_field(0.15, low=0, low_open=True)
+    r_m: float = number_field(0.30, low=0, low_open=True)
+    v_max_mps: float = number_field(0.5, low=0, low_open=True, high=MAX_SPEED_MPS)
+    w_max_radps: float = number_field(1.5, low=0, low_open=True, high=MAX_YAW_RATE_RADPS)
+    embodiment: str = choice_field("body", ("body", "wheeled"))
 
     def _check_together(self) -> None:
         if self.r_m <= self.r0_m:
@@ -156,12 +115,12 @@ class SensorConfig(_Section):
     """
 
     name: ClassVar[str] = "sensor"
-    beams: int = _integer(360, low=2, high=MAX_BEAMS)
-    range_m: float = _number(3.0, low=0, low_open=True, high=MAX_MAP_SIDE_M)
-    fov_deg: float = _number(360.0, low=0, high=360, low_open=True)
-    blind_deg: float = _number(15.0, low=0)
-    noise_std_m: float = _number(0.0, low=0, high=MAX_MAP_SIDE_M)
-    dropout: float = _number(0.0, low=0, high=1, high_open=True)
+    beams: int = integer_field(360, low=2, high=MAX_BEAMS)
+    range_m: float = number_field(3.0, low=0, low_open=True, high=MAX_MAP_SIDE_M)
+    fov_deg: float = number_field(360.0, low=0, high=360, low_open=True)
+    blind_deg: float = number_field(15.0, low=0)
+    noise_std_m: float = number_field(0.0, low=0, high=MAX_MAP_SIDE_M)
+    dropout: float = number_field(0.0, low=0, high=1, high_open=True)
 
     def _check_together(self) -> None:
         if self.blind_deg >= self.fov_deg:
@@ -198,11 +157,11 @@ class CommsConfig(_Section):
     """
 
     name: ClassVar[str] = "comms"
-    comm_range_m: float = _number(6.0, low=0, low_open=True, high=10 * MAX_MAP_SIDE_M)
-    packet_loss: float = _number(0.0, low=0, high=1, high_open=True)
-    delay_ticks: int = _integer(0, low=0, high=1_000_000)
-    broadcast: str = _choice("on_obstacle", ("on_obstacle", "every_tick"))
-    pose_noise_m: float = _number(0.0, low=0, high=MAX_MAP_SIDE_M)
+    comm_range_m: float = number_field(6.0, low=0, low_open=True, high=10 * MAX_MAP_SIDE_M)
+    packet_loss: float = number_field(0.0, low=0, high=1, high_open=True)
+    delay_ticks: int = integer_field(0, low=0, high=1_000_000)
+    broadcast: str = choice_field("on_obstacle", ("on_obstacle", "every_tick"))
+    pose_noise_m: float = number_field(0.0, low=0, high=MAX_MAP_SIDE_M)
 
 
 @dataclass(frozen=True)
@@ -229,20 +188,17 @@ class EpisodeConfig(_Section):
     """
 
     name: ClassVar[str] = "episode"
-    time_limit_s: float = _number(120.0, low=0, low_open=True)
-    control_hz: float = _number(10.0, low=0, low_open=True)
-    physics_hz: float = _number(240.0, low=0, low_open=True)
-    success_radius_m: float = _number(0.3, low=0, low_open=True, high=MAX_MAP_SIDE_M)
-    departure: str = _choice("together", ("together", "waves", "staggered"))
-    waves: int = _integer(3, low=1)
-    wave_interval_s: float = _number(15.0, low=0)
-    stagger_s: float = _number(2.0, low=0)
+    time_limit_s: float = number_field(120.0, low=0, low_open=True)
+    control_hz: float = number_field(10.0, low=0, low_open=True)
+    physics_hz: float = number_field(240.0, low=0, low_open=True)
+    success_radius_m: float = number_field(0.3, low=0, low_open=True, high=MAX_MAP_SIDE_M)
+    departure: str = choice_field("together", ("together", "waves", "staggered"))
+    waves: int = integer_field(3, low=1)
+    wave_interval_s: float = number_field(15.0, low=0)
+    stagger_s: float = number_field(2.0, low=0)
 
     def _check_together(self) -> None:
-        ratio = self.physics_hz / self.control_hz
-        if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
-            raise ValueError(f"physics_hz must be an integer multiple of control_hz="
-                             f"{self.control_hz!r}, got physics_hz={self.physics_hz!r}")
+        check_rates(self.control_hz, self.physics_hz)
         check_limit("physics steps per episode (time_limit_s x physics_hz)",
                     self.time_limit_s * self.physics_hz, MAX_EPISODE_PHYSICS_STEPS,
                     hint="lower time_limit_s or physics_hz")
@@ -274,7 +230,7 @@ _SECTIONS: dict[str, type[_Section]] = {
 
 
 @dataclass(frozen=True)
-class SwarmConfig:
+class SwarmConfig(Checked):
     """Everything about an episode except the world, the policy and the seed."""
 
     robot: RobotConfig = field(default_factory=RobotConfig)
@@ -285,7 +241,7 @@ class SwarmConfig:
     #: Section name -> its dataclass.
     SECTIONS: ClassVar[dict[str, type[_Section]]] = _SECTIONS
 
-    def __post_init__(self) -> None:
+    def _check_together(self) -> None:
         """Rules between sections: a robot moves at most its radius r0 per physics step (else
         it could tunnel through a thin obstacle or another robot between two steps)."""
         step_m = self.robot.v_max_mps / self.episode.physics_hz
@@ -297,21 +253,15 @@ class SwarmConfig:
     @classmethod
     def from_sections(cls, sections: Mapping[str, Mapping[str, Any]]) -> SwarmConfig:
         """Build from TOML-like tables; an unknown section or key, or a bad value, raises
-        ValueError naming it (``sensor.range_m must be ...``)."""
+        ValueError naming it (``sensor.range_m must be ...``, ``[sensor] blind_deg must be
+        ...`` for a rule between keys)."""
         kwargs = {}
         for name, values in sections.items():
             if name not in _SECTIONS:
                 raise ValueError(f"unknown section [{name}]; expected one of {list(_SECTIONS)}")
             if not isinstance(values, Mapping):
                 raise ValueError(f"[{name}] must be a table, got {values!r:.80}")
-            section = _SECTIONS[name]
-            try:
-                kwargs[name] = section(**section.checked(values, prefix=f"{name}."))
-            except ValueError as exc:
-                message = str(exc)
-                if not message.startswith(f"{name}.") and not message.startswith("unknown"):
-                    message = f"[{name}] {message}"  # a rule between keys
-                raise ValueError(message) from None
+            kwargs[name] = _SECTIONS[name].from_table(name, values)
         return cls(**kwargs)
 
     def to_sections(self) -> dict[str, dict[str, Any]]:

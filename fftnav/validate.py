@@ -1,6 +1,7 @@
 """One way to validate a parameter: its name, its value, the bounds it must lie in.
 
-Every scalar option of the library is checked here, so that every refusal reads the same::
+Every scalar option of the library is checked here, so that every refusal reads the same. A
+function (or a constructor taking arguments) calls the ``check_*`` helpers on its arguments::
 
     >>> check_number("range_m", 3)
     3.0
@@ -17,6 +18,27 @@ Every scalar option of the library is checked here, so that every refusal reads 
     ...
     ValueError: broadcast must be one of ['on_obstacle', 'every_tick'], got broadcast='always'
 
+A dataclass declares the check on each field instead (:func:`number_field`,
+:func:`integer_field`, :func:`choice_field`, :func:`checked_field`) and derives from
+:class:`Checked`, which runs them when an instance is made, then its rules between fields
+(:meth:`Checked._check_together`)::
+
+    >>> from dataclasses import dataclass
+    >>> @dataclass(frozen=True)
+    ... class Lidar(Checked):
+    ...     beams: int = integer_field(360, low=8)
+    ...     range_m: float = number_field(3.0, low=0, low_open=True)
+    >>> Lidar(range_m=5).range_m
+    5.0
+    >>> Lidar(beams=4)
+    Traceback (most recent call last):
+    ...
+    ValueError: beams must be an integer >= 8, got beams=4
+    >>> Lidar.checked({"range_m": 0}, prefix="sensor.")
+    Traceback (most recent call last):
+    ...
+    ValueError: sensor.range_m must be a finite number > 0, got sensor.range_m=0
+
 The message form is ``NAME must be REQUIREMENT, got NAME=VALUE``; ``NAME`` may be a dotted
 config key (``sensor.range_m``) or a file location (``obstacles[3].radius``). Booleans are never
 numbers. Pure Python and numpy.
@@ -24,14 +46,22 @@ numbers. Pure Python and numpy.
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Iterable
-from typing import Any
+from collections.abc import Callable, Iterable, Mapping
+from dataclasses import MISSING
+from functools import partial
+from typing import Any, TypeVar
 
 import numpy as np
 
-__all__ = ["check_choice", "check_integer", "check_number", "check_vector", "is_integer",
-           "is_number"]
+__all__ = ["Checked", "check_choice", "check_integer", "check_multiple", "check_number",
+           "check_vector", "checked_field", "choice_field", "integer_field", "is_integer",
+           "is_number", "number_field"]
+
+#: A check: ``check(name, value)`` returns the value to keep or raises ValueError naming it.
+Check = Callable[[str, Any], Any]
+_C = TypeVar("_C", bound="Checked")
 
 
 def is_number(value: Any) -> bool:
@@ -126,3 +156,100 @@ def check_vector(name: str, value: Any, n: int) -> tuple[float, ...]:
     if not isinstance(value, (list, tuple)) or len(value) != n:
         raise ValueError(f"{name} must be a list of {n} numbers, got {name}={value!r:.80}")
     return tuple(check_number(f"{name}[{i}]", v) for i, v in enumerate(value))
+
+
+def check_multiple(name: str, value: float, base_name: str, base: float) -> int:
+    """Return ``value / base`` if ``value`` is an integer multiple (at least 1) of ``base``.
+
+    >>> check_multiple("physics_hz", 240.0, "control_hz", 10.0)
+    24
+    >>> check_multiple("physics_hz", 25.0, "control_hz", 10.0)
+    Traceback (most recent call last):
+    ...
+    ValueError: physics_hz must be an integer multiple of control_hz=10.0, got physics_hz=25.0
+    """
+    ratio = value / base
+    if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
+        raise ValueError(f"{name} must be an integer multiple of {base_name}={base!r}, "
+                         f"got {name}={value!r}")
+    return round(ratio)
+
+
+# ---------------------------------------------------------------- dataclass fields
+
+
+def checked_field(check: Check, kind: type, default: Any = MISSING) -> Any:
+    """A dataclass field validated by ``check(name, value)`` (whose result is stored) when a
+    :class:`Checked` instance is made; ``kind`` is the Python type of its values (float, int
+    or str), with which a command-line text is parsed."""
+    return dataclasses.field(default=default, metadata={"check": check, "type": kind})
+
+
+def _or_none(check: Check, name: str, value: Any) -> Any:
+    return None if value is None else check(name, value)
+
+
+def number_field(default: Any = MISSING, *, optional: bool = False, **bounds: Any) -> Any:
+    """A float field checked by :func:`check_number` with ``bounds``; ``optional``: None is
+    allowed too."""
+    check: Check = partial(check_number, **bounds)
+    return checked_field(partial(_or_none, check) if optional else check, float, default)
+
+
+def integer_field(default: Any = MISSING, **bounds: Any) -> Any:
+    """An int field checked by :func:`check_integer` with ``bounds``."""
+    return checked_field(partial(check_integer, **bounds), int, default)
+
+
+def choice_field(default: Any, choices: Iterable[Any]) -> Any:
+    """A field whose value must be one of ``choices`` (:func:`check_choice`)."""
+    return checked_field(partial(check_choice, choices=tuple(choices)), str, default)
+
+
+class Checked:
+    """Base of every dataclass that validates: making an instance runs each field's own check
+    (the fields above; a field without one is taken as given), then :meth:`_check_together`."""
+
+    @classmethod
+    def keys(cls) -> tuple[str, ...]:
+        """The field names, in declaration order."""
+        return tuple(f.name for f in dataclasses.fields(cls))
+
+    @classmethod
+    def value_type(cls, key: str) -> type | None:
+        """Python type of a checked field's values (float, int or str); None if unchecked."""
+        return {f.name: f.metadata.get("type") for f in dataclasses.fields(cls)}[key]
+
+    @classmethod
+    def checked(cls, values: Mapping[str, Any], prefix: str = "") -> dict[str, Any]:
+        """``values`` checked field by field (errors name ``prefix + key``), converted as their
+        checks return them (floats as float); an unknown key is refused."""
+        fields = {f.name: f for f in dataclasses.fields(cls)}
+        out = {}
+        for key, value in values.items():
+            if key not in fields:
+                raise ValueError(f"unknown key {prefix}{key}; expected one of {list(fields)}")
+            check = fields[key].metadata.get("check")
+            out[key] = value if check is None else check(f"{prefix}{key}", value)
+        return out
+
+    @classmethod
+    def from_table(cls: type[_C], table: str, values: Mapping[str, Any], **given: Any) -> _C:
+        """An instance from the configuration table ``[table]``: a bad value is named
+        ``table.key``, a broken rule between keys is prefixed ``[table]``; ``given`` are fields
+        taken as they are (already checked)."""
+        kwargs = cls.checked(values, prefix=f"{table}.")
+        try:
+            return cls(**kwargs, **given)
+        except ValueError as exc:
+            raise ValueError(f"[{table}] {exc}") from None
+
+    def __post_init__(self) -> None:
+        for f in dataclasses.fields(self):
+            check = f.metadata.get("check")
+            if check is not None:
+                object.__setattr__(self, f.name, check(f.name, getattr(self, f.name)))
+        self._check_together()
+
+    def _check_together(self) -> None:
+        """Rules between fields (none by default); raise ValueError naming the field."""

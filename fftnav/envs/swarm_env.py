@@ -40,7 +40,7 @@ from __future__ import annotations
 import functools
 import math
 import warnings
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -52,7 +52,7 @@ from fftnav.episode.comms import Channel
 from fftnav.observe.safe import beam_index
 from fftnav.observe.scan import wrap_angle
 from fftnav.sim.swarm import SimConfig, SwarmSim
-from fftnav.validate import check_integer, check_number
+from fftnav.validate import Checked, check_choice, check_integer, number_field
 from fftnav.world import World, generate_world, occupancy_grid
 
 __all__ = ["MESSAGE_BYTES", "Rewards", "SwarmNavEnv"]
@@ -62,18 +62,14 @@ MESSAGE_BYTES = 128
 
 
 @dataclass(frozen=True)
-class Rewards:
+class Rewards(Checked):
     """Reward terms: ``progress`` per metre of progress to the goal, ``arrival`` once on arrival,
     ``collision`` once on touching an obstacle, ``step`` every step."""
 
-    progress: float = 1.0
-    arrival: float = 10.0
-    collision: float = -10.0
-    step: float = 0.0
-
-    def __post_init__(self) -> None:
-        for f in fields(self):
-            check_number(f"rewards.{f.name}", getattr(self, f.name))
+    progress: float = number_field(1.0)
+    arrival: float = number_field(10.0)
+    collision: float = number_field(-10.0)
+    step: float = number_field(0.0)
 
 
 def _is_config_key(key: Any) -> bool:
@@ -123,10 +119,7 @@ class SwarmNavEnv(ParallelEnv):
                  rewards: Rewards | None = None, observe_safe_mask: bool = False,
                  max_neighbours: int = 0, terminate_on_collision: bool = True,
                  render_mode: str | None = None) -> None:
-        if render_mode not in (None, "rgb_array"):
-            raise ValueError(f"render_mode must be None or 'rgb_array', got "
-                             f"render_mode={render_mode!r}")
-        self.render_mode = render_mode
+        self.render_mode = check_choice("render_mode", render_mode, (None, "rgb_array"))
         self.rewards = rewards or Rewards()
         self.observe_safe_mask = bool(observe_safe_mask)
         self.max_neighbours = check_integer("max_neighbours", max_neighbours, low=0)
@@ -232,8 +225,7 @@ class SwarmNavEnv(ParallelEnv):
         k = len(self.possible_agents)
         commands = np.zeros((k, 2))
         for agent, action in actions.items():
-            if agent not in self._index:
-                raise ValueError(f"agent must be one of {self.possible_agents}, got {agent!r}")
+            check_choice("agent", agent, self.possible_agents)
             commands[self._index[agent]] = np.asarray(action, dtype=np.float64).reshape(2)
         commands = np.clip(commands, self._act_space.low, self._act_space.high)
         live = self._live.copy()

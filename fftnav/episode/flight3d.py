@@ -15,7 +15,6 @@ The simulator is reached only through :mod:`fftnav.sim.drone`.
 from __future__ import annotations
 
 import math
-from collections.abc import Iterable
 from dataclasses import dataclass
 
 import numpy as np
@@ -24,10 +23,10 @@ from fftnav.observe.geometry import DRONE, RobotGeometry
 from fftnav.observe.safe import safe_tolerance
 from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
 from fftnav.sim.drone import DroneSim, Forest3D, make_forest3d
-from fftnav.validate import check_number
+from fftnav.validate import Checked, check_multiple, number_field
 
-__all__ = ["FlightConfig", "FlightResult", "FLIGHT_COLUMNS", "fly", "run_flights", "summarize",
-           "swept_clear", "collides_along"]
+__all__ = ["FlightConfig", "FlightResult", "FLIGHT_COLUMNS", "fly", "summarize", "swept_clear",
+           "collides_along"]
 
 #: Columns of the per-seed table written by ``fftnav fly3d``.
 FLIGHT_COLUMNS = ("seed", "arrived", "collided", "path_length_m", "straight_line_m", "ratio",
@@ -35,7 +34,7 @@ FLIGHT_COLUMNS = ("seed", "arrived", "collided", "path_length_m", "straight_line
 
 
 @dataclass(frozen=True)
-class FlightConfig:
+class FlightConfig(Checked):
     """Sensor, controller and episode parameters (SI units, radians).
 
     Attributes
@@ -63,7 +62,7 @@ class FlightConfig:
     distance_m : float
         Start-goal distance of the generated forest, metres (default 30).
     momentum : float
-        Weight of the previous velocity direction added to the goal direction to form the
+        Weight of the last commanded velocity direction added to the goal direction to form the
         target direction, finite and ``>= 0`` (default 0.5); damps oscillation in front of
         obstacles.
     """
@@ -74,26 +73,20 @@ class FlightConfig:
     fov_az_rad: float = 2 * math.pi
     range_m: float = 10.0
     geometry: RobotGeometry = DRONE
-    speed_mps: float = 3.0
-    control_period_s: float = 0.2
-    step_s: float = 0.05
-    max_time_s: float = 60.0
-    arrive_radius_m: float = 0.5
-    distance_m: float = 30.0
-    momentum: float = 0.5
+    speed_mps: float = number_field(3.0, low=0, low_open=True)
+    control_period_s: float = number_field(0.2, low=0, low_open=True)
+    step_s: float = number_field(0.05, low=0, low_open=True)
+    max_time_s: float = number_field(60.0, low=0, low_open=True)
+    arrive_radius_m: float = number_field(0.5, low=0, low_open=True)
+    distance_m: float = number_field(30.0, low=0, low_open=True)
+    momentum: float = number_field(0.5, low=0)
 
-    def __post_init__(self) -> None:
-        for name in ("speed_mps", "control_period_s", "step_s", "max_time_s", "arrive_radius_m"):
-            check_number(name, getattr(self, name), low=0, low_open=True)
+    def _check_together(self) -> None:
         if self.step_s > self.control_period_s:
             raise ValueError(f"step_s must be <= control_period_s={self.control_period_s}, "
                              f"got step_s={self.step_s}")
-        if not math.isclose(self.substeps, self.control_period_s / self.step_s, rel_tol=1e-9):
-            raise ValueError(
-                f"control_period_s must be an integer multiple of step_s={self.step_s}, "
-                f"got control_period_s={self.control_period_s}")
-        check_number("momentum", self.momentum, low=0)
-        self.filter_bank()  # validates the sensor grid, geometry and range
+        check_multiple("control_period_s", self.control_period_s, "step_s", self.step_s)
+        self.filter_bank()  # the sensor grid, the geometry and the range, checked together
 
     @property
     def substeps(self) -> int:
@@ -262,11 +255,6 @@ def fly(
         path_length_m=float(np.sum(np.linalg.norm(np.diff(traj, axis=0), axis=1))),
         straight_line_m=float(np.linalg.norm(forest.goal - forest.start)) - config.arrive_radius_m,
         time_s=round(t, 9), trajectory=traj, forest=forest)
-
-
-def run_flights(seeds: Iterable[int], config: FlightConfig = FlightConfig()) -> list[FlightResult]:
-    """One :func:`fly` per seed, in order."""
-    return [fly(s, config) for s in seeds]
 
 
 def summarize(results: list[FlightResult]) -> dict:

@@ -8,13 +8,13 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
-from fftnav.validate import check_number
+from fftnav.validate import Checked, number_field
 
 __all__ = ["RobotGeometry", "SIM_ROBOT", "REAL_ROBOT", "DRONE"]
 
 
 @dataclass(frozen=True)
-class RobotGeometry:
+class RobotGeometry(Checked):
     """Lateral collision radius ``r0_m`` and protective radius ``r_m`` of a robot.
 
     Parameters
@@ -38,18 +38,16 @@ class RobotGeometry:
     (0.6, 60.0)
     """
 
-    r0_m: float
-    r_m: float
+    r0_m: float = number_field(low=0, low_open=True)
+    r_m: float = number_field(low=0, low_open=True)
 
-    def __post_init__(self) -> None:
-        r0, r = check_number("r0_m", self.r0_m, low=0, low_open=True), self.r_m
-        if not (isinstance(r, (int, float)) and math.isfinite(r) and r > r0):
+    def _check_together(self) -> None:
+        r0, r = self.r0_m, self.r_m
+        if r <= r0:
             raise ValueError(f"r_m must be finite and > r0_m={r0!r}, got r_m={r!r}")
         if not math.isfinite(r / r0 * r):  # l_th = r^2 / r0 must be a number too
             raise ValueError(f"r_m must keep l_th = r_m^2 / r0_m finite, got r_m={r!r} with "
                              f"r0_m={r0!r}")
-        object.__setattr__(self, "r0_m", float(r0))
-        object.__setattr__(self, "r_m", float(r))
 
     @property
     def l_th_m(self) -> float:

@@ -37,7 +37,7 @@ def wrap_angle(angle_rad: np.ndarray | float) -> np.ndarray:
 
 def _check_fov_beams(beams: int, fov_rad: float) -> None:
     check_integer("beams", beams, low=2)
-    if not (math.isfinite(fov_rad) and 0.0 < fov_rad <= FULL_CIRCLE_RAD + 1e-9):
+    if not 0.0 < check_number("fov_rad", fov_rad) <= FULL_CIRCLE_RAD + 1e-9:
         raise ValueError(f"fov_rad must be in (0, 2*pi], got fov_rad={fov_rad!r}")
 
 

@@ -24,18 +24,32 @@ from fftnav.config import SwarmConfig
 from fftnav.files import read_toml
 from fftnav.limits import MAX_RAYS_PER_TICK, MAX_TASKS, check_limit
 from fftnav.planning.resolve import Resolved, resolve
-from fftnav.validate import check_integer
+from fftnav.validate import Checked, checked_field, integer_field
 from fftnav.world import load_preset, load_world, world_kinds, world_parameters
 
 __all__ = ["ExperimentConfig", "load_config", "parse_config"]
 
 _EXPERIMENT_KEYS = ("name", "envs", "maps", "map_seed", "robots", "policies", "trajectory_maps",
                     "out")
+_REQUIRED_KEYS = ("name", "envs", "maps", "map_seed", "robots", "policies")
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 
 
+def _check_name(key: str, value: Any) -> str:
+    if not (isinstance(value, str) and _NAME.match(value)):
+        raise ValueError(f"{key} must be a non-empty string of letters, digits, '_', '.', '-', "
+                         f"got {key}={value!r}")
+    return value
+
+
+def _check_out(key: str, value: Any) -> str:
+    if not (isinstance(value, str) and value):
+        raise ValueError(f"{key} must be a non-empty string, got {key}={value!r}")
+    return value
+
+
 @dataclass(frozen=True)
-class ExperimentConfig:
+class ExperimentConfig(Checked):
     """A validated experiment: which episodes to run and with which parameters.
 
     Attributes
@@ -55,10 +69,11 @@ class ExperimentConfig:
         names, ``module:attr``, ``path/to/file.py:attr`` (relative paths are taken from the
         config file's folder and stored absolute) or entry points
         (:func:`fftnav.planning.resolve.resolve`).
-    trajectory_maps : int
-        How many maps per env keep their trajectories for the figures (first maps first).
     out : str
         Default output folder (``--out`` overrides it).
+    trajectory_maps : int
+        How many maps per env keep their trajectories for the figures (first maps first),
+        at most ``maps``.
     world : dict
         Overrides passed to ``generate_world`` for every env.
     world_by_env : dict
@@ -74,14 +89,14 @@ class ExperimentConfig:
         The TOML text the config was parsed from (copied into the output folder).
     """
 
-    name: str
+    name: str = checked_field(_check_name, str)
     envs: tuple[str, ...]
-    maps: int
-    map_seed: int
-    robots: int
+    maps: int = integer_field(low=1)
+    map_seed: int = integer_field(low=0)
+    robots: int = integer_field(low=1)
     policies: tuple[str, ...]
-    trajectory_maps: int = 1
-    out: str = ""
+    out: str = checked_field(_check_out, str)
+    trajectory_maps: int = integer_field(1, low=0)
     world: dict[str, Any] = field(default_factory=dict)
     world_by_env: dict[str, dict[str, Any]] = field(default_factory=dict)
     world_files: dict[str, str] = field(default_factory=dict)
@@ -91,6 +106,11 @@ class ExperimentConfig:
     #: ``base`` (this config without the sweep); empty without ``[sweep]``.
     cells: tuple[tuple[str, ExperimentConfig], ...] = field(default=(), repr=False,
                                                             compare=False)
+
+    def _check_together(self) -> None:
+        if self.trajectory_maps > self.maps:
+            raise ValueError(f"trajectory_maps must be <= maps={self.maps}, "
+                             f"got trajectory_maps={self.trajectory_maps}")
 
     def world_overrides(self, env: str) -> dict[str, Any]:
         """Overrides for ``generate_world(env, seed, **overrides)``.
@@ -172,38 +192,44 @@ def parse_config(data: dict[str, Any], *, source: str = "",
                                    folder=base))
         return dataclasses.replace(config, cells=cells)
     exp = _table(data, "experiment")
-    _check_keys("experiment", exp, _EXPERIMENT_KEYS)
-    for key in ("name", "envs", "maps", "map_seed", "robots", "policies"):
-        if key not in exp:
-            raise ValueError(f"experiment.{key} is required")
-    name = exp["name"]
-    if not (isinstance(name, str) and _NAME.match(name)):
-        raise ValueError(f"experiment.name must be a non-empty string of letters, digits, "
-                         f"'_', '.', '-', got {name!r}")
+    scalars = _experiment_scalars(exp)
     world_files = _world_files(_table(data, "world_files"), base)
     envs = _names("experiment.envs", exp["envs"], (*world_kinds(), *world_files))
     for env in world_files:
         if env not in envs:
             raise ValueError(f"world_files.{env} is not one of experiment.envs={list(envs)}")
-    maps = check_integer("experiment.maps", exp["maps"], low=1)
-    trajectory_maps = check_integer("experiment.trajectory_maps", exp.get("trajectory_maps", 1),
-                                    low=0)
-    if trajectory_maps > maps:
-        raise ValueError(f"experiment.trajectory_maps must be <= experiment.maps={maps}, "
-                         f"got {trajectory_maps}")
-    out = exp.get("out", f"results/{name}")
-    if not (isinstance(out, str) and out):
-        raise ValueError(f"experiment.out must be a non-empty string, got {out!r}")
-
-    robots = check_integer("experiment.robots", exp["robots"], low=1)
-    map_seed = check_integer("experiment.map_seed", exp["map_seed"], low=0)
     policies = _policies(exp["policies"], base)
-    check_limit("episodes (envs x maps x policies)", len(envs) * maps * len(policies),
+    check_limit("episodes (envs x maps x policies)", len(envs) * scalars["maps"] * len(policies),
                 MAX_TASKS, hint="lower experiment.maps")
     swarm = SwarmConfig.from_sections({s: _table(data, s) for s in SwarmConfig.SECTIONS})
     check_limit("lidar rays per control tick (experiment.robots x sensor.beams)",
-                robots * swarm.sensor.beams, MAX_RAYS_PER_TICK, hint="lower sensor.beams")
-    world = _table(data, "world")
+                scalars["robots"] * swarm.sensor.beams, MAX_RAYS_PER_TICK,
+                hint="lower sensor.beams")
+    common, by_env = _world_tables(_table(data, "world"), envs, world_files, scalars["robots"],
+                                   swarm)
+    return ExperimentConfig.from_table(
+        "experiment", scalars, envs=envs, policies=policies, world=common, world_by_env=by_env,
+        world_files=world_files, swarm=swarm, source=source)
+
+
+def _experiment_scalars(exp: dict[str, Any]) -> dict[str, Any]:
+    """The ``[experiment]`` keys other than the lists ``envs`` and ``policies``, checked by
+    :class:`ExperimentConfig`'s fields (``out`` defaults to ``results/<name>``); unknown and
+    missing keys are refused."""
+    _check_keys("experiment", exp, _EXPERIMENT_KEYS)
+    for key in _REQUIRED_KEYS:
+        if key not in exp:
+            raise ValueError(f"experiment.{key} is required")
+    name = ExperimentConfig.checked({"name": exp["name"]}, prefix="experiment.")["name"]
+    scalars = {"name": name, "out": f"results/{name}", "trajectory_maps": 1,
+               **{k: v for k, v in exp.items() if k not in ("envs", "policies")}}
+    return ExperimentConfig.checked(scalars, prefix="experiment.")
+
+
+def _world_tables(world: dict[str, Any], envs: tuple[str, ...], world_files: dict[str, str],
+                  robots: int, swarm: SwarmConfig) -> tuple[dict[str, Any], dict[str, Any]]:
+    """``[world]`` split into the overrides of every env and the ``[world.<env>]`` tables, each
+    checked against the env's preset (a world file env: its file loads with ``robots``)."""
     common = {k: v for k, v in world.items() if not isinstance(v, dict)}
     by_env = {k: v for k, v in world.items() if isinstance(v, dict)}
     for env, table in by_env.items():
@@ -224,22 +250,7 @@ def parse_config(data: dict[str, Any], *, source: str = "",
             world_parameters(env, **overrides)
         except ValueError as exc:  # name the config section the bad value came from
             raise ValueError(f"[world] for env {env!r}: {exc}") from None
-
-    return ExperimentConfig(
-        name=name,
-        envs=envs,
-        maps=maps,
-        map_seed=map_seed,
-        robots=robots,
-        policies=policies,
-        trajectory_maps=trajectory_maps,
-        out=out,
-        world=common,
-        world_by_env=by_env,
-        world_files=world_files,
-        swarm=swarm,
-        source=source,
-    )
+    return common, by_env
 
 
 def _world_files(table: dict[str, Any], base: str | Path | None) -> dict[str, str]:
@@ -292,6 +303,8 @@ def _policies(value: Any, base: str | Path | None) -> tuple[str, ...]:
         names[found.name] = ref
         out.append(ref)
     return tuple(out)
+
+
 def _sweep_cells(base: dict[str, Any], sweep: dict[str, Any], source: str, *,
                  folder: str | Path | None = None) -> list[tuple[str, ExperimentConfig]]:
     """The sweep's cells: for each axis ``"section.key"`` (``[robot]``, ``[sensor]``,

@@ -19,7 +19,7 @@ import pybullet as p
 from fftnav.observe.spherical import SphericalGrid
 from fftnav.sim.mesh import static_meshes
 from fftnav.sim.rays import cast_rays
-from fftnav.validate import check_number
+from fftnav.validate import check_choice, check_number
 from fftnav.world.obstacles import Circle
 
 __all__ = ["Forest3D", "make_forest3d", "DroneSim"]
@@ -79,10 +79,10 @@ def make_forest3d(
     -------
     Forest3D
     """
-    for name, value in (("trees_per_100m2", trees_per_100m2), ("min_spacing_m", min_spacing_m),
-                        ("clearance_m", clearance_m)):
-        check_number(name, value, low=0)
-    if not (math.isfinite(distance_m) and distance_m > 2 * clearance_m):
+    check_number("trees_per_100m2", trees_per_100m2, low=0)
+    check_number("min_spacing_m", min_spacing_m, low=0)
+    check_number("clearance_m", clearance_m, low=0)
+    if check_number("distance_m", distance_m) <= 2 * clearance_m:
         raise ValueError(f"distance_m must be finite and > 2 * clearance_m (clearance_m="
                          f"{clearance_m!r}), got distance_m={distance_m!r}")
     check_number("altitude_m", altitude_m, low=0, low_open=True)
@@ -136,11 +136,9 @@ class DroneSim:
         trunk_shape: str = "mesh",
     ) -> None:
         check_number("r0_m", r0_m, low=0, low_open=True)
-        if not (math.isfinite(range_m) and range_m > r0_m):
+        if check_number("range_m", range_m) <= r0_m:
             raise ValueError(f"range_m must be finite and > r0_m={r0_m}, got range_m={range_m!r}")
-        if trunk_shape not in ("mesh", "cylinder"):
-            raise ValueError(
-                f"trunk_shape must be 'mesh' or 'cylinder', got trunk_shape={trunk_shape!r}")
+        check_choice("trunk_shape", trunk_shape, ("mesh", "cylinder"))
         self.forest, self.grid, self.range_m, self.r0_m = forest, grid, float(range_m), float(r0_m)
         self.cid = c = p.connect(p.DIRECT)
         shape = p.createCollisionShape

@@ -5,13 +5,13 @@ Bullet refuses a triangle mesh of more than :data:`MAX_MESH_VERTICES` vertices o
 ``SystemError`` from pybullet; measured with pybullet 3.2.7: 131,072 vertices and 524,288
 indices build, one more fails). A trunk (a 64-gon prism) takes 128 vertices and 756 indices, so
 one mesh holds at most 693 trunks. :func:`static_meshes` keeps the whole world one mesh when it
-fits (the fastest for the physics, and the build every earlier result used) and otherwise
+fits (the fastest for the physics) and otherwise
 splits it into square tiles of nearby obstacles, each packed into meshes below the limits. Ray
 casts against a triangle are exact whichever mesh holds it, so the lidar reads the same ranges,
 bit for bit, however the obstacles are tiled (tested with a forced small mesh size). Contacts
 are resolved per mesh, so a robot touching obstacles of two meshes at once may move differently
 in the last bits than with one mesh; worlds that fit one mesh (every world of the paper's size)
-are built exactly as before. numpy only.
+are one mesh. numpy only.
 """
 
 from __future__ import annotations

@@ -19,12 +19,12 @@ from typing import Any
 import numpy as np
 import pybullet as p
 
-from fftnav.config import EpisodeConfig, RobotConfig, SensorConfig, SwarmConfig
+from fftnav.config import RobotConfig, SensorConfig, SwarmConfig, check_rates
 from fftnav.limits import MAX_RAYS_PER_TICK, check_limit
 from fftnav.sim.fastrays import StaticMesh
 from fftnav.sim.lidar import CULL_MARGIN_M, Lidar
 from fftnav.sim.mesh import MAX_MESH_INDICES, MAX_MESH_VERTICES, static_meshes
-from fftnav.validate import check_integer, check_number
+from fftnav.validate import Checked, check_integer, integer_field, number_field
 from fftnav.world import World
 
 __all__ = ["SimConfig", "Observation", "SwarmSim"]
@@ -43,7 +43,7 @@ _WHEEL_TORQUE_NM = 0.5
 
 
 @dataclass(frozen=True)
-class SimConfig:
+class SimConfig(Checked):
     """Simulation parameters: the robot and its lidar (:mod:`fftnav.config`), rates and physics.
 
     Attributes
@@ -81,24 +81,17 @@ class SimConfig:
 
     robot: RobotConfig = field(default_factory=RobotConfig)
     sensor: SensorConfig = field(default_factory=SensorConfig)
-    physics_hz: float = 240.0
-    control_hz: float = 10.0
-    lidar_height_m: float | None = None
-    robot_mass_kg: float = 5.0
-    gravity_mps2: float = 9.81
-    solver_iterations: int = 10
-    mesh_max_vertices: int = MAX_MESH_VERTICES
-    mesh_max_indices: int = MAX_MESH_INDICES
+    physics_hz: float = number_field(240.0, low=0, low_open=True)
+    control_hz: float = number_field(10.0, low=0, low_open=True)
+    lidar_height_m: float | None = number_field(None, optional=True, low=0)
+    robot_mass_kg: float = number_field(5.0, low=0, low_open=True)
+    gravity_mps2: float = number_field(9.81, low=0)
+    solver_iterations: int = integer_field(10, low=1)
+    mesh_max_vertices: int = integer_field(MAX_MESH_VERTICES, low=3, high=MAX_MESH_VERTICES)
+    mesh_max_indices: int = integer_field(MAX_MESH_INDICES, low=3, high=MAX_MESH_INDICES)
 
-    def __post_init__(self) -> None:
-        EpisodeConfig(control_hz=self.control_hz, physics_hz=self.physics_hz)  # the same rules
-        if self.lidar_height_m is not None:
-            check_number("lidar_height_m", self.lidar_height_m, low=0)
-        check_number("robot_mass_kg", self.robot_mass_kg, low=0, low_open=True)
-        check_number("gravity_mps2", self.gravity_mps2, low=0)
-        check_integer("solver_iterations", self.solver_iterations, low=1)
-        check_integer("mesh_max_vertices", self.mesh_max_vertices, low=3, high=MAX_MESH_VERTICES)
-        check_integer("mesh_max_indices", self.mesh_max_indices, low=3, high=MAX_MESH_INDICES)
+    def _check_together(self) -> None:
+        check_rates(self.control_hz, self.physics_hz)
 
     @classmethod
     def for_swarm(cls, config: SwarmConfig, **sim_only: Any) -> SimConfig:
@@ -396,8 +389,7 @@ class SwarmSim:
     def park(self, i: int) -> None:
         """Take robot ``i`` out of the world (it arrived or failed): it stops colliding, no longer
         appears in any lidar and is no longer driven; its pose and odometer are frozen."""
-        if not (isinstance(i, (int, np.integer)) and 0 <= i < self.num_robots):
-            raise ValueError(f"i must be a robot index in [0, {self.num_robots}), got i={i!r}")
+        check_integer("i", i, low=0, high=self.num_robots - 1)
         if not self._active[i]:
             return
         body, cid = self._robots[i], self._client

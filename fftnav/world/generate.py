@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.limits import MAX_GRID_CELLS, MAX_MAP_SIDE_M, MAX_OBSTACLES, check_limit, grid_cells
-from fftnav.validate import check_choice, check_integer, check_number, is_integer, is_number
+from fftnav.validate import check_choice, check_integer, check_number, check_vector
 from fftnav.world.grid import unreachable_robots
 from fftnav.world.kinds import DECIMALS, Params, get_world_kind, load_preset
 from fftnav.world.model import BOUNDARIES, World
@@ -50,6 +50,20 @@ def _check_common(p: Params) -> None:
                          f"strip_half_width_m={clear} must leave both strips inside the world")
 
 
+def _check_like(key: str, value: Any, default: Any) -> None:
+    """``value`` has the type of the preset's ``default``: as many finite numbers for a list, an
+    integer for an integer, a finite number for a number, the same type otherwise."""
+    if isinstance(default, (list, tuple)):
+        check_vector(key, value, len(default))
+    elif isinstance(default, (bool, str)):
+        if type(value) is not type(default):
+            raise ValueError(f"{key} must be {type(default).__name__}, got {key}={value!r}")
+    elif isinstance(default, int):
+        check_integer(key, value)
+    else:
+        check_number(key, value)
+
+
 def world_parameters(env: str, *, preset: Params | None = None, **overrides: Any) -> Params:
     """The preset of ``env`` with ``overrides`` applied, validated.
 
@@ -63,19 +77,7 @@ def world_parameters(env: str, *, preset: Params | None = None, **overrides: Any
     if unknown:
         raise ValueError(f"unknown world parameter(s) {unknown}; expected some of {sorted(params)}")
     for key, value in overrides.items():
-        default = params[key]
-        if isinstance(default, (list, tuple)):
-            ok = (isinstance(value, (list, tuple)) and len(value) == len(default)
-                  and all(is_number(v) and math.isfinite(v) for v in value))
-            expected = f"a list of {len(default)} numbers"
-        elif isinstance(default, (bool, str)):
-            ok, expected = type(value) is type(default), type(default).__name__
-        elif isinstance(default, int):
-            ok, expected = is_integer(value), "an integer"
-        else:
-            ok, expected = is_number(value) and math.isfinite(value), "a number"
-        if not ok:
-            raise ValueError(f"{key} must be {expected}, got {key}={value!r}")
+        _check_like(key, value, params[key])
     params.update(overrides)
     _check_common(params)
     kind.check(params)

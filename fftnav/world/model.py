@@ -7,8 +7,8 @@ about one obstacle per 5 m^2, 15 robots). Its ``boundary`` is ``"open"`` (the pa
 stops a robot at the map edge) or ``"walls"`` (the edge is an obstacle for the robots, the lidar,
 grids and A*: :attr:`World.solids` adds four walls just outside the rectangle). Pure numpy.
 
-World file (JSON); every key but ``boundary`` is required (a file without it is ``"open"``, as
-every file written before the option existed) and no other key is accepted::
+World file (JSON); every key but ``boundary`` is required (a file without it is ``"open"``) and
+no other key is accepted::
 
     {"env": "forest", "seed": 3, "size": [20.0, 20.0],
      "obstacles": [{"shape": "circle", "center": [x, y], "radius": r, "height": h},
@@ -30,7 +30,15 @@ import numpy as np
 
 from fftnav.files import parse_json, read_text, write_atomic
 from fftnav.limits import MAX_MAP_SIDE_M, MAX_OBSTACLES, check_limit
-from fftnav.validate import check_choice, check_number, check_vector, is_integer
+from fftnav.validate import (
+    Checked,
+    check_choice,
+    check_integer,
+    check_number,
+    check_vector,
+    choice_field,
+    integer_field,
+)
 from fftnav.world.obstacles import SHAPES, Obstacle, rectangle
 
 __all__ = ["BOUNDARIES", "OPTIONAL_WORLD_KEYS", "WORLD_KEYS", "World", "load_world",
@@ -49,7 +57,7 @@ _BOUNDARY_PIECE_M = 2.5
 
 
 @dataclass(frozen=True)
-class World:
+class World(Checked):
     """A world: environment name, generating seed, size (w, h) m, obstacles, robot starts and goals.
 
     ``starts`` is ``(N, 3)`` (x m, y m, yaw rad) and ``goals`` ``(N, 2)`` (x m, y m); robot i
@@ -58,15 +66,12 @@ class World:
     """
 
     env: str
-    seed: int
+    seed: int = integer_field()
     size_m: tuple[float, float]
     obstacles: tuple[Obstacle, ...]
     starts: np.ndarray
     goals: np.ndarray
-    boundary: str = "open"
-
-    def __post_init__(self) -> None:
-        check_choice("boundary", self.boundary, BOUNDARIES)
+    boundary: str = choice_field("open", BOUNDARIES)
 
     @property
     def boundary_walls(self) -> tuple[Obstacle, ...]:
@@ -186,8 +191,7 @@ def _parse_world(data: Any) -> World:
     boundary = check_choice("boundary", data.get("boundary", "open"), BOUNDARIES)
     if not isinstance(data["env"], str):
         raise ValueError(f"env must be a string, got env={data['env']!r}")
-    if not is_integer(data["seed"]):
-        raise ValueError(f"seed must be an integer, got seed={data['seed']!r}")
+    check_integer("seed", data["seed"])
     size = check_vector("size", data["size"], 2)
     for i, side in enumerate(size):
         check_number(f"size[{i}]", side, low=0, low_open=True, high=MAX_MAP_SIDE_M)

@@ -126,9 +126,7 @@ def read_ros_map(yaml_path: str | Path) -> RosMap:
     if origin[2] != 0:
         raise ValueError(f"origin yaw must be 0 (rotated maps are not supported), got "
                          f"origin={list(meta['origin'])}")
-    negate = meta.get("negate", 0)
-    if negate not in (0, 1):
-        raise ValueError(f"negate must be 0 or 1, got negate={negate!r}")
+    negate = check_choice("negate", meta.get("negate", 0), (0, 1))
     occ = check_number("occupied_thresh", meta.get("occupied_thresh", 0.65), low=0, high=1)
     free = check_number("free_thresh", meta.get("free_thresh", 0.196), low=0, high=occ)
     mode = check_choice("mode", meta.get("mode", "trinary"), ("trinary", "scale", "raw"))

@@ -96,3 +96,27 @@ def test_collisions_need_not_terminate():
         assert rew["robot_0"] == (-1.0 if hits[-1] else 0.0) and not term["robot_0"]
     assert sum(hits) >= 5 and trunc["robot_0"]  # pressed against the trunk until the limit
     env.close()
+
+
+@pytest.mark.parametrize(("make", "match"), [
+    (lambda: Rewards(progress=math.nan), r"progress must be a finite number, got progress=nan"),
+    (lambda: Rewards(step="1"), r"step must be a finite number, got step='1'"),
+    (lambda: SwarmNavEnv(render_mode="human"),
+     r"render_mode must be one of \[None, 'rgb_array'\], got render_mode='human'"),
+    (lambda: SwarmNavEnv(max_neighbours=-1),
+     r"max_neighbours must be an integer >= 0, got max_neighbours=-1"),
+])
+def test_bad_parameters_are_refused_naming_them(make, match):
+    with pytest.raises(ValueError, match=match):
+        make()
+
+
+def test_rewards_are_floats_and_a_step_names_an_unknown_agent():
+    assert Rewards(arrival=7) == Rewards(arrival=7.0)
+    assert isinstance(Rewards(arrival=7).arrival, float)
+    env = _small()
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match=r"agent must be one of \['robot_0', .*\], "
+                                         r"got agent='robot_9'"):
+        env.step({"robot_9": [0.0, 0.0]})
+    env.close()

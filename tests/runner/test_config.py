@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import dataclasses
 from pathlib import Path
 
 import pytest
@@ -43,7 +44,7 @@ def test_valid_config_maps_sections_to_episode_config():
     ("experiment.map_seed", -1, r"experiment\.map_seed must be an integer >= 0, got experiment\.map_seed=-1"),
     ("experiment.maps", True, r"experiment\.maps must be an integer >= 1, got experiment\.maps=True"),
     ("experiment.trajectory_maps", 4,
-     r"experiment\.trajectory_maps must be <= experiment\.maps=3, got 4"),
+     r"\[experiment\] trajectory_maps must be <= maps=3, got trajectory_maps=4"),
     ("experiment.policies", ["fusion", "teleport"],
      r"experiment\.policies: unknown policy or controller 'teleport'"),
     ("experiment.policies", ["fusion", "fusion"],
@@ -51,7 +52,7 @@ def test_valid_config_maps_sections_to_episode_config():
     ("experiment.envs", [], r"experiment\.envs must be a non-empty list"),
     ("experiment.envs", ["moon"], r"experiment\.envs: unknown name 'moon'"),
     ("experiment.name", "a b", r"experiment\.name must be a non-empty string"),
-    ("experiment.out", "", r"experiment\.out must be a non-empty string, got ''"),
+    ("experiment.out", "", r"experiment\.out must be a non-empty string, got experiment\.out=''"),
     ("experiment.colour", 1, r"unknown key experiment\.colour; expected one of"),
     ("robot.wheels", 2, r"unknown key robot\.wheels; expected one of"),
     ("sensor.beams", 90.5, r"sensor\.beams must be an integer in \[2, 100000\], got sensor\.beams=90\.5"),
@@ -73,6 +74,19 @@ def test_valid_config_maps_sections_to_episode_config():
 def test_invalid_value_or_unknown_key_is_refused_naming_the_key(path, value, match):
     with pytest.raises(ValueError, match=match):
         parse_config(with_value(path, value))
+
+
+def test_an_experiment_config_checks_its_fields_when_made():
+    config = parse_config(BASE)
+    assert (config.name, config.maps, config.map_seed, config.robots) == ("t", 3, 10, 4)
+    with pytest.raises(ValueError, match=r"maps must be an integer >= 1, got maps=0"):
+        dataclasses.replace(config, maps=0)
+    with pytest.raises(ValueError, match=r"trajectory_maps must be <= maps=3, "
+                                         r"got trajectory_maps=5"):
+        dataclasses.replace(config, trajectory_maps=5)
+    with pytest.raises(ValueError, match=r"name must be a non-empty string of letters, digits, "
+                                         r"'_', '\.', '-', got name='a/b'"):
+        dataclasses.replace(config, name="a/b")
 
 
 def test_unknown_section_missing_key_and_world_table_of_other_env():

@@ -140,6 +140,7 @@ def test_errors() -> None:
         ({"min_spacing_m": math.inf}, r"min_spacing_m must be a finite number >= 0, "
                                       r"got min_spacing_m=inf"),
         ({"clearance_m": -0.5}, r"clearance_m must be a finite number >= 0, got clearance_m=-0.5"),
+        ({"distance_m": "far"}, r"distance_m must be a finite number, got distance_m='far'"),
     ]:
         with pytest.raises(ValueError, match=match):
             make_forest3d(rng, **kwargs)
@@ -149,7 +150,9 @@ def test_errors() -> None:
         ({"range_m": 0.1}, r"range_m must be finite and > r0_m=0.15, got range_m=0.1"),
         ({"r0_m": 0.0}, r"r0_m must be a finite number > 0, got r0_m=0.0"),
         ({"r0_m": -1.0, "range_m": 10.0}, r"r0_m must be a finite number > 0, got r0_m=-1.0"),
-        ({"trunk_shape": "box"}, r"trunk_shape must be 'mesh' or 'cylinder', got trunk_shape='box'"),
+        ({"range_m": None}, r"range_m must be a finite number, got range_m=None"),
+        ({"trunk_shape": "box"}, r"trunk_shape must be one of \['mesh', 'cylinder'\], "
+                                   r"got trunk_shape='box'"),
     ]:
         with pytest.raises(ValueError, match=match):
             DroneSim(_scene([]), grid=grid, **kwargs)

@@ -62,7 +62,7 @@ def test_tiled_world_gives_bit_identical_lidar_scans(env):
 
 
 def test_bullet_refuses_one_mesh_beyond_its_limits_and_the_simulator_tiles_it():
-    """700 trunks (Bullet's index limit allows 693 per mesh) in one mesh fail as in the issue;
+    """700 trunks (Bullet's index limit allows 693 per mesh) in one mesh fail to build;
     the simulator builds them as two meshes and its lidar sees them."""
     xy = np.stack(np.meshgrid(np.arange(28) + 1.0, np.arange(25) + 3.0), -1).reshape(-1, 2)
     trunks = tuple(Circle((float(x), float(y)), 0.1, 1.0) for x, y in xy)

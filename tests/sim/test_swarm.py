@@ -160,7 +160,7 @@ def test_parked_robot_leaves_the_world():
         for _ in range(20):
             obs = sim.step([[0.5, 0.0], [0.5, 0.0]])
         assert not obs.robot_contact.any() and obs.poses[0, 0] > 3.0
-        with pytest.raises(ValueError, match=r"i must be a robot index in \[0, 2\), got i=2"):
+        with pytest.raises(ValueError, match=r"i must be an integer in \[0, 1\], got i=2"):
             sim.park(2)
         with pytest.raises(ValueError, match=r"commands must be a finite array of shape \(2, 2\)"):
             sim.step([[0.5, 0.0]])
@@ -183,3 +183,19 @@ def test_config_errors_name_the_parameter(make, message):
     assert SimConfig().substeps == 24
     with pytest.raises(ValueError, match=message):
         make()
+
+
+def test_sim_config_checks_its_rates_without_an_episode_time_limit():
+    # 1 MHz physics for 120 s would exceed the episode's step limit; the simulator has no time
+    # limit, so only the rates' own rule applies.
+    config = SimConfig(physics_hz=1_000_000, control_hz=10)
+    assert config.substeps == 100_000 and config.physics_hz == 1e6
+    assert isinstance(config.physics_hz, float) and isinstance(config.control_hz, float)
+    with pytest.raises(ValueError, match=r"physics_hz must be an integer multiple of "
+                                         r"control_hz=10\.0, got physics_hz=5\.0"):
+        SimConfig(physics_hz=5.0)
+    with pytest.raises(ValueError, match=r"physics_hz must be a finite number > 0, "
+                                         r"got physics_hz=nan"):
+        SimConfig(physics_hz=float("nan"))
+    assert SimConfig(lidar_height_m=None).lidar_height_m is None
+    assert SimConfig(lidar_height_m=1).lidar_height_m == 1.0

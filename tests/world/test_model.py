@@ -17,6 +17,7 @@ from fftnav.world import (
     load_world,
     raycast_world,
     save_world,
+    world_parameters,
 )
 from fftnav.world.grid import unreachable_robots
 
@@ -55,7 +56,7 @@ def test_density_and_clear_strips_hold_for_50_seeds(env):
             assert 0.3 - 1e-3 <= min(across) and max(across) <= 1.2 + 1e-3, seed
 
 
-def test_generated_shapes_match_the_issue():
+def test_generated_shapes_match_their_presets():
     forest = generate_world("forest", 3)
     radii = [o.radius for o in forest.obstacles]
     assert all(isinstance(o, Circle) for o in forest.obstacles)
@@ -89,6 +90,18 @@ def test_overrides_change_size_density_and_robots():
         generate_world("forest", -1)
     with pytest.raises(ValueError, match="robots=100 robots of radius"):
         generate_world("forest", 0, robots=100)
+
+
+@pytest.mark.parametrize(("override", "match"), [
+    ({"size_m": "big"}, r"size_m must be a list of 2 numbers, got size_m='big'"),
+    ({"size_m": [20.0, math.nan]}, r"size_m\[1\] must be a finite number, got size_m\[1\]=nan"),
+    ({"robots": 1.5}, r"robots must be an integer, got robots=1\.5"),
+    ({"density_per_m2": "x"}, r"density_per_m2 must be a finite number, got density_per_m2='x'"),
+    ({"boundary": 1}, r"boundary must be str, got boundary=1"),
+])
+def test_an_override_must_have_the_type_of_the_preset_value(override, match):
+    with pytest.raises(ValueError, match=match):
+        world_parameters("forest", **override)
 
 
 def test_unreachable_goal_is_detected():

@@ -112,7 +112,7 @@ def test_origin_shifts_the_map_into_the_world_frame(tmp_path):
 
 @pytest.mark.parametrize(("kwargs", "starts", "match"), [
     ({"origin": (0.0, 0.0, 0.5)}, [[1, 1, 0]], r"origin yaw must be 0"),
-    ({"negate": 2}, [[1, 1, 0]], r"negate must be 0 or 1, got negate=2"),
+    ({"negate": 2}, [[1, 1, 0]], r"negate must be one of \[0, 1\], got negate=2"),
     ({"resolution": -1}, [[1, 1, 0]], r"resolution must be a finite number > 0"),
     ({}, [[2.1, 1.8, 0]], r"starts\[0\] lies inside obstacles\[0\]"),
 ])
