@@ -37,14 +37,14 @@ from fftnav.limits import MAX_DEPTH_PIXELS, check_limit
 from fftnav.observe.geometry import DRONE, RobotGeometry
 from fftnav.observe.safe import safe_tolerance
 from fftnav.observe.scan import sanitize_ranges
-from fftnav.validate import check_integer, check_number
+from fftnav.validate import Checked, check_number, integer_field, number_field
 
 __all__ = ["SphericalGrid", "Band", "DiscFilterBank", "disc_footprint", "sanitize_depth"]
 
 
 
 @dataclass(frozen=True)
-class SphericalGrid:
+class SphericalGrid(Checked):
     """Elevation x azimuth sampling grid of a spherical depth image.
 
     Parameters
@@ -57,18 +57,12 @@ class SphericalGrid:
         Horizontal field of view in radians, ``0 < fov_az_rad <= 2 pi``, centred on the heading.
     """
 
-    rows: int
-    cols: int
-    fov_el_rad: float = math.pi / 2
-    fov_az_rad: float = 2 * math.pi
-
-    def __post_init__(self) -> None:
-        check_integer("rows", self.rows, low=2)
-        check_integer("cols", self.cols, low=2)
-        for name, top in (("fov_el_rad", math.pi), ("fov_az_rad", 2 * math.pi)):
-            v = getattr(self, name)
-            if not (isinstance(v, (int, float)) and 0 < v <= top + 1e-12):
-                raise ValueError(f"{name} must be in (0, {top:.6g}], got {name}={v!r}")
+    rows: int = integer_field(low=2)
+    cols: int = integer_field(low=2)
+    # the upper bounds admit a full circle computed with rounding (np.deg2rad(360))
+    fov_el_rad: float = number_field(math.pi / 2, low=0, low_open=True, high=math.pi + 1e-12)
+    fov_az_rad: float = number_field(2 * math.pi, low=0, low_open=True,
+                                     high=2 * math.pi + 1e-12)
 
     @property
     def full_azimuth(self) -> bool:

@@ -229,7 +229,7 @@ def test_grid_layout() -> None:
         ({"rows": 1, "cols": 360}, r"rows must be an integer >= 2, got rows=1"),
         ({"rows": 90.0, "cols": 360}, r"rows must be an integer >= 2, got rows=90.0"),
         ({"rows": 90, "cols": True}, r"cols must be an integer >= 2, got cols=True"),
-        ({"rows": 90, "cols": 360, "fov_el_rad": 0.0}, r"fov_el_rad must be in \(0, 3.14159\]"),
+        ({"rows": 90, "cols": 360, "fov_el_rad": 0.0}, r"fov_el_rad must be a finite number in \(0, 3.14159\]"),
         ({"rows": 90, "cols": 360, "fov_az_rad": 7.0}, r"fov_az_rad must be .* got fov_az_rad=7.0"),
         ({"rows": 90, "cols": 360, "fov_el_rad": float("nan")}, r"got fov_el_rad=nan"),
     ],
