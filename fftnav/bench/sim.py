@@ -102,7 +102,7 @@ def bench_sim(*, env: str = "forest", seconds: float = 20.0, seed: int = 0, robo
         ``real_time_factor`` (simulated / wall seconds), ``ms_per_robot_s`` (wall ms per
         simulated robot-second), ``lidar_ms_per_tick`` (wall ms of one swarm scan),
         ``lidar_full_client_ms_per_tick`` (the same scans with every culled ray cast by Bullet
-        in the full client without culling to the static client, timed on the same poses) and ``lidar_identical``,
+        in the full client, timed on the same poses) and ``lidar_identical``,
         ``physics_ms_per_s`` (wall ms of physics and control per simulated second), ``wall_s``,
         ``rays_per_tick`` (live beams of the swarm), ``rays_cast_per_tick`` (those left after
         culling, mean), ``rays_static_per_tick`` (of those, the ones outside every robot's
