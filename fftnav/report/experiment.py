@@ -20,10 +20,10 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow
+from fftnav.files import write_atomic
 from fftnav.report.trajectories import draw_trajectories as draw_paths
 from fftnav.report.trajectories import plot_failures
 from fftnav.runner.config import ExperimentConfig
-from fftnav.runner.run import write_atomic
 from fftnav.runner.tasks import task_world
 
 __all__ = ["PAPER_TABLE1", "PAPER_NAMES", "write_report"]

@@ -10,17 +10,14 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from fftnav.observe.compress import reconstruct  # noqa: E402
-from fftnav.observe.geometry import SIM_ROBOT  # noqa: E402
-from fftnav.observe.pipeline import Pipeline  # noqa: E402
-from fftnav.observe.safe import nearest_safe_headings  # noqa: E402
-from fftnav.world.scenes import random_trunks, ray_cast_circles  # noqa: E402
+from fftnav.observe.compress import reconstruct
+from fftnav.observe.geometry import SIM_ROBOT
+from fftnav.observe.pipeline import Pipeline
+from fftnav.observe.safe import nearest_safe_headings
+from fftnav.world.scenes import random_trunks, ray_cast_circles
 
 __all__ = ["draw_filter_figures", "SCENE_SEED", "TARGET_RAD"]
 

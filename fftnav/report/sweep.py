@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from fftnav.files import write_atomic
 from fftnav.runner.config import ExperimentConfig
-from fftnav.runner.run import write_atomic
 from fftnav.runner.summary import SWEEP_COLUMNS, gain_table
 
 __all__ = ["ALPHA", "figure_envs", "verdict", "verdict_lines", "write_sweep_report"]

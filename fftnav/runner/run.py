@@ -58,7 +58,7 @@ from fftnav.runner.tasks import (
     task_count,
 )
 
-__all__ = ["CSV_COLUMNS", "RunOutcome", "run_experiment", "write_atomic"]
+__all__ = ["CSV_COLUMNS", "RunOutcome", "run_experiment"]
 
 #: Columns of ``episodes.csv``: the task's keys, then the episode's per-robot columns.
 CSV_COLUMNS: tuple[str, ...] = ("env", "map_seed", "policy", "episode_seed",
