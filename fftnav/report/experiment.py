@@ -13,6 +13,7 @@ Reads what :func:`fftnav.runner.run_experiment` wrote (``episodes.csv``, ``summa
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
 
 import numpy as np
@@ -24,6 +25,7 @@ from fftnav.files import write_atomic
 from fftnav.report.trajectories import draw_trajectories as draw_paths
 from fftnav.report.trajectories import plot_failures
 from fftnav.runner.config import ExperimentConfig
+from fftnav.runner.summary import in_order
 from fftnav.runner.tasks import task_world
 
 __all__ = ["PAPER_TABLE1", "PAPER_NAMES", "write_report"]
@@ -67,7 +69,8 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
     pictures = [p for p in pictures if p is not None]
     if len(summary):
         pictures += [draw_metric_bars(summary, figures / "spl_apl.png"),
-                     draw_path_lengths(episodes, figures / "path_lengths.png")]
+                     draw_path_lengths(episodes, figures / "path_lengths.png",
+                                       envs=config.envs, policies=config.policy_names)]
     lines = [
         f"# Experiment `{config.name}`",
         "",
@@ -188,16 +191,18 @@ def draw_metric_bars(summary: pd.DataFrame, path: Path) -> Path:
     return path
 
 
-def draw_path_lengths(episodes: pd.DataFrame, path: Path) -> Path:
-    """Box plots of the path lengths (m) of the robots that arrived, per env and policy."""
-    envs = list(dict.fromkeys(episodes["env"]))
+def draw_path_lengths(episodes: pd.DataFrame, path: Path, *, envs: Sequence[str] | None = None,
+                      policies: Sequence[str] | None = None) -> Path:
+    """Box plots of the path lengths (m) of the robots that arrived, per env and policy, in the
+    order of ``envs`` and ``policies`` (:func:`fftnav.runner.summary.in_order`)."""
+    envs = in_order(episodes["env"], envs)
     fig = Figure(figsize=(5 * len(envs), 4), layout="constrained")
     arrived = episodes[episodes["arrived"].astype(bool)]
     for ax, env in zip(fig.subplots(1, len(envs), squeeze=False)[0], envs, strict=True):
         data = arrived[arrived["env"] == env]
-        policies = sorted(episodes.loc[episodes["env"] == env, "policy"].unique())
-        ax.boxplot([data.loc[data["policy"] == p, "path_length_m"] for p in policies],
-                   tick_labels=policies)
+        names = in_order(episodes.loc[episodes["env"] == env, "policy"], policies)
+        ax.boxplot([data.loc[data["policy"] == p, "path_length_m"] for p in names],
+                   tick_labels=names)
         ax.axhline(data["optimal_length_m"].mean(), ls="--", color="grey",
                    label="mean optimal length")
         ax.set_title(f"{env}: path length of the robots that arrived")

@@ -115,11 +115,12 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
     for a sweep run into ``ROOT/<cell>`` (for a plain experiment run into ``ROOT``: the report
     is ``ROOT/gains.md``, beside the run's own ``report.md``)."""
     root = Path(root)
-    cells = [(name, root / name) for name, _ in config.cells] or [("base", root)]
+    cells = [(name, root / name, cell) for name, cell in config.cells] or [("base", root, config)]
     tables, missing = [], []
-    for name, folder in cells:
+    for name, folder, cell in cells:
         if (folder / "episodes.csv").exists():
-            tables.append(gain_table(pd.read_csv(folder / "episodes.csv"), name))
+            tables.append(gain_table(pd.read_csv(folder / "episodes.csv"), name,
+                                     envs=cell.envs, policies=cell.policy_names))
         else:
             missing.append(name)
     table = (pd.concat(tables, ignore_index=True) if tables

@@ -131,9 +131,10 @@ def run_experiment(
                              fresh=fresh, clock=clock)
         _write_errors(out, outcome.failed)
         episodes = read_episodes(out / "episodes.csv")
-        write_atomic(out / "summary.csv", summarize(episodes).to_csv(
+        order = {"envs": config.envs, "policies": config.policy_names}
+        write_atomic(out / "summary.csv", summarize(episodes, **order).to_csv(
             index=False, float_format=FLOAT_FORMAT))
-        write_atomic(out / "paired_tests.csv", paired_tests(episodes).to_csv(
+        write_atomic(out / "paired_tests.csv", paired_tests(episodes, **order).to_csv(
             index=False, float_format="%.6g"))  # p-values can be far below 1e-6
         outcome.wall_time_s = time.perf_counter() - start
         info = run_info(outcome, workers=workers, executor=executor, scheduler=scheduler)
