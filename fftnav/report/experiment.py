@@ -15,6 +15,7 @@ from __future__ import annotations
 import json
 from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -71,7 +72,16 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
         pictures += [draw_metric_bars(summary, figures / "spl_apl.png"),
                      draw_path_lengths(episodes, figures / "path_lengths.png",
                                        envs=config.envs, policies=config.policy_names)]
-    lines = [
+    path = out / "report.md"
+    write_atomic(path, "\n".join(_report_lines(config, info, summary, paired, pictures)))
+    return path
+
+
+def _report_lines(config: ExperimentConfig, info: dict[str, Any], summary: pd.DataFrame,
+                  paired: pd.DataFrame, pictures: list[Path]) -> list[str]:
+    """The lines of ``report.md``: the run, the results beside the paper's Table I, the paired
+    tests, the figures and the config."""
+    return [
         f"# Experiment `{config.name}`",
         "",
         f"{len(config.envs)} env(s) x {config.maps} maps (seeds {config.map_seed}..."
@@ -89,10 +99,11 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
           if info["tasks_failed"] else []),
         "## Results beside the paper's Table I",
         "",
-        "Ours: AR and SPL in percent with 95% bootstrap intervals over maps; APL in metres over "
-        "the robots that arrived. SPL uses the paper's reference (8-connected grid A* at 0.05 m); "
-        "SPL geodesic uses the near-Euclidean 32-connected length, which does not let paths "
-        "shorter than an 8-connected detour score 1. Paper: Table I (Gazebo, 20 maps, 15 robots).",
+        "This run: AR and SPL in percent with 95% bootstrap intervals over maps; APL in metres "
+        "over the robots that arrived. SPL uses the paper's reference (8-connected grid A* at "
+        "0.05 m); SPL geodesic uses the near-Euclidean 32-connected length, which does not let "
+        "paths shorter than an 8-connected detour score 1. Paper: Table I (Gazebo, 20 maps, "
+        "15 robots).",
         "",
         *_markdown(results_table(summary)),
         "",
@@ -112,9 +123,6 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
         "```",
         "",
     ]
-    path = out / "report.md"
-    write_atomic(path, "\n".join(lines))
-    return path
 
 
 def results_table(summary: pd.DataFrame) -> pd.DataFrame:

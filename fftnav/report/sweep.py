@@ -110,6 +110,27 @@ def _fmt(v: float, scale: float = 100.0, digits: int = 1) -> str:
     return "" if pd.isna(v) else f"{scale * v:.{digits}f}"
 
 
+def _view(table: pd.DataFrame) -> pd.DataFrame:
+    """The sweep table as ``report.md`` shows it: percent with intervals, verdicts."""
+    return pd.DataFrame({
+        "cell": table["cell"], "env": table["env"], "policy": table["policy"],
+        "maps": table["maps"],
+        "AR %": [f"{_fmt(a)} [{_fmt(lo)}, {_fmt(hi)}]" for a, lo, hi in
+                 zip(table["ar"], table["ar_ci_low"], table["ar_ci_high"], strict=True)],
+        "SPL %": [f"{_fmt(a)} [{_fmt(lo)}, {_fmt(hi)}]" for a, lo, hi in
+                  zip(table["spl"], table["spl_ci_low"], table["spl_ci_high"], strict=True)],
+        "bytes/robot": [f"{b:.0f}" for b in table["bytes_per_robot"]],
+        "vs": table["reference"],
+        "gain (SPL points)": [f"{_fmt(g)} [{_fmt(lo)}, {_fmt(hi)}]" if r else "" for g, lo, hi, r
+                              in zip(table["gain"], table["gain_ci_low"],
+                                     table["gain_ci_high"], table["reference"], strict=True)],
+        "p (Wilcoxon)": ["" if pd.isna(p) else f"{p:.2g}" for p in table["p_value"]],
+        "verdict": [verdict(g, lo, hi, p) if r else "" for g, lo, hi, p, r
+                    in zip(table["gain"], table["gain_ci_low"], table["gain_ci_high"],
+                           table["p_value"], table["reference"], strict=True)],
+    })
+
+
 def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
     """Write ``ROOT/report.md``, ``ROOT/sweep_summary.csv`` and ``ROOT/figures/gain_*.png``
     for a sweep run into ``ROOT/<cell>`` (for a plain experiment run into ``ROOT``: the report
@@ -129,23 +150,7 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
     axes = sorted({_axis_of(c) for c in table["cell"]} - {""})
     figures = [_gain_figure(table, axis, root / "figures" / f"gain_{axis or 'cells'}.png")
                for axis in (axes or [""])] if len(table) else []
-    view = pd.DataFrame({
-        "cell": table["cell"], "env": table["env"], "policy": table["policy"],
-        "maps": table["maps"],
-        "AR %": [f"{_fmt(a)} [{_fmt(lo)}, {_fmt(hi)}]" for a, lo, hi in
-                 zip(table["ar"], table["ar_ci_low"], table["ar_ci_high"], strict=True)],
-        "SPL %": [f"{_fmt(a)} [{_fmt(lo)}, {_fmt(hi)}]" for a, lo, hi in
-                  zip(table["spl"], table["spl_ci_low"], table["spl_ci_high"], strict=True)],
-        "bytes/robot": [f"{b:.0f}" for b in table["bytes_per_robot"]],
-        "vs": table["reference"],
-        "gain (SPL points)": [f"{_fmt(g)} [{_fmt(lo)}, {_fmt(hi)}]" if r else "" for g, lo, hi, r
-                              in zip(table["gain"], table["gain_ci_low"],
-                                     table["gain_ci_high"], table["reference"], strict=True)],
-        "p (Wilcoxon)": ["" if pd.isna(p) else f"{p:.2g}" for p in table["p_value"]],
-        "verdict": [verdict(g, lo, hi, p) if r else "" for g, lo, hi, p, r
-                    in zip(table["gain"], table["gain_ci_low"], table["gain_ci_high"],
-                           table["p_value"], table["reference"], strict=True)],
-    })
+    view = _view(table)
     lines = [
         f"# Sweep `{config.name}`: does collaboration pay?",
         "",

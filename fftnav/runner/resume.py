@@ -170,8 +170,9 @@ def canonical_config(config: ExperimentConfig, columns: tuple[str, ...]) -> str:
     """The ``config.json`` of a results folder: the config (without ``out`` and its source
     text), the fftnav version, the CSV ``columns``, and the SHA-256 of every plugin source
     (:func:`fftnav.plugins.plugin_sources`: the plugin files named by path and the modules
-    beside them they import) and world file; a config without plugin or world files has no key
-    for them."""
+    beside them they import) and world file. A config without plugin or world files has no key
+    for them (nor ``world_files``): the ``config.json`` of results folders that hold no such
+    key stays valid."""
     fields = {k: v for k, v in asdict(config).items() if not (k == "world_files" and not v)}
     plugins = {str(source): file_sha256(source) for found in config.resolved.values()
                if found.file for source in plugin_sources(found.file)}
@@ -224,7 +225,7 @@ def _folder_problem(out: Path, canonical: str, columns: tuple[str, ...]) -> str 
         return None
     stored_columns = stored.get("csv_columns")
     episodes = out / "episodes.csv"
-    if stored_columns is None and episodes.exists():  # written before the columns were kept
+    if stored_columns is None and episodes.exists():  # a config.json without csv_columns
         stored_columns = episodes.read_text().split("\n", 1)[0].split(",")
     if stored_columns is not None and tuple(stored_columns) != tuple(columns):
         missing = [c for c in columns if c not in stored_columns]

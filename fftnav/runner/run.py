@@ -138,19 +138,21 @@ def run_experiment(
             index=False, float_format="%.6g"))  # p-values can be far below 1e-6
         outcome.wall_time_s = time.perf_counter() - start
         info = run_info(outcome, workers=workers, executor=executor, scheduler=scheduler)
-        previous = out / "run_info.json"
-        earlier = 0.0
-        if not fresh and previous.exists():
-            try:
-                earlier = float(json.loads(previous.read_text()).get("wall_time_total_s", 0.0))
-            except (ValueError, AttributeError, TypeError):
-                earlier = 0.0  # a damaged run_info.json: its time is lost, nothing else
-        if fresh:
-            earlier_killed = 0.0
-        info["wall_time_total_s"] = round(earlier + earlier_killed + outcome.wall_time_s, 3)
-        write_atomic(previous, json.dumps(info, indent=2))
+        earlier = 0.0 if fresh else _earlier_wall_time(out) + earlier_killed
+        info["wall_time_total_s"] = round(earlier + outcome.wall_time_s, 3)
+        write_atomic(out / "run_info.json", json.dumps(info, indent=2))
         clock.end()
     return outcome
+
+
+def _earlier_wall_time(out: Path) -> float:
+    """The wall time of the folder's finished invocations (its ``run_info.json``); 0 without
+    it, or when it is damaged (that time is lost, nothing else)."""
+    try:
+        return float(json.loads((out / "run_info.json").read_text()).get("wall_time_total_s",
+                                                                          0.0))
+    except (OSError, ValueError, AttributeError, TypeError):
+        return 0.0
 
 
 def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, executor: str,

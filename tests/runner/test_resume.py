@@ -125,7 +125,7 @@ def test_tasks_are_enumerated_lazily_in_the_sorted_order():
 
 def test_bookkeeping_per_finished_episode_is_constant(tmp_path, monkeypatch):
     """50,000 maps, interrupted after 60 episodes: tasks are never all in memory and
-    episodes.csv is not rebuilt after every episode (the old runner did both)."""
+    episodes.csv is not rebuilt after every episode."""
     big = parse_config({"experiment": {"name": "big", "envs": ["forest"], "maps": 50_000,
                                        "map_seed": 0, "robots": 3, "policies": ["fusion"],
                                        "trajectory_maps": 0}})
