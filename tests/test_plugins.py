@@ -107,3 +107,21 @@ def test_a_module_reference_is_found_in_the_current_directory(tmp_path, monkeypa
         assert load_reference("cwd_module_xyz:VALUE") == 7 and sys.path == path
     finally:
         sys.modules.pop("cwd_module_xyz", None)
+
+
+def _load_and_call(reference):
+    return load_reference(reference)(None)
+
+
+def test_a_spawned_worker_loads_a_plugin_file_importing_its_neighbour(tmp_path):
+    """What a worker of ``fftnav run`` started by spawn or forkserver does: it gets the reference
+    string only and loads the plugin itself."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    (tmp_path / "spawn_helpers_xyz.py").write_text("def side():\n    return -1\n")
+    plugin = tmp_path / "spawned.py"
+    plugin.write_text("from spawn_helpers_xyz import side\n\n\ndef decide(context):\n"
+                      "    return side()\n")
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        assert pool.submit(_load_and_call, f"{plugin}:decide").result(timeout=120) == -1
