@@ -8,16 +8,29 @@ Reference forms:
 
 ``package.module:attr``
     ``importlib.import_module("package.module")``, then the attribute ``attr`` (dotted
-    attributes such as ``module:Class.factory`` are followed).
+    attributes such as ``module:Class.factory`` are followed). The current directory is first
+    on the import path while the module is imported, so ``my_module:attr`` finds
+    ``./my_module.py`` also when fftnav runs as the ``fftnav`` command.
 ``path/to/file.py:attr``
     The Python file is executed as a fresh module (its name derived from its path, so it is
-    loaded once per process); relative paths are taken from the current directory.
+    loaded once per process); relative paths are taken from the current directory. Its folder
+    is first on the import path while it is executed, as Python does for a script, so the file
+    can ``import helpers`` from a ``helpers.py`` beside it.
 entry point
     A bare name found in the entry-point group (``fftnav.policies`` for policies and
     controllers), as an installed package declares it in its ``pyproject.toml``::
 
         [project.entry-points."fftnav.policies"]
         my-policy = "my_package.module:MyController"
+
+The import path (``sys.path``) is restored after loading: the modules imported then stay
+imported (``sys.modules``), so a plugin's functions can use them later, also in the worker
+processes of ``fftnav run`` (which load the plugin themselves from its reference). A module
+beside the plugin must therefore be imported when the plugin file is loaded (at its top), not
+first inside a function; and two plugin folders should not hold neighbour modules of the same
+name (the first one imported is the one every plugin gets, as with any Python import).
+:func:`plugin_sources` lists the plugin file and the neighbour modules it imported, whose
+contents ``fftnav run`` records to refuse resuming a folder after any of them changed.
 
 Every failure raises :class:`PluginError` (a ``ValueError``) with a one-line message naming the
 reference, so the CLI prints it and exits 2 before any episode starts.
@@ -33,19 +46,23 @@ cannot load 'math:nope': module 'math' has no attribute 'nope'
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
 import importlib.metadata
 import importlib.util
 import re
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 __all__ = ["PluginError", "entry_points", "file_sha256", "is_reference", "load_reference",
-           "reference_file"]
+           "plugin_sources", "reference_file"]
 
 _ATTR = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
+#: Plugin file -> the files of the modules under its folder first imported while it was loaded.
+_NEIGHBOURS: dict[Path, tuple[Path, ...]] = {}
 
 
 class PluginError(ValueError):
@@ -85,6 +102,42 @@ def _attribute(obj: Any, attr: str, where: str) -> Any:
     return obj
 
 
+def plugin_sources(path: Path) -> tuple[Path, ...]:
+    """The plugin file ``path`` (resolved) and the files of the modules under its folder that
+    were first imported while it was loaded in this process (e.g. a ``helpers.py`` beside it),
+    sorted after it; just ``(path,)`` before it is loaded."""
+    path = Path(path).expanduser().resolve()
+    return (path, *_NEIGHBOURS.get(path, ()))
+
+
+@contextlib.contextmanager
+def _first_on_path(folder: Path) -> Iterator[None]:
+    """``folder`` first on ``sys.path`` for the duration; then that entry is removed again
+    (whatever else the imported code did to ``sys.path`` is kept)."""
+    entry = str(folder)
+    sys.path.insert(0, entry)
+    try:
+        yield
+    finally:
+        with contextlib.suppress(ValueError):
+            sys.path.remove(entry)  # the first occurrence: the one inserted here
+
+
+def _module_files_under(folder: Path, names: set[str]) -> tuple[Path, ...]:
+    """The files of the modules ``names`` (of ``sys.modules``) that lie under ``folder``,
+    fftnav's own modules left out (their version is recorded apart)."""
+    files = set()
+    for name in names:
+        if name.partition(".")[0] == "fftnav":
+            continue
+        file = getattr(sys.modules.get(name), "__file__", None)
+        if isinstance(file, str):
+            resolved = Path(file).resolve()
+            if resolved.is_relative_to(folder):
+                files.add(resolved)
+    return tuple(sorted(files))
+
+
 def _load_file(path: Path) -> Any:
     name = "fftnav_plugin_" + hashlib.sha1(str(path).encode()).hexdigest()[:12]
     if name in sys.modules:
@@ -95,12 +148,16 @@ def _load_file(path: Path) -> Any:
     if spec is None or spec.loader is None:
         raise ImportError(f"{str(path)!r} is not a Python file")
     module = importlib.util.module_from_spec(spec)
+    before = set(sys.modules)
     sys.modules[name] = module
     try:
-        spec.loader.exec_module(module)
+        with _first_on_path(path.parent):
+            spec.loader.exec_module(module)
     except BaseException:
         del sys.modules[name]
         raise
+    new = set(sys.modules) - before - {name}
+    _NEIGHBOURS[path] = tuple(f for f in _module_files_under(path.parent, new) if f != path)
     return module
 
 
@@ -133,7 +190,8 @@ def load_reference(text: str, *, group: str | None = None) -> Any:
             if path is not None:
                 module = _load_file(path)
                 return _attribute(module, attr, f"file {head!r}")
-            module = importlib.import_module(head)
+            with _first_on_path(Path.cwd()):
+                module = importlib.import_module(head)
             return _attribute(module, attr, f"module {head!r}")
         if group is not None:
             points = entry_points(group)

@@ -2,12 +2,19 @@
 
 from __future__ import annotations
 
+import os
 import sys
 import textwrap
 
 import pytest
 
-from fftnav.plugins import PluginError, file_sha256, is_reference, load_reference
+from fftnav.plugins import (
+    PluginError,
+    file_sha256,
+    is_reference,
+    load_reference,
+    plugin_sources,
+)
 
 
 def test_module_reference_follows_dotted_attributes():
@@ -72,3 +79,49 @@ def test_file_sha256_matches_hashlib_of_the_bytes(tmp_path):
     f = tmp_path / "f.py"
     f.write_bytes(b"x = 1\n")
     assert file_sha256(f) == hashlib.sha256(b"x = 1\n").hexdigest()
+
+
+def test_a_plugin_file_imports_the_module_beside_it_and_the_path_is_restored(tmp_path):
+    folder = tmp_path / "plugin_folder"
+    folder.mkdir()
+    (folder / "beside_helpers_xyz.py").write_text("def side():\n    return -1\n")
+    plugin = folder / "uses_helpers.py"
+    plugin.write_text("from beside_helpers_xyz import side\n\n\ndef decide(context):\n"
+                      "    return side()\n")
+    path = list(sys.path)
+    try:
+        decide = load_reference(f"{plugin}:decide")
+        assert decide(None) == -1 and sys.path == path
+        assert plugin_sources(plugin) == (plugin.resolve(),
+                                          (folder / "beside_helpers_xyz.py").resolve())
+    finally:
+        sys.modules.pop("beside_helpers_xyz", None)
+
+
+def test_a_module_reference_is_found_in_the_current_directory(tmp_path, monkeypatch):
+    (tmp_path / "cwd_module_xyz.py").write_text("VALUE = 7\n")
+    monkeypatch.setattr(sys, "path", [p for p in sys.path if p not in ("", os.getcwd())])
+    monkeypatch.chdir(tmp_path)
+    path = list(sys.path)
+    try:
+        assert load_reference("cwd_module_xyz:VALUE") == 7 and sys.path == path
+    finally:
+        sys.modules.pop("cwd_module_xyz", None)
+
+
+def _load_and_call(reference):
+    return load_reference(reference)(None)
+
+
+def test_a_spawned_worker_loads_a_plugin_file_importing_its_neighbour(tmp_path):
+    """What a worker of ``fftnav run`` started by spawn or forkserver does: it gets the reference
+    string only and loads the plugin itself."""
+    import multiprocessing
+    from concurrent.futures import ProcessPoolExecutor
+
+    (tmp_path / "spawn_helpers_xyz.py").write_text("def side():\n    return -1\n")
+    plugin = tmp_path / "spawned.py"
+    plugin.write_text("from spawn_helpers_xyz import side\n\n\ndef decide(context):\n"
+                      "    return side()\n")
+    with ProcessPoolExecutor(1, mp_context=multiprocessing.get_context("spawn")) as pool:
+        assert pool.submit(_load_and_call, f"{plugin}:decide").result(timeout=120) == -1

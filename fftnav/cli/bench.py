@@ -110,13 +110,31 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="measure latency and simulation speed")
     benches = p.add_subparsers(dest="bench", metavar="BENCH", parser_class=type(p))
     benches.required = True
+    for add in (_pipeline_parser, _sim_parser, _env_parser, _scale_parser, _planning_parser,
+                _worlds_parser):
+        add(benches)
 
+
+def _record_options(q: argparse.ArgumentParser) -> None:
+    """``--json``, ``--csv``, ``--append``, ``--previous`` of a bench that :func:`_report`s."""
+    q.add_argument("--json", action="store_true", help="print one JSON object")
+    q.add_argument("--csv", metavar="PATH", help="also record the run in this CSV")
+    q.add_argument("--append", action="store_true", help="append to --csv instead of replacing")
+    q.add_argument("--previous", metavar="PATH",
+                   help="CSV of the previous result to compare with (default: --csv, else "
+                        "the committed file under results/)")
+
+
+def _pipeline_parser(benches: argparse._SubParsersAction) -> None:
     b = benches.add_parser("pipeline", help="latency of the FFT observation pipeline")
     b.add_argument("--repeats", type=int, default=2000, help="timed repetitions (default 2000)")
     b.add_argument("--runs", type=int, default=1,
                    help="independent runs; each figure is the best of them (default 1)")
+    _record_options(b)
     b.set_defaults(func=cmd_bench_pipeline)
 
+
+def _sim_parser(benches: argparse._SubParsersAction) -> None:
     s = benches.add_parser("sim", help="real-time factor of the PyBullet swarm")
     s.add_argument("--env", choices=world_kinds(), default="forest")
     s.add_argument("--seconds", type=float, default=20.0, help="simulated seconds (default 20)")
@@ -127,14 +145,21 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "20 m for 15 robots)")
     s.add_argument("--runs", type=int, default=1,
                    help="independent runs; the best real-time factor is reported (default 1)")
+    _record_options(s)
     s.set_defaults(func=cmd_bench_sim)
 
+
+def _env_parser(benches: argparse._SubParsersAction) -> None:
     e = benches.add_parser("env", help="speed of the PettingZoo environment beside bench sim "
                            "(needs fftnav[marl])")
     e.add_argument("--env", choices=world_kinds(), default="forest")
     e.add_argument("--seconds", type=float, default=60.0, help="simulated seconds (default 60)")
     e.add_argument("--seed", type=int, default=0)
+    _record_options(e)
     e.set_defaults(func=cmd_bench_env)
+
+
+def _scale_parser(benches: argparse._SubParsersAction) -> None:
     c = benches.add_parser("scale", help="cost per robot-second for N = 15 ... 200 robots")
     c.add_argument("--env", choices=world_kinds(), nargs="+", default=["forest", "rocky"])
     c.add_argument("--robots", type=int, nargs="+", default=[15, 50, 100, 200])
@@ -149,12 +174,17 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="CSV of the previous result to compare with (default: --csv)")
     c.set_defaults(func=cmd_bench_scale)
 
+
+def _planning_parser(benches: argparse._SubParsersAction) -> None:
     g = benches.add_parser("planning", help="time of the optimal-path reference (A*, geodesic)")
     g.add_argument("--env", choices=world_kinds(), default="forest")
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--r0", type=float, default=0.15, help="inflation radius r0, m (default 0.15)")
+    _record_options(g)
     g.set_defaults(func=cmd_bench_planning)
 
+
+def _worlds_parser(benches: argparse._SubParsersAction) -> None:
     w = benches.add_parser("worlds", help="large worlds: build, speed, memory, one episode each")
     w.add_argument("--case", action="append", metavar="NAME",
                    help="forest-60m or forest-10k (repeatable; default: all)")
@@ -163,12 +193,5 @@ def register(sub: argparse._SubParsersAction) -> None:
                    help="simulated seconds of random driving for the real-time factor")
     w.add_argument("--episode", type=float, default=20.0,
                    help="time limit of the fusion episode, simulated seconds (default 20)")
+    _record_options(w)
     w.set_defaults(func=cmd_bench_worlds)
-
-    for q in (b, s, e, g, w):
-        q.add_argument("--json", action="store_true", help="print one JSON object")
-        q.add_argument("--csv", metavar="PATH", help="also record the run in this CSV")
-        q.add_argument("--append", action="store_true", help="append to --csv instead of replacing")
-        q.add_argument("--previous", metavar="PATH",
-                       help="CSV of the previous result to compare with (default: --csv, else "
-                            "the committed file under results/)")

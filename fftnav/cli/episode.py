@@ -4,10 +4,15 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fftnav.cli import CliError
 from fftnav.planning.resolve import registered_names, resolve
+
+if TYPE_CHECKING:
+    from fftnav.episode.record import EpisodeRow
 
 
 def _overrides(pairs: list[str]) -> dict[str, str]:
@@ -21,8 +26,26 @@ def _overrides(pairs: list[str]) -> dict[str, str]:
     return out
 
 
+def outcome_line(rows: Sequence[EpisodeRow]) -> str:
+    """How an episode went, in one line: robots arrived, mean SPL, collided, timed out (neither
+    arrived nor collided).
+
+    >>> from fftnav.episode.record import EpisodeRow
+    >>> def row(arrived, collided, spl):
+    ...     return EpisodeRow(0, "p", arrived, collided, 1, 1, 1, spl, 1, *[0] * 7)
+    >>> outcome_line([row(True, False, 0.9), row(False, True, 0), row(False, False, 0)])
+    '1/3 arrived, SPL 0.30, 1 collided, 1 timed out'
+    """
+    arrived = sum(bool(r.arrived) for r in rows)
+    collided = sum(bool(r.collided) for r in rows)
+    spl = sum(r.spl for r in rows) / len(rows) if rows else float("nan")
+    return (f"{arrived}/{len(rows)} arrived, SPL {spl:.2f}, {collided} collided, "
+            f"{len(rows) - arrived - collided} timed out")
+
+
 def cmd_episode(args: argparse.Namespace) -> int:
-    """Run the episode, write the per-robot CSV (stdout without --out), trajectories, plot."""
+    """Run the episode, write the per-robot CSV (stdout without --out), trajectories, plot;
+    then one line on stderr (:func:`outcome_line`)."""
     import numpy as np
 
     from fftnav.episode import SwarmConfig, episode_csv, run_episode
@@ -44,6 +67,7 @@ def cmd_episode(args: argparse.Namespace) -> int:
         from fftnav.report.trajectories import plot_episode
 
         plot_episode(world, result.trajectories, result.rows, args.plot)
+    sys.stderr.write(outcome_line(result.rows) + "\n")
     return 0
 
 

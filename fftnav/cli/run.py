@@ -87,6 +87,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--scheduler", metavar="ADDR",
                    help="Dask scheduler address, e.g. tcp://host:8786 (default: a LocalCluster)")
     p.add_argument("--fresh", action="store_true",
-                   help="rerun every episode instead of resuming (results replaced as they come)")
+                   help="rerun every episode from scratch instead of resuming; results of another "
+                   "config in DIR are deleted first")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
     p.set_defaults(func=cmd_run)

@@ -5,16 +5,13 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.patches import Circle, Rectangle
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Circle, Rectangle  # noqa: E402
-
-from fftnav.episode.flight3d import FlightResult  # noqa: E402
-from fftnav.observe.spherical import DiscFilterBank, SphericalGrid  # noqa: E402
-from fftnav.sim.drone import DroneSim, make_forest3d  # noqa: E402
+from fftnav.episode.flight3d import FlightResult
+from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
+from fftnav.sim.drone import DroneSim, make_forest3d
 
 __all__ = ["draw_depth3d_figure", "draw_flight_figure"]
 

@@ -13,17 +13,20 @@ Reads what :func:`fftnav.runner.run_experiment` wrote (``episodes.csv``, ``summa
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow
+from fftnav.files import write_atomic
 from fftnav.report.trajectories import draw_trajectories as draw_paths
 from fftnav.report.trajectories import plot_failures
 from fftnav.runner.config import ExperimentConfig
-from fftnav.runner.run import write_atomic
+from fftnav.runner.summary import in_order
 from fftnav.runner.tasks import task_world
 
 __all__ = ["PAPER_TABLE1", "PAPER_NAMES", "write_report"]
@@ -67,8 +70,18 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
     pictures = [p for p in pictures if p is not None]
     if len(summary):
         pictures += [draw_metric_bars(summary, figures / "spl_apl.png"),
-                     draw_path_lengths(episodes, figures / "path_lengths.png")]
-    lines = [
+                     draw_path_lengths(episodes, figures / "path_lengths.png",
+                                       envs=config.envs, policies=config.policy_names)]
+    path = out / "report.md"
+    write_atomic(path, "\n".join(_report_lines(config, info, summary, paired, pictures)))
+    return path
+
+
+def _report_lines(config: ExperimentConfig, info: dict[str, Any], summary: pd.DataFrame,
+                  paired: pd.DataFrame, pictures: list[Path]) -> list[str]:
+    """The lines of ``report.md``: the run, the results beside the paper's Table I, the paired
+    tests, the figures and the config."""
+    return [
         f"# Experiment `{config.name}`",
         "",
         f"{len(config.envs)} env(s) x {config.maps} maps (seeds {config.map_seed}..."
@@ -86,10 +99,11 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
           if info["tasks_failed"] else []),
         "## Results beside the paper's Table I",
         "",
-        "Ours: AR and SPL in percent with 95% bootstrap intervals over maps; APL in metres over "
-        "the robots that arrived. SPL uses the paper's reference (8-connected grid A* at 0.05 m); "
-        "SPL geodesic uses the near-Euclidean 32-connected length, which does not let paths "
-        "shorter than an 8-connected detour score 1. Paper: Table I (Gazebo, 20 maps, 15 robots).",
+        "This run: AR and SPL in percent with 95% bootstrap intervals over maps; APL in metres "
+        "over the robots that arrived. SPL uses the paper's reference (8-connected grid A* at "
+        "0.05 m); SPL geodesic uses the near-Euclidean 32-connected length, which does not let "
+        "paths shorter than an 8-connected detour score 1. Paper: Table I (Gazebo, 20 maps, "
+        "15 robots).",
         "",
         *_markdown(results_table(summary)),
         "",
@@ -109,9 +123,6 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
         "```",
         "",
     ]
-    path = out / "report.md"
-    write_atomic(path, "\n".join(lines))
-    return path
 
 
 def results_table(summary: pd.DataFrame) -> pd.DataFrame:
@@ -188,16 +199,18 @@ def draw_metric_bars(summary: pd.DataFrame, path: Path) -> Path:
     return path
 
 
-def draw_path_lengths(episodes: pd.DataFrame, path: Path) -> Path:
-    """Box plots of the path lengths (m) of the robots that arrived, per env and policy."""
-    envs = list(dict.fromkeys(episodes["env"]))
+def draw_path_lengths(episodes: pd.DataFrame, path: Path, *, envs: Sequence[str] | None = None,
+                      policies: Sequence[str] | None = None) -> Path:
+    """Box plots of the path lengths (m) of the robots that arrived, per env and policy, in the
+    order of ``envs`` and ``policies`` (:func:`fftnav.runner.summary.in_order`)."""
+    envs = in_order(episodes["env"], envs)
     fig = Figure(figsize=(5 * len(envs), 4), layout="constrained")
     arrived = episodes[episodes["arrived"].astype(bool)]
     for ax, env in zip(fig.subplots(1, len(envs), squeeze=False)[0], envs, strict=True):
         data = arrived[arrived["env"] == env]
-        policies = sorted(episodes.loc[episodes["env"] == env, "policy"].unique())
-        ax.boxplot([data.loc[data["policy"] == p, "path_length_m"] for p in policies],
-                   tick_labels=policies)
+        names = in_order(episodes.loc[episodes["env"] == env, "policy"], policies)
+        ax.boxplot([data.loc[data["policy"] == p, "path_length_m"] for p in names],
+                   tick_labels=names)
         ax.axhline(data["optimal_length_m"].mean(), ls="--", color="grey",
                    label="mean optimal length")
         ax.set_title(f"{env}: path length of the robots that arrived")

@@ -9,18 +9,16 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from typing import NamedTuple
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from fftnav.observe.compress import reconstruct  # noqa: E402
-from fftnav.observe.geometry import SIM_ROBOT  # noqa: E402
-from fftnav.observe.pipeline import Pipeline  # noqa: E402
-from fftnav.observe.safe import nearest_safe_headings  # noqa: E402
-from fftnav.world.scenes import random_trunks, ray_cast_circles  # noqa: E402
+from fftnav.observe.compress import reconstruct
+from fftnav.observe.geometry import SIM_ROBOT
+from fftnav.observe.pipeline import Pipeline, PipelineResult
+from fftnav.observe.safe import nearest_safe_headings
+from fftnav.world.scenes import random_trunks, ray_cast_circles
 
 __all__ = ["draw_filter_figures", "SCENE_SEED", "TARGET_RAD"]
 
@@ -80,16 +78,28 @@ def _arrows(ax, headings, length):
             )
 
 
-def draw_filter_figures(out_dir: Path) -> list[Path]:
-    """Draw ``fig3_safe_directions.png`` and ``fig5_compression.png`` into ``out_dir``.
+class _Scene(NamedTuple):
+    """The analytic scene seen by the paper's simulated lidar, and the pipeline's output."""
 
-    Returns the paths written.
-    """
-    out_dir = Path(out_dir)
-    out_dir.mkdir(parents=True, exist_ok=True)
+    pipe: Pipeline
+    centres: np.ndarray
+    radii: np.ndarray
+    #: Distances of the scan, its normalised form ``d / R``, the processed result.
+    d: np.ndarray
+    s: np.ndarray
+    res: PipelineResult
+    #: Beam angles in degrees; the hits as points (x, y) and which beams hit.
+    deg: np.ndarray
+    xy: np.ndarray
+    hit: np.ndarray
+    #: The safe headings nearest to :data:`TARGET_RAD` on either side.
+    headings: tuple[float, float]
+
+
+def _scene() -> _Scene:
+    """26 random trunks (:data:`SCENE_SEED`) and one ahead, scanned and processed."""
     pipe = Pipeline(SIM_ROBOT)
     b = pipe.bank
-    deg = np.degrees(pipe.angles_rad)
     centres, radii = random_trunks(
         np.random.default_rng(SCENE_SEED), n_trunks=26, extent_m=2.8, clearance_m=0.3
     )
@@ -98,17 +108,36 @@ def draw_filter_figures(out_dir: Path) -> list[Path]:
         centres, radii, angles_rad=pipe.angles_rad, range_m=b.range_m, blind_rad=b.blind_rad
     )
     res = pipe.process(d)
-    s = pipe.normalise(d)[0]
-    left, right = nearest_safe_headings(res.safe_mask[0], TARGET_RAD, fov_rad=b.fov_rad)
+    headings = nearest_safe_headings(res.safe_mask[0], TARGET_RAD, fov_rad=b.fov_rad)
     hit = np.isfinite(d) & (d > 0)
     a_hit = pipe.angles_rad[hit]
     xy = np.column_stack([d[hit] * np.cos(a_hit), d[hit] * np.sin(a_hit)])
+    return _Scene(pipe, centres, radii, d, pipe.normalise(d)[0], res,
+                  np.degrees(pipe.angles_rad), xy, hit, headings)
 
+
+def draw_filter_figures(out_dir: Path) -> list[Path]:
+    """Draw ``fig3_safe_directions.png`` and ``fig5_compression.png`` into ``out_dir``.
+
+    Returns the paths written.
+    """
+    out_dir = Path(out_dir)
+    out_dir.mkdir(parents=True, exist_ok=True)
+    scene = _scene()
+    fig3 = _draw_fig3(scene, out_dir / "fig3_safe_directions.png")
+    fig5 = _draw_fig5(scene, out_dir / "fig5_compression.png")
+    return [fig3, fig5]
+
+
+def _draw_fig3(scene: _Scene, path: Path) -> Path:
+    """Fig. 3: h1's response, the scan, the clipped and filtered scan, the safe directions."""
+    pipe, b, res, deg, s, xy = scene.pipe, scene.pipe.bank, scene.res, scene.deg, scene.s, scene.xy
     fig, ax = plt.subplots(2, 3, figsize=(15, 8.5), layout="constrained")
     _response(ax[0, 0], ax[0, 1], b.h1, b.n0, b.cutoff_3db_h1, "h1", "a")
     ax[0, 0].set_xlim(b.tau - 1.5 * b.window_beams, b.tau + 1.5 * b.window_beams)
-    _scene_axes(ax[0, 2], centres, radii, xy, "(c) scan and the safe headings nearest to ahead")
-    _arrows(ax[0, 2], (left, right), 2.5)
+    _scene_axes(ax[0, 2], scene.centres, scene.radii, xy,
+                "(c) scan and the safe headings nearest to ahead")
+    _arrows(ax[0, 2], scene.headings, 2.5)
     ax[1, 0].plot(deg, s, color="0.7", lw=1, label="s = d / R")
     ax[1, 0].plot(deg, np.minimum(s, b.threshold), "C0", lw=1.5, label="clipped at l_th / R")
     ax[1, 0].set(title=f"(d) clipped scan, l_th = {SIM_ROBOT.l_th_m:.2f} m")
@@ -127,27 +156,32 @@ def draw_filter_figures(out_dir: Path) -> list[Path]:
         )
         a.legend(loc="upper right", fontsize=8)
     ax[1, 1].set_ylim(0, 1.3 * b.threshold)
-    safe_xy = xy[res.safe_mask[0][hit]]
-    _scene_axes(ax[1, 2], centres, radii, xy, "(f) safe directions (green)")
+    safe_xy = xy[res.safe_mask[0][scene.hit]]
+    _scene_axes(ax[1, 2], scene.centres, scene.radii, xy, "(f) safe directions (green)")
     m = res.safe_mask[0]
     ax[1, 2].plot(
         2.8 * np.cos(pipe.angles_rad[m]), 2.8 * np.sin(pipe.angles_rad[m]), "s", ms=3, color="C2"
     )
     ax[1, 2].plot(safe_xy[:, 0], safe_xy[:, 1], ".", ms=3, color="C2")
-    _arrows(ax[1, 2], (left, right), 2.5)
+    _arrows(ax[1, 2], scene.headings, 2.5)
     fig.suptitle(
         f"Fig. 3: safe directions (M = {b.beams}, Tc = {b.tc}, window = "
         f"{b.window_beams} beams, fc = 1/{1 / b.fc:.0f}, N0 = {b.n0})"
     )
-    fig3 = out_dir / "fig3_safe_directions.png"
-    fig.savefig(fig3, dpi=110)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
+    return path
 
+
+def _draw_fig5(scene: _Scene, path: Path) -> Path:
+    """Fig. 5: h2's response, the filtered scan's extrema (the message) and the reconstruction
+    from them."""
+    pipe, b, res, deg = scene.pipe, scene.pipe.bank, scene.res, scene.deg
     sig, mins = res.sigma[0], res.is_min[0]
     rec = reconstruct(sig, pipe.angles_rad, full_circle=True)
     fig, ax = plt.subplots(2, 2, figsize=(12, 8.5), layout="constrained")
     _response(ax[0, 0], ax[0, 1], b.h2, b.n0, b.cutoff_3db_h2, "h2", "a")
-    ax[1, 0].plot(deg, s, color="0.7", lw=1, label="s = d / R")
+    ax[1, 0].plot(deg, scene.s, color="0.7", lw=1, label="s = d / R")
     ax[1, 0].plot(deg, res.y2[0], "C0", label="y2 = h2 * s")
     sd = np.degrees(sig[:, 0])
     ax[1, 0].plot(sd[~mins], sig[~mins, 1] / b.range_m, "^", color="C2", label="maxima")
@@ -162,7 +196,8 @@ def draw_filter_figures(out_dir: Path) -> list[Path]:
         title=f"(c) filtered data and its {len(sig)} extrema ({len(res.messages[0])}-byte message)",
     )
     ax[1, 0].legend(loc="upper center", bbox_to_anchor=(0.5, -0.12), ncol=5, fontsize=8)
-    _scene_axes(ax[1, 1], centres, radii, xy, "(d) reconstruction from the extrema")
+    _scene_axes(ax[1, 1], scene.centres, scene.radii, scene.xy,
+                "(d) reconstruction from the extrema")
     ax[1, 1].plot(
         rec * np.cos(pipe.angles_rad),
         rec * np.sin(pipe.angles_rad),
@@ -178,7 +213,6 @@ def draw_filter_figures(out_dir: Path) -> list[Path]:
         f"Fig. 5: dimension reduction (Blackman-windowed sinc, N2 = {b.n2}, "
         f"fc = 1/{1 / b.fc:.0f}); P_s = {res.p_s[0]:.3f}"
     )
-    fig5 = out_dir / "fig5_compression.png"
-    fig.savefig(fig5, dpi=110)
+    fig.savefig(path, dpi=110)
     plt.close(fig)
-    return [fig3, fig5]
+    return path

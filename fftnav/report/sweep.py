@@ -17,8 +17,8 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from fftnav.files import write_atomic
 from fftnav.runner.config import ExperimentConfig
-from fftnav.runner.run import write_atomic
 from fftnav.runner.summary import SWEEP_COLUMNS, gain_table
 
 __all__ = ["ALPHA", "figure_envs", "verdict", "verdict_lines", "write_sweep_report"]
@@ -110,25 +110,9 @@ def _fmt(v: float, scale: float = 100.0, digits: int = 1) -> str:
     return "" if pd.isna(v) else f"{scale * v:.{digits}f}"
 
 
-def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
-    """Write ``ROOT/report.md``, ``ROOT/sweep_summary.csv`` and ``ROOT/figures/gain_*.png``
-    for a sweep run into ``ROOT/<cell>`` (for a plain experiment run into ``ROOT``: the report
-    is ``ROOT/gains.md``, beside the run's own ``report.md``)."""
-    root = Path(root)
-    cells = [(name, root / name) for name, _ in config.cells] or [("base", root)]
-    tables, missing = [], []
-    for name, folder in cells:
-        if (folder / "episodes.csv").exists():
-            tables.append(gain_table(pd.read_csv(folder / "episodes.csv"), name))
-        else:
-            missing.append(name)
-    table = (pd.concat(tables, ignore_index=True) if tables
-             else pd.DataFrame(columns=list(SWEEP_COLUMNS)))
-    write_atomic(root / "sweep_summary.csv", table.to_csv(index=False, float_format="%.6f"))
-    axes = sorted({_axis_of(c) for c in table["cell"]} - {""})
-    figures = [_gain_figure(table, axis, root / "figures" / f"gain_{axis or 'cells'}.png")
-               for axis in (axes or [""])] if len(table) else []
-    view = pd.DataFrame({
+def _view(table: pd.DataFrame) -> pd.DataFrame:
+    """The sweep table as ``report.md`` shows it: percent with intervals, verdicts."""
+    return pd.DataFrame({
         "cell": table["cell"], "env": table["env"], "policy": table["policy"],
         "maps": table["maps"],
         "AR %": [f"{_fmt(a)} [{_fmt(lo)}, {_fmt(hi)}]" for a, lo, hi in
@@ -145,6 +129,28 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
                     in zip(table["gain"], table["gain_ci_low"], table["gain_ci_high"],
                            table["p_value"], table["reference"], strict=True)],
     })
+
+
+def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
+    """Write ``ROOT/report.md``, ``ROOT/sweep_summary.csv`` and ``ROOT/figures/gain_*.png``
+    for a sweep run into ``ROOT/<cell>`` (for a plain experiment run into ``ROOT``: the report
+    is ``ROOT/gains.md``, beside the run's own ``report.md``)."""
+    root = Path(root)
+    cells = [(name, root / name, cell) for name, cell in config.cells] or [("base", root, config)]
+    tables, missing = [], []
+    for name, folder, cell in cells:
+        if (folder / "episodes.csv").exists():
+            tables.append(gain_table(pd.read_csv(folder / "episodes.csv"), name,
+                                     envs=cell.envs, policies=cell.policy_names))
+        else:
+            missing.append(name)
+    table = (pd.concat(tables, ignore_index=True) if tables
+             else pd.DataFrame(columns=list(SWEEP_COLUMNS)))
+    write_atomic(root / "sweep_summary.csv", table.to_csv(index=False, float_format="%.6f"))
+    axes = sorted({_axis_of(c) for c in table["cell"]} - {""})
+    figures = [_gain_figure(table, axis, root / "figures" / f"gain_{axis or 'cells'}.png")
+               for axis in (axes or [""])] if len(table) else []
+    view = _view(table)
     lines = [
         f"# Sweep `{config.name}`: does collaboration pay?",
         "",

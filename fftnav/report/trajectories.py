@@ -6,15 +6,12 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-
-from fftnav.episode.record import EpisodeRow  # noqa: E402
-from fftnav.report.world_plot import draw_world  # noqa: E402
-from fftnav.world.model import World  # noqa: E402
+from fftnav.episode.record import EpisodeRow
+from fftnav.report.world_plot import draw_world
+from fftnav.world.model import World
 
 __all__ = ["draw_trajectories", "plot_episode", "plot_failures"]
 

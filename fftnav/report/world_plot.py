@@ -5,14 +5,11 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import matplotlib
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.patches import Polygon as PolygonPatch
 
-matplotlib.use("Agg")
-import matplotlib.pyplot as plt  # noqa: E402
-import numpy as np  # noqa: E402
-from matplotlib.patches import Polygon as PolygonPatch  # noqa: E402
-
-from fftnav.world import World  # noqa: E402
+from fftnav.world import World
 
 __all__ = ["draw_world", "render_world"]
 

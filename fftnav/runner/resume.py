@@ -5,21 +5,39 @@ expected columns, the task's keys, one row per robot; its trajectories readable 
 keeps them); a file that fails is reported and the episode rerun. :class:`FolderLock` keeps two
 runs out of one folder (an ``flock`` the kernel drops when its process dies, so a killed run
 never blocks its resume), and :func:`remove_stale_temporaries` deletes what killed writers left.
+:func:`check_same_experiment` keeps one experiment per folder: its ``config.json`` must match,
+else the run is refused naming what changed, or with ``fresh`` the folder's results are removed.
 """
 
 from __future__ import annotations
 
 import json
 import os
+import shutil
 import time
+from dataclasses import asdict
 from pathlib import Path
+from typing import Any
 
-from fftnav.files import load_npz
+from fftnav import __version__
+from fftnav.files import load_npz, write_atomic
+from fftnav.plugins import file_sha256, plugin_sources
+from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import Task
 
-__all__ = ["FolderLock", "InvocationClock", "remove_stale_temporaries", "task_file_problem"]
+__all__ = ["FolderLock", "InvocationClock", "canonical_config", "check_same_experiment",
+           "config_changes", "remove_results", "remove_stale_temporaries", "task_file_problem"]
 
 LOCK_NAME = ".lock"
+#: Folders and files ``fftnav run`` writes into a results folder (what :func:`remove_results`
+#: deletes).
+RESULT_FOLDERS: tuple[str, ...] = ("episodes", "trajectories", "reference", "figures")
+RESULT_FILES: tuple[str, ...] = ("episodes.csv", "summary.csv", "paired_tests.csv",
+                                 "errors.csv", "report.md", "run_info.json", "config.toml",
+                                 "config.json")
+#: Fields of :class:`ExperimentConfig` that come from the ``[experiment]`` table.
+_EXPERIMENT_FIELDS = ("name", "envs", "maps", "map_seed", "robots", "policies",
+                      "trajectory_maps")
 
 
 def task_file_problem(csv_path: Path, npz_path: Path | None, task: Task, *, robots: int,
@@ -146,3 +164,140 @@ class InvocationClock:
     def end(self) -> None:
         """This invocation finished and counted its own time: drop the marker."""
         self.path.unlink(missing_ok=True)
+
+
+def canonical_config(config: ExperimentConfig, columns: tuple[str, ...]) -> str:
+    """The ``config.json`` of a results folder: the config (without ``out`` and its source
+    text), the fftnav version, the CSV ``columns``, and the SHA-256 of every plugin source
+    (:func:`fftnav.plugins.plugin_sources`: the plugin files named by path and the modules
+    beside them they import) and world file. A config without plugin or world files has no key
+    for them (nor ``world_files``): the ``config.json`` of results folders that hold no such
+    key stays valid."""
+    fields = {k: v for k, v in asdict(config).items() if not (k == "world_files" and not v)}
+    plugins = {str(source): file_sha256(source) for found in config.resolved.values()
+               if found.file for source in plugin_sources(found.file)}
+    worlds = {path: file_sha256(Path(path)) for path in config.world_files.values()}
+    return json.dumps({**fields, "out": None, "source": None, "fftnav_version": __version__,
+                       "csv_columns": list(columns),
+                       **({"plugin_sha256": plugins} if plugins else {}),
+                       **({"world_sha256": worlds} if worlds else {})},
+                      indent=1, sort_keys=True)
+
+
+def check_same_experiment(config: ExperimentConfig, out: Path, *, columns: tuple[str, ...],
+                          fresh: bool = False) -> None:
+    """Write ``out/config.json`` (:func:`canonical_config`) unless the folder holds another
+    experiment's results.
+
+    Resuming must not mix configs, fftnav versions, plugin versions or CSV columns: a folder
+    whose ``config.json`` differs, is damaged, or is missing beside episode files is refused
+    with a ValueError naming what differs (:func:`config_changes`). With ``fresh`` such a
+    folder's results are removed instead (:func:`remove_results`), so the experiment runs from
+    scratch; a folder of the same experiment keeps its results until the rerun replaces them.
+    """
+    record = out / "config.json"
+    canonical = canonical_config(config, columns)
+    problem = _folder_problem(out, canonical, columns)
+    if problem is not None:
+        if not fresh:
+            raise ValueError(f"{out} {problem}; rerun with --fresh to replace its results, or "
+                             "use another --out")
+        remove_results(out)
+    write_atomic(record, canonical)
+
+
+def _folder_problem(out: Path, canonical: str, columns: tuple[str, ...]) -> str | None:
+    """Why the results in ``out`` are not of the experiment ``canonical`` describes, or None."""
+    record = out / "config.json"
+    if not record.exists():
+        if any((out / "episodes").glob("*.csv")):
+            return (f"holds episode files but no config.json ({record}): they cannot be told "
+                    "apart from another experiment's")
+        return None
+    try:
+        text = record.read_text(encoding="utf-8")
+        stored = json.loads(text)
+    except (UnicodeDecodeError, ValueError):
+        stored = None
+    if not isinstance(stored, dict):
+        return f"holds a damaged config.json ({record})"
+    if text == canonical:
+        return None
+    stored_columns = stored.get("csv_columns")
+    episodes = out / "episodes.csv"
+    if stored_columns is None and episodes.exists():  # a config.json without csv_columns
+        stored_columns = episodes.read_text().split("\n", 1)[0].split(",")
+    if stored_columns is not None and tuple(stored_columns) != tuple(columns):
+        missing = [c for c in columns if c not in stored_columns]
+        extra = [c for c in stored_columns if c not in columns]
+        return (f"holds episodes with other columns than this fftnav writes (missing {missing}, "
+                f"extra {extra}{', or in another order' if not missing + extra else ''})")
+    changes = config_changes(stored, json.loads(canonical))
+    return (f"holds results of a different experiment config ({record}); changed: "
+            f"{', '.join(changes) or 'the layout of config.json'}")
+
+
+def config_changes(old: dict[str, Any], new: dict[str, Any]) -> list[str]:
+    """What differs between two ``config.json`` contents, as a reader names it: config keys
+    as in the TOML file (``experiment.maps``, ``robot.r0_m``, ``world.forest.density``), plugin
+    and world files by path, the fftnav version.
+
+    >>> config_changes({"maps": 2, "swarm": {"robot": {"r0_m": 0.1, "r_m": 0.3}}},
+    ...                {"maps": 3, "swarm": {"robot": {"r0_m": 0.2, "r_m": 0.3}}})
+    ['experiment.maps', 'robot.r0_m']
+    >>> config_changes({"plugin_sha256": {"/p/a.py": "1"}}, {"plugin_sha256": {"/p/a.py": "2"}})
+    ['plugin file /p/a.py']
+    """
+    changes: list[str] = []
+    for key in sorted(old.keys() | new.keys()):
+        before, after = old.get(key), new.get(key)
+        if before == after:
+            continue
+        if key in ("plugin_sha256", "world_sha256"):
+            before = before if isinstance(before, dict) else {}
+            after = after if isinstance(after, dict) else {}
+            kind = "plugin file" if key == "plugin_sha256" else "world file"
+            for path in sorted(before.keys() | after.keys()):
+                if before.get(path) != after.get(path):
+                    state = (" (new)" if path not in before else
+                             " (no longer used)" if path not in after else "")
+                    changes.append(f"{kind} {path}{state}")
+        elif key == "fftnav_version":
+            changes.append(f"fftnav version {before} -> {after}")
+        else:
+            changes += [_toml_key(k) for k in _changed_keys(key, before, after)]
+    return changes
+
+
+def _changed_keys(prefix: str, before: Any, after: Any) -> list[str]:
+    """The dotted keys under ``prefix`` whose values differ (nested tables followed)."""
+    if isinstance(before, dict) and isinstance(after, dict):
+        return [k for key in sorted(before.keys() | after.keys())
+                if before.get(key) != after.get(key)
+                for k in _changed_keys(f"{prefix}.{key}", before.get(key), after.get(key))]
+    return [prefix]
+
+
+def _toml_key(key: str) -> str:
+    """A dotted :class:`ExperimentConfig` field path as the TOML file names it."""
+    head, _, rest = key.partition(".")
+    if head in _EXPERIMENT_FIELDS:
+        return f"experiment.{head}"
+    if head == "swarm":
+        return rest
+    if head == "world_by_env":
+        return f"world.{rest}"
+    if head == "cells":
+        return "sweep"
+    return key
+
+
+def remove_results(out: Path) -> None:
+    """Delete what ``fftnav run`` wrote into ``out`` (:data:`RESULT_FOLDERS`,
+    :data:`RESULT_FILES`); nothing else in it is touched (e.g. the cells of a sweep in its
+    subfolders, other files of the user)."""
+    for name in RESULT_FOLDERS:
+        if (out / name).is_dir() and not (out / name).is_symlink():
+            shutil.rmtree(out / name)
+    for name in RESULT_FILES:
+        (out / name).unlink(missing_ok=True)

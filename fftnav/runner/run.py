@@ -28,7 +28,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import dataclass, field, replace
 from importlib.metadata import PackageNotFoundError, version
 from pathlib import Path
 
@@ -36,15 +36,14 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from fftnav import __version__
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
 from fftnav.files import atomic_writer, write_atomic
-from fftnav.plugins import file_sha256
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
 from fftnav.runner.resume import (
     FolderLock,
     InvocationClock,
+    check_same_experiment,
     remove_stale_temporaries,
     task_file_problem,
 )
@@ -58,7 +57,7 @@ from fftnav.runner.tasks import (
     task_count,
 )
 
-__all__ = ["CSV_COLUMNS", "RunOutcome", "run_experiment", "write_atomic"]
+__all__ = ["CSV_COLUMNS", "RunOutcome", "run_experiment"]
 
 #: Columns of ``episodes.csv``: the task's keys, then the episode's per-robot columns.
 CSV_COLUMNS: tuple[str, ...] = ("env", "map_seed", "policy", "episode_seed",
@@ -97,7 +96,8 @@ def run_experiment(
     config : ExperimentConfig
     out_dir : str or Path
         Output folder; created if needed. A folder that holds results of a different config
-        (its ``config.json``) is refused.
+        (its ``config.json``) is refused naming what changed, unless ``fresh``
+        (:func:`fftnav.runner.resume.check_same_experiment`).
     workers, executor, scheduler
         See :func:`fftnav.runner.executors.execute`.
     task_fn : callable
@@ -105,8 +105,9 @@ def run_experiment(
     progress : bool
         Show a tqdm progress bar (episodes done / total, ETA) on stderr.
     fresh : bool
-        Rerun every task, replacing finished ones as the new results arrive (default: resume,
-        skipping the tasks that have a result file).
+        Rerun every task from scratch (default: resume, skipping the tasks that have a result
+        file). Results of another config in ``out_dir`` are deleted first; those of the same
+        config are replaced as the new results arrive.
 
     Returns
     -------
@@ -122,7 +123,7 @@ def run_experiment(
     out.mkdir(parents=True, exist_ok=True)
     with FolderLock(out):
         remove_stale_temporaries(out)
-        _check_same_experiment(config, out, fresh=fresh)
+        check_same_experiment(config, out, columns=CSV_COLUMNS, fresh=fresh)
         clock = InvocationClock(out)
         earlier_killed = clock.begin()
         outcome = _run_tasks(config, out, workers=workers, executor=executor,
@@ -130,25 +131,28 @@ def run_experiment(
                              fresh=fresh, clock=clock)
         _write_errors(out, outcome.failed)
         episodes = read_episodes(out / "episodes.csv")
-        write_atomic(out / "summary.csv", summarize(episodes).to_csv(
+        order = {"envs": config.envs, "policies": config.policy_names}
+        write_atomic(out / "summary.csv", summarize(episodes, **order).to_csv(
             index=False, float_format=FLOAT_FORMAT))
-        write_atomic(out / "paired_tests.csv", paired_tests(episodes).to_csv(
+        write_atomic(out / "paired_tests.csv", paired_tests(episodes, **order).to_csv(
             index=False, float_format="%.6g"))  # p-values can be far below 1e-6
         outcome.wall_time_s = time.perf_counter() - start
         info = run_info(outcome, workers=workers, executor=executor, scheduler=scheduler)
-        previous = out / "run_info.json"
-        earlier = 0.0
-        if not fresh and previous.exists():
-            try:
-                earlier = float(json.loads(previous.read_text()).get("wall_time_total_s", 0.0))
-            except (ValueError, AttributeError, TypeError):
-                earlier = 0.0  # a damaged run_info.json: its time is lost, nothing else
-        if fresh:
-            earlier_killed = 0.0
-        info["wall_time_total_s"] = round(earlier + earlier_killed + outcome.wall_time_s, 3)
-        write_atomic(previous, json.dumps(info, indent=2))
+        earlier = 0.0 if fresh else _earlier_wall_time(out) + earlier_killed
+        info["wall_time_total_s"] = round(earlier + outcome.wall_time_s, 3)
+        write_atomic(out / "run_info.json", json.dumps(info, indent=2))
         clock.end()
     return outcome
+
+
+def _earlier_wall_time(out: Path) -> float:
+    """The wall time of the folder's finished invocations (its ``run_info.json``); 0 without
+    it, or when it is damaged (that time is lost, nothing else)."""
+    try:
+        return float(json.loads((out / "run_info.json").read_text()).get("wall_time_total_s",
+                                                                          0.0))
+    except (OSError, ValueError, AttributeError, TypeError):
+        return 0.0
 
 
 def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, executor: str,
@@ -292,57 +296,6 @@ def git_revision() -> str:
     except (OSError, subprocess.SubprocessError):
         return "unknown"
     return head + ("-dirty" if dirty else "")
-
-
-def _check_same_experiment(config: ExperimentConfig, out: Path, *, fresh: bool = False) -> None:
-    """Refuse a folder whose ``config.json`` (canonical config without ``out``, the fftnav
-    version and the CSV columns that wrote it) differs: resuming must not mix configs, code
-    versions or columns. A folder written with other columns is refused naming them; a folder
-    holding episode files but no ``config.json`` is refused unless ``fresh``."""
-    record = out / "config.json"
-    if not record.exists() and not fresh and any((out / "episodes").glob("*.csv")):
-        raise ValueError(f"{out} holds episode files but no config.json ({record}): they cannot "
-                         "be told apart from another experiment's; use another --out or --fresh")
-    fields = {k: v for k, v in asdict(config).items()
-              if not (k == "world_files" and not v)}  # older configs keep their form
-    canonical = json.dumps({**fields, "out": None, "source": None,
-                            "fftnav_version": __version__, "csv_columns": list(CSV_COLUMNS),
-                            **_plugin_files(config)}, indent=1, sort_keys=True)
-    if record.exists():
-        try:
-            text = record.read_text(encoding="utf-8")
-        except UnicodeDecodeError:
-            text = ""
-        try:
-            columns = json.loads(text).get("csv_columns")
-        except (ValueError, AttributeError):
-            columns = None
-        episodes = out / "episodes.csv"
-        if columns is None and episodes.exists():  # a folder written before columns were kept
-            columns = episodes.read_text().split("\n", 1)[0].split(",")
-        if columns is not None and tuple(columns) != CSV_COLUMNS:
-            missing = [c for c in CSV_COLUMNS if c not in columns]
-            extra = [c for c in columns if c not in CSV_COLUMNS]
-            raise ValueError(f"{out} holds episodes with other columns than this fftnav writes "
-                             f"(missing {missing}, extra {extra}"
-                             f"{', or in another order' if not missing + extra else ''}); "
-                             "use another --out")
-        if text != canonical:
-            raise ValueError(f"{out} holds results of a different experiment config or fftnav "
-                             f"version ({record}); use another --out")
-    out.mkdir(parents=True, exist_ok=True)
-    write_atomic(record, canonical)
-
-
-def _plugin_files(config: ExperimentConfig) -> dict[str, dict[str, str]]:
-    """``{"plugin_sha256": {file: sha256}}`` of the plugins named by file path and
-    ``{"world_sha256": ...}`` of the world files (none: ``{}``, so configs without them keep
-    their canonical form): resuming with a changed plugin or world file is refused like a
-    changed config."""
-    files = {str(f.file): file_sha256(f.file) for f in config.resolved.values() if f.file}
-    worlds = {path: file_sha256(Path(path)) for path in config.world_files.values()}
-    return ({"plugin_sha256": files} if files else {}) | (
-        {"world_sha256": worlds} if worlds else {})
 
 
 def _reference_path(out: Path, env: str, map_seed: int) -> Path:

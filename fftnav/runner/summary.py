@@ -10,6 +10,7 @@ not independent): maps are resampled with replacement and the pooled statistic r
 from __future__ import annotations
 
 import warnings
+from collections.abc import Iterable, Iterator, Sequence
 from typing import Any
 
 import numpy as np
@@ -19,8 +20,8 @@ from scipy import stats
 from fftnav.metrics import MEASURES
 from fftnav.validate import check_integer, check_number
 
-__all__ = ["PAIRED_COLUMNS", "SWEEP_COLUMNS", "bootstrap_ratio_ci", "gain_table", "paired_tests",
-           "summarize", "summary_columns"]
+__all__ = ["PAIRED_COLUMNS", "SWEEP_COLUMNS", "bootstrap_ratio_ci", "gain_table", "in_order",
+           "paired_tests", "summarize", "summary_columns"]
 
 #: Columns of a summary before the measures: the group and its size.
 _KEYS: tuple[str, ...] = ("env", "policy", "episodes", "robots")
@@ -87,25 +88,49 @@ def bootstrap_ratio_ci(
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
-def summarize(episodes: pd.DataFrame, *, n_resamples: int = 2000, seed: int = 0) -> pd.DataFrame:
+def in_order(present: Iterable[Any], order: Sequence[Any] | None) -> list[Any]:
+    """The distinct values of ``present`` in the order of ``order``, then those ``order`` lacks
+    sorted (all sorted without ``order``).
+
+    >>> in_order(["fusion", "bug-left", "mine", "own-only"], ["own-only", "mine", "bug-left"])
+    ['own-only', 'mine', 'bug-left', 'fusion']
+    """
+    values, given = set(present), list(order or ())
+    return [v for v in dict.fromkeys(given) if v in values] + sorted(values - set(given))
+
+
+def _groups(episodes: pd.DataFrame, envs: Sequence[str] | None,
+            policies: Sequence[str] | None) -> Iterator[tuple[str, str, pd.DataFrame]]:
+    """``(env, policy, rows)`` of every (env, policy) present, in :func:`in_order` order."""
+    groups = dict(iter(episodes.groupby(["env", "policy"], sort=True)))
+    for env in in_order((e for e, _ in groups), envs):
+        for policy in in_order((p for e, p in groups if e == env), policies):
+            yield env, policy, groups[env, policy]
+
+
+def summarize(episodes: pd.DataFrame, *, envs: Sequence[str] | None = None,
+              policies: Sequence[str] | None = None, n_resamples: int = 2000,
+              seed: int = 0) -> pd.DataFrame:
     """One row per (env, policy): counts, then every registered measure.
 
     Parameters
     ----------
     episodes : DataFrame
         ``episodes.csv`` rows (env, map_seed, policy and the episode columns).
+    envs, policies : sequence of str, optional
+        The order of the rows (the config's; see :func:`in_order`); default alphabetical.
     n_resamples, seed
         Bootstrap resamples and seed (see :func:`bootstrap_ratio_ci`).
 
     Returns
     -------
     DataFrame
-        Columns :func:`summary_columns`, sorted by env, policy. Each measure's value is
+        Columns :func:`summary_columns`, ordered by env, then policy. Each measure's value is
         ``measure(table)`` of the group's robots; measures with ``terms`` (AR, APL, SPL) get a
         95% bootstrap interval over maps of the ratio of their per-map sums.
     """
     rows = []
-    for (env, policy), g in episodes.groupby(["env", "policy"], sort=True):
+    for env, policy, g in _groups(episodes, envs, policies):
         maps = g.groupby("map_seed")
         row: list[object] = [env, policy, maps.ngroups, len(g)]
         for measure in MEASURES.values():
@@ -120,7 +145,9 @@ def summarize(episodes: pd.DataFrame, *, n_resamples: int = 2000, seed: int = 0)
     return pd.DataFrame(rows, columns=list(summary_columns()))
 
 
-def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion") -> pd.DataFrame:
+def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion",
+                 envs: Sequence[str] | None = None,
+                 policies: Sequence[str] | None = None) -> pd.DataFrame:
     """Wilcoxon signed-rank tests of per-map SPL: ``reference`` against every other policy.
 
     Maps are paired by ``(env, map_seed)``: the same map and episode seed for both policies. Only
@@ -132,6 +159,8 @@ def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion") -> pd.Dat
         ``episodes.csv`` rows.
     reference : str
         The policy compared with all others (the paper's proposed method, ``fusion``).
+    envs, policies : sequence of str, optional
+        The order of the rows (the config's; see :func:`in_order`); default alphabetical.
 
     Returns
     -------
@@ -144,8 +173,10 @@ def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion") -> pd.Dat
                                    aggfunc="mean")
     rows = []
     if reference in per_map.columns:
-        for env, table in per_map.groupby(level="env", sort=True):
-            for policy in sorted(c for c in per_map.columns if c != reference):
+        tables = dict(iter(per_map.groupby(level="env", sort=True)))
+        for env in in_order(tables, envs):
+            table = tables[env]
+            for policy in in_order((c for c in per_map.columns if c != reference), policies):
                 pair = table[[reference, policy]].dropna()
                 diff = (pair[reference] - pair[policy]).to_numpy()
                 statistic = p_value = np.nan
@@ -182,15 +213,17 @@ def _wilcoxon(diff: np.ndarray) -> float:
         return float(stats.wilcoxon(diff).pvalue)
 
 
-def gain_table(episodes: pd.DataFrame, cell: str) -> pd.DataFrame:
+def gain_table(episodes: pd.DataFrame, cell: str, *, envs: Sequence[str] | None = None,
+               policies: Sequence[str] | None = None) -> pd.DataFrame:
     """Rows :data:`SWEEP_COLUMNS` of one sweep cell's ``episodes.csv``: each (env, policy)
     with AR and SPL and their 95% bootstrap intervals over maps, bytes per robot, and its gain
     against ``own-only`` (per-map SPL difference: mean, 95% bootstrap interval of the mean,
-    two-sided Wilcoxon signed-rank p); ``collab`` gets a second row against ``fusion``."""
+    two-sided Wilcoxon signed-rank p); ``collab`` gets a second row against ``fusion``. Rows in
+    the order of ``envs`` and ``policies`` (:func:`in_order`; default alphabetical)."""
     per_map = episodes.pivot_table(index=["env", "map_seed"], columns="policy", values="spl",
                                    aggfunc="mean")
     rows: list[tuple[Any, ...]] = []
-    for (env, policy), g in episodes.groupby(["env", "policy"], sort=True):
+    for env, policy, g in _groups(episodes, envs, policies):
         sums = g.groupby("map_seed").agg(arr=("arrived", "sum"), spl=("spl", "sum"),
                                          n=("robot", "count"))
         ar = g["arrived"].mean()

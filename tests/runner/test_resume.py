@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import json
 import os
+import sys
 import time
 import tracemalloc
 
@@ -12,6 +13,7 @@ import pandas as pd
 import pytest
 
 import fftnav.runner.run as run_module
+from fftnav.plugins import file_sha256
 from fftnav.runner import parse_config, run_experiment
 from fftnav.runner.resume import FolderLock, InvocationClock
 from fftnav.runner.tasks import iter_tasks, make_tasks, task_count
@@ -66,6 +68,7 @@ def test_a_folder_with_episodes_but_no_config_json_is_refused(full):
     with pytest.raises(ValueError, match=r"holds episode files but no config\.json"):
         run_experiment(other, full, workers=1, task_fn=fake_task, progress=False)
     run_experiment(other, full, workers=1, task_fn=fake_task, progress=False, fresh=True)
+    assert sorted(p.name for p in (full / "episodes").iterdir()) == ["forest-5-fusion.csv"]
 
 
 def test_one_run_per_folder(tmp_path):
@@ -122,7 +125,7 @@ def test_tasks_are_enumerated_lazily_in_the_sorted_order():
 
 def test_bookkeeping_per_finished_episode_is_constant(tmp_path, monkeypatch):
     """50,000 maps, interrupted after 60 episodes: tasks are never all in memory and
-    episodes.csv is not rebuilt after every episode (the old runner did both)."""
+    episodes.csv is not rebuilt after every episode."""
     big = parse_config({"experiment": {"name": "big", "envs": ["forest"], "maps": 50_000,
                                        "map_seed": 0, "robots": 3, "policies": ["fusion"],
                                        "trajectory_maps": 0}})
@@ -147,6 +150,69 @@ def test_damaged_config_json_is_refused_naming_it_and_damaged_run_info_is_replac
     info = json.loads((full / "run_info.json").read_text())
     assert info["wall_time_total_s"] == pytest.approx(outcome.wall_time_s, abs=0.01)
     (full / "config.json").write_bytes(b"\x93\x00garbage")
-    with pytest.raises(ValueError, match=rf"different experiment config or fftnav version "
-                                         rf"\({full / 'config.json'}\)"):
+    with pytest.raises(ValueError, match=rf"^{full} holds a damaged config\.json "
+                                         rf"\({full / 'config.json'}\); rerun with --fresh"):
         run_experiment(CONFIG, full, workers=1, task_fn=fake_task, progress=False)
+
+
+def test_a_changed_config_is_refused_naming_its_keys_and_fresh_reruns_it_from_scratch(
+        full, tmp_path):
+    data = {"experiment": {"name": "fake", "envs": ["forest", "rocky"], "maps": 2, "map_seed": 5,
+                           "robots": 3, "policies": ["fusion", "random"]},
+            "episode": {"time_limit_s": 30.0}}
+    other = parse_config(data)
+    (full / "cell").mkdir()  # what is not the run's own output stays untouched
+    (full / "cell" / "episodes.csv").write_text("kept\n")
+    (full / "notes.txt").write_text("kept\n")
+    with pytest.raises(ValueError, match=rf"^{full} holds results of a different experiment "
+                       rf"config \({full / 'config.json'}\); changed: experiment\.maps, "
+                       r"experiment\.policies, episode\.time_limit_s; rerun with --fresh"):
+        run_experiment(other, full, workers=1, task_fn=fake_task, progress=False)
+    outcome = run_experiment(other, full, workers=1, task_fn=fake_task, progress=False,
+                             fresh=True)
+    assert (outcome.skipped, outcome.completed) == (0, 2 * 2 * 2)
+    clean = tmp_path / "clean"
+    run_experiment(other, clean, workers=1, task_fn=fake_task, progress=False)
+    assert files(full) == files(clean)
+    for sub in ("episodes", "trajectories"):  # the old config's files are gone
+        assert sorted(p.name for p in (full / sub).iterdir()) == sorted(
+            p.name for p in (clean / sub).iterdir())
+    assert (full / "cell" / "episodes.csv").read_text() == "kept\n"
+    assert (full / "notes.txt").read_text() == "kept\n"
+
+
+@pytest.fixture
+def newcomer(tmp_path):
+    """A decision policy in a folder of its own that imports the module beside it."""
+    folder = tmp_path / "newcomer"
+    folder.mkdir()
+    (folder / "newcomer_sides.py").write_text("LEFT = 1\n")
+    (folder / "newcomer_policy.py").write_text(
+        "from newcomer_sides import LEFT\n\n\ndef mine(context):\n    return LEFT\n")
+    yield folder
+    sys.modules.pop("newcomer_sides", None)
+
+
+def test_a_changed_plugin_or_module_beside_it_is_named_and_fresh_reruns(newcomer, tmp_path):
+    config = parse_config({"experiment": {
+        "name": "mine", "envs": ["forest"], "maps": 2, "map_seed": 5, "robots": 3,
+        "policies": ["fusion", f"{newcomer / 'newcomer_policy.py'}:mine"]}})
+    out = tmp_path / "mine"
+    run_experiment(config, out, workers=1, task_fn=fake_task, progress=False)
+    for name in ("newcomer_policy.py", "newcomer_sides.py"):
+        edited = newcomer / name
+        text = edited.read_text()
+        edited.write_text(text + "# edited\n")
+        with pytest.raises(ValueError, match=rf"; changed: plugin file {edited.resolve()}; "
+                                             r"rerun with --fresh"):
+            run_experiment(config, out, workers=1, task_fn=fake_task, progress=False)
+        edited.write_text(text)
+    outcome = run_experiment(config, out, workers=1, task_fn=fake_task, progress=False)
+    assert (outcome.skipped, outcome.completed) == (4, 0)
+    (newcomer / "newcomer_sides.py").write_text("LEFT = -1\n")
+    outcome = run_experiment(config, out, workers=1, task_fn=fake_task, progress=False,
+                             fresh=True)
+    assert (outcome.skipped, outcome.completed) == (0, 4)
+    recorded = json.loads((out / "config.json").read_text())["plugin_sha256"]
+    assert recorded == {str((newcomer / n).resolve()): file_sha256(newcomer / n)
+                        for n in ("newcomer_policy.py", "newcomer_sides.py")}

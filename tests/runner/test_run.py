@@ -137,7 +137,7 @@ def test_folder_written_with_other_columns_is_refused_naming_them(tmp_path):
     with pytest.raises(ValueError, match=r"holds episodes with other columns than this fftnav "
                        r"writes \(missing \['spl'\], extra \['colour'\]\)"):
         run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
-    # a folder from before the columns were recorded: its episodes.csv header is checked
+    # a config.json without csv_columns: the header of episodes.csv is checked
     del data["csv_columns"]
     record.write_text(json.dumps(data, indent=1, sort_keys=True))
     episodes = tmp_path / "episodes.csv"

@@ -7,6 +7,7 @@ import pandas as pd
 import pytest
 
 from fftnav.runner import bootstrap_ratio_ci, paired_tests, summarize
+from fftnav.runner.summary import in_order
 
 
 def test_bootstrap_two_maps_hand_computed():
@@ -103,3 +104,28 @@ def test_paired_tests_without_reference_or_differences():
     equal = paired_tests(df).iloc[0]
     assert equal.maps == 2 and equal.median_diff == 0 and np.isnan(equal.p_value)
     assert paired_tests(df[df.policy != "fusion"]).empty
+
+
+def test_rows_keep_the_given_env_and_policy_order_and_their_values():
+    policies = ("own-only", "mine", "bug-left", "fusion")
+    df = episodes([(env, m, p, 0, True, False, 10.0, 9.0, 0.1 * (1 + i) + 0.01 * m, 0, 0)
+                   for env in ("forest", "rocky") for m in (1, 2)
+                   for i, p in enumerate(policies)]).sample(frac=1.0, random_state=2)
+    ordered = summarize(df, envs=["rocky", "forest"], policies=policies, n_resamples=10)
+    assert list(zip(ordered.env, ordered.policy, strict=True)) == [
+        (env, p) for env in ("rocky", "forest") for p in policies]
+    alphabetical = summarize(df, n_resamples=10)
+    assert list(zip(alphabetical.env, alphabetical.policy, strict=True)) == [
+        (env, p) for env in ("forest", "rocky") for p in sorted(policies)]
+    key = ["env", "policy"]  # the same rows, only their order differs
+    pd.testing.assert_frame_equal(ordered.sort_values(key, ignore_index=True),
+                                  alphabetical.sort_values(key, ignore_index=True))
+    tests = paired_tests(df, envs=["rocky", "forest"], policies=policies)
+    assert list(zip(tests.env, tests.policy, strict=True)) == [
+        (env, p) for env in ("rocky", "forest") for p in ("own-only", "mine", "bug-left")]
+    assert list(paired_tests(df).policy[:3]) == ["bug-left", "mine", "own-only"]
+
+
+def test_names_missing_from_the_order_come_last_sorted():
+    assert in_order(["b", "z", "a", "c"], ["c", "x", "a"]) == ["c", "a", "b", "z"]
+    assert in_order(["b", "a", "b"], None) == ["a", "b"]
