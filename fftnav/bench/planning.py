@@ -13,10 +13,10 @@ import time
 
 import numpy as np
 
-from fftnav.planning import gridsearch
-from fftnav.planning.astar import astar
-from fftnav.planning.gridgraph import shortest_paths
-from fftnav.planning.reference import robot_cells
+from fftnav.optimal import gridsearch
+from fftnav.optimal.astar import astar
+from fftnav.optimal.gridgraph import shortest_paths
+from fftnav.optimal.reference import robot_cells
 from fftnav.validate import check_number
 from fftnav.world import generate_world
 from fftnav.world.grid import occupancy_grid

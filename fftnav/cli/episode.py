@@ -7,7 +7,7 @@ import sys
 from pathlib import Path
 
 from fftnav.cli import CliError
-from fftnav.planning.resolve import registered_names, resolve
+from fftnav.navigation.resolve import registered_names, resolve
 
 
 def _overrides(pairs: list[str]) -> dict[str, str]:

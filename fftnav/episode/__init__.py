@@ -2,7 +2,7 @@
 3D quadrotor flights.
 
 Modules: :mod:`~fftnav.episode.comms` (the lossy, delayed, range-limited channel),
-:mod:`~fftnav.episode.decider` (P_s and the fused P of a robot), :mod:`~fftnav.episode.record`
+:mod:`~fftnav.navigation.decider` (P_s and the fused P of a robot), :mod:`~fftnav.episode.record`
 (``EpisodeRow``, the CSV columns), :mod:`~fftnav.episode.loop` (``run_episode``),
 :mod:`~fftnav.episode.flight3d` (the 3D flight controller and experiment).
 """

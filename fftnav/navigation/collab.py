@@ -6,11 +6,11 @@ least :data:`MIN_SEGMENT_M` long: walls and long obstacle sides, not trunks or r
 broadcasts the :data:`MAX_SEGMENTS_PER_MESSAGE` longest through the episode's lossy, delayed,
 range-limited :class:`~fftnav.episode.comms.Channel`, in at most :data:`MAX_MESSAGE_BYTES` bytes
 (:func:`encode_segments`: a count byte, then the end points in centimetres as int16). A receiver
-draws them into its own map (:meth:`fftnav.planning.ownmap.OwnMaps.add_segments`): a robot at a
+draws them into its own map (:meth:`fftnav.navigation.ownmap.OwnMaps.add_segments`): a robot at a
 wall then knows where its neighbours saw the wall go on, and where they saw it end.
 
 At a decision ``collab`` compares the two sides by the length of the way to the goal through
-that map (:meth:`fftnav.planning.ownmap.OwnMaps.side_costs`) and takes the clearly shorter one
+that map (:meth:`fftnav.navigation.ownmap.OwnMaps.side_costs`) and takes the clearly shorter one
 (docs/planner.md, "collab"). Pure numpy; nothing but the robot's own scan and pose and its
 neighbours' messages.
 """

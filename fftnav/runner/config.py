@@ -23,7 +23,7 @@ from typing import Any
 from fftnav.config import SwarmConfig
 from fftnav.files import read_toml
 from fftnav.limits import MAX_RAYS_PER_TICK, MAX_TASKS, check_limit
-from fftnav.planning.resolve import Resolved, resolve
+from fftnav.navigation.resolve import Resolved, resolve
 from fftnav.validate import check_integer
 from fftnav.world import load_preset, load_world, world_kinds, world_parameters
 

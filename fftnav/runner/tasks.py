@@ -17,7 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from fftnav.episode import EpisodeRow, run_episode
-from fftnav.planning.reference import optimal_lengths
+from fftnav.optimal.reference import optimal_lengths
 from fftnav.runner.config import ExperimentConfig
 from fftnav.world import World, generate_world, load_world
 

@@ -10,7 +10,7 @@ import pytest
 
 from fftnav.config import CommsConfig, EpisodeConfig, SwarmConfig
 from fftnav.episode import run_episode
-from fftnav.planning.controllers import Action, Controller
+from fftnav.navigation.controllers import Action, Controller
 from fftnav.world import Circle, World
 
 UP = math.pi / 2

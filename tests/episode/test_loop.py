@@ -203,7 +203,7 @@ def test_decider_fuses_in_the_goal_frame_whatever_the_world_orientation(turn):
     and placed with the relative pose) gives the same P_s and P when the whole scene is rotated,
     and the same P as decide_turn called by hand in the goal frame."""
     from fftnav.episode.comms import Channel
-    from fftnav.episode.decider import Decider
+    from fftnav.navigation.decider import Decider
     from fftnav.observe.fusion import rotate_sigma
 
     pipe = Pipeline(SIM_ROBOT, beams=360, range_m=3.0)

@@ -11,7 +11,7 @@ from fftnav import metrics
 from fftnav.config import CommsConfig, EpisodeConfig, SwarmConfig
 from fftnav.episode import EPISODE_COLUMNS, run_episode
 from fftnav.episode.comms import Channel
-from fftnav.episode.decider import Decider
+from fftnav.navigation.decider import Decider
 from fftnav.world import Polygon, World
 
 UP = math.pi / 2

@@ -10,14 +10,14 @@ import pytest
 
 from fftnav.config import EpisodeConfig, SwarmConfig
 from fftnav.episode import episode_csv, run_episode
-from fftnav.episode.collab import (
+from fftnav.navigation.collab import (
     MAX_MESSAGE_BYTES,
     MAX_SEGMENTS_PER_MESSAGE,
     decode_segments,
     encode_segments,
     scan_segments,
 )
-from fftnav.planning.ownmap import OwnMaps
+from fftnav.navigation.ownmap import OwnMaps
 from fftnav.world import Polygon, World
 
 UP = math.pi / 2

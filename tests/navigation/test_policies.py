@@ -1,7 +1,7 @@
 import numpy as np
 import pytest
 
-from fftnav.planning.policies import (
+from fftnav.navigation.policies import (
     LEFT,
     POLICIES,
     RIGHT,

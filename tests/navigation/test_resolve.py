@@ -6,14 +6,14 @@ import textwrap
 
 import pytest
 
-from fftnav.planning.baselines import VFHController
-from fftnav.planning.controllers import CONTROLLERS, Controller
-from fftnav.planning.policies import LEFT, POLICIES, Policy
-from fftnav.planning.resolve import registered_names, resolve
+from fftnav.navigation.baselines import VFHController
+from fftnav.navigation.controllers import CONTROLLERS, Controller
+from fftnav.navigation.policies import LEFT, POLICIES, Policy
+from fftnav.navigation.resolve import registered_names, resolve
 
 PLUGIN = textwrap.dedent("""\
-    from fftnav.planning.controllers import Controller
-    from fftnav.planning.policies import LEFT, Policy
+    from fftnav.navigation.controllers import Controller
+    from fftnav.navigation.policies import LEFT, Policy
 
     class Spin(Controller):
         uses_pipeline = False
@@ -51,7 +51,7 @@ def test_registered_names_are_policies_then_controllers():
 
 
 def test_module_reference_to_a_registered_class_keeps_its_name():
-    found = resolve("fftnav.planning.baselines:VFHController")
+    found = resolve("fftnav.navigation.baselines:VFHController")
     assert found.name == "vfh" and found.controller is VFHController
 
 
@@ -85,7 +85,7 @@ def test_unknown_name_lists_the_registered_ones():
                                          r"registered name \(bug-left, .*vfh\)"):
         resolve("teleport")
     with pytest.raises(ValueError, match="Controller base class"):
-        resolve("fftnav.planning.controllers:Controller")
+        resolve("fftnav.navigation.controllers:Controller")
 
 
 def test_an_installed_package_registers_a_controller_by_entry_point(tmp_path, monkeypatch):
