@@ -194,7 +194,16 @@ def test_cli_bad_policy_exits_2_with_one_line(tmp_path):
     _fftnav("world", "generate", "--env", "forest", "--seed", "3", "--out", "w.json", cwd=tmp_path)
     run = _fftnav("episode", "--world", "w.json", "--policy", "nope", cwd=tmp_path)
     assert run.returncode == 2 and "Traceback" not in run.stderr
-    assert run.stderr.count("\n") == 1 and "unknown policy or controller 'nope'" in run.stderr
+    assert run.stderr.count("\n") == 1 and "got policy='nope'" in run.stderr
+    assert "must be a registered policy or controller ('bug-left'" in run.stderr
+
+
+def test_cli_misspelled_policy_gets_a_suggestion(tmp_path):
+    _fftnav("world", "generate", "--env", "forest", "--seed", "3", "--out", "w.json", cwd=tmp_path)
+    run = _fftnav("episode", "--world", "w.json", "--policy", "fusoin", cwd=tmp_path)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert run.stderr.count("\n") == 1
+    assert run.stderr.rstrip().endswith("got policy='fusoin'; did you mean 'fusion'?")
 
 
 @pytest.mark.parametrize("turn", [0.0, 0.7, 2.0, -2.9])
@@ -203,6 +212,7 @@ def test_decider_fuses_in_the_goal_frame_whatever_the_world_orientation(turn):
     and placed with the relative pose) gives the same P_s and P when the whole scene is rotated,
     and the same P as decide_turn called by hand in the goal frame."""
     from fftnav.episode.comms import Channel
+    from fftnav.navigation.controllers import SwarmStep
     from fftnav.navigation.decider import Decider
     from fftnav.observe.fusion import rotate_sigma
 
@@ -221,8 +231,12 @@ def test_decider_fuses_in_the_goal_frame_whatever_the_world_orientation(turn):
     channel = Channel(2, range_m=6.0, rng=np.random.default_rng(0))
     channel.broadcast(1, res.messages[1], tick=0, poses=poses, active=np.ones(2, bool))
     channel.deliver(1)
-    dec = Decider(CFG, channel, np.random.default_rng(0), full_circle=True)
-    dec.observe(1, poses, np.array([goal, [2.5, 9.0]]), np.array([0]), [res.sigma[0]])
+    dec = Decider(CFG, np.random.default_rng(0), full_circle=True)
+    dec.observe(SwarmStep(
+        tick=1, time_s=0.1, poses=poses, goals=np.array([goal, [2.5, 9.0]]),
+        active=np.array([0]), ranges_m=np.zeros((2, 1)), angles_rad=np.zeros(1), safe=None,
+        y1=None, messages=None, sigma=[res.sigma[0]],
+        inbox=lambda i: channel.inbox(i, tick=1, max_age_ticks=10)))
     p_s, p = dec.own_probability(0), dec.fused_probability(0)
 
     # by hand, in the unrotated world: goal frame = heading + beta

@@ -1,11 +1,13 @@
 import numpy as np
 import pytest
 
+from fftnav.navigation.messages import MESSAGE_KINDS
 from fftnav.navigation.policies import (
     LEFT,
     POLICIES,
     RIGHT,
     DecisionContext,
+    Policy,
     get_policy,
     register_policy,
 )
@@ -15,11 +17,33 @@ def _ctx(p_s=0.5, p=0.5, seed=0):
     return DecisionContext(0, lambda: p_s, lambda: p, np.random.default_rng(seed))
 
 
-def test_registry_has_the_six_policies():
-    assert set(POLICIES) == {"bug-left", "bug-right", "fusion", "own-only", "random", "collab"}
-    assert [n for n, p in POLICIES.items() if p.uses_messages] == ["fusion", "collab"]
-    assert POLICIES["fusion"].messages == "observation" and not POLICIES["fusion"].reconsiders
-    assert POLICIES["collab"].messages == "walls" and not POLICIES["collab"].reconsiders
+def test_registry_has_the_seven_policies():
+    assert list(POLICIES) == ["bug-left", "bug-right", "random", "own-only", "fusion", "collab",
+                              "collab-reconsider"]
+    assert [n for n, p in POLICIES.items() if p.uses_messages] == ["fusion", "collab",
+                                                                   "collab-reconsider"]
+    assert POLICIES["fusion"].messages is MESSAGE_KINDS["observation"]
+    assert not POLICIES["fusion"].reconsiders
+    assert POLICIES["collab"].messages is MESSAGE_KINDS["walls"]
+    assert not POLICIES["collab"].reconsiders
+    assert POLICIES["collab-reconsider"].messages is MESSAGE_KINDS["walls"]
+    assert POLICIES["collab-reconsider"].reconsiders
+    assert POLICIES["fusion"].description == "Left iff the fused P > 0.5 (the paper's method)."
+
+
+def test_a_policy_names_its_message_kind():
+    policy = Policy("talker", lambda ctx: LEFT, "walls", "")
+    assert policy.messages is MESSAGE_KINDS["walls"] and policy.uses_messages
+    assert Policy("quiet", lambda ctx: LEFT, None, "").messages is None
+    with pytest.raises(ValueError, match=r"messages must be a registered message kind "
+                                         r"\('observation', 'walls'\), got messages='wals'; "
+                                         r"did you mean 'walls'\?"):
+        Policy("typo", lambda ctx: LEFT, "wals", "")
+
+
+def test_a_policy_name_is_registered_once():
+    with pytest.raises(ValueError, match="policy name 'fusion' is already registered"):
+        register_policy("fusion")(lambda ctx: LEFT)
 
 
 def test_collab_takes_the_side_of_the_shorter_way_through_its_map_else_its_own_view():
@@ -31,9 +55,12 @@ def test_collab_takes_the_side_of_the_shorter_way_through_its_map_else_its_own_v
     assert collab(ctx(0.6, RIGHT)) == RIGHT and collab(ctx(0.4, LEFT)) == LEFT
     assert collab(ctx(0.9, RIGHT)) == RIGHT and collab(ctx(0.1, LEFT)) == LEFT  # the map wins
     assert collab(ctx(0.6, None)) == LEFT and collab(ctx(0.4, None)) == RIGHT  # as own-only
-    with pytest.raises(ValueError, match=r"messages must be one of \[None, 'observation', "
-                                         r"'walls'\], got messages='gossip'"):
+    again = get_policy("collab-reconsider").decide
+    assert again(ctx(0.9, RIGHT)) == RIGHT and again(ctx(0.6, None)) == LEFT  # collab's rule
+    with pytest.raises(ValueError, match=r"messages must be a registered message kind "
+                                         r"\('observation', 'walls'\), got messages='gossip'"):
         register_policy("x", messages="gossip")
+    assert "x" not in POLICIES
 
 
 def test_baselines_ignore_probabilities():
@@ -59,5 +86,6 @@ def test_random_is_seeded_and_fair():
 
 
 def test_unknown_policy_names_the_value():
-    with pytest.raises(ValueError, match=r"unknown policy 'bug-up'; known policies: \["):
+    with pytest.raises(ValueError, match=r"policy must be a registered policy \('bug-left', "
+                                         r".*\), got policy='bug-up'$"):
         get_policy("bug-up")
