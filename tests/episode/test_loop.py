@@ -131,7 +131,8 @@ def test_bad_episode_parameters_are_named():
     with pytest.raises(ValueError, match=r"packet_loss must be a finite number in \[0, 1\), got "
                        r"packet_loss=1.5"):
         CommsConfig(packet_loss=1.5)
-    with pytest.raises(ValueError, match=r"unknown policy or controller 'bug-up'"):
+    with pytest.raises(ValueError, match=r"must be a registered policy or controller .*, got "
+                                         r"policy='bug-up'$"):
         run_episode(_world([], [[4, 1, UP]], [[4, 9]]), "bug-up", seed=0)
     with pytest.raises(ValueError, match=r"seed must be an integer >= 0, got seed=-1"):
         run_episode(_world([], [[4, 1, UP]], [[4, 9]]), "bug-left", seed=-1)
