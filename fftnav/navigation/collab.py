@@ -31,7 +31,7 @@ __all__ = [
     "scan_segments",
 ]
 
-#: Upper bound of a message (issue 10: at most 64 bytes per message).
+#: Upper bound of a message (bytes).
 MAX_MESSAGE_BYTES = 64
 #: Segments per message: 1 count byte + 8 bytes each (two end points, x and y in cm) = 57 bytes.
 MAX_SEGMENTS_PER_MESSAGE = 7

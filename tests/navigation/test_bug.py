@@ -180,8 +180,7 @@ def test_partial_field_of_view_uses_its_own_beam_angles():
 
 def test_every_policy_still_escapes_a_pocket_open_toward_it():
     """A U pocket 4 m wide and 2 m deep right in the way: the robot walks in and out round an
-    arm by escaping through its own map (a lone robot escaped before the change too: a
-    regression test)."""
+    arm by escaping through its own map."""
     import math
 
     from fftnav.config import EpisodeConfig, SwarmConfig
