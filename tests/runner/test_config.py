@@ -46,7 +46,7 @@ def test_valid_config_maps_sections_to_episode_config():
      r"experiment\.trajectory_maps must be <= experiment\.maps=3, got 4"),
     ("experiment.policies", ["fusion", "teleport"],
      r"experiment\.policies: policy must be a registered policy or controller \('bug-left', "
-     r".*\), got policy='teleport'$"),
+     r".*\) or module:attr or path/to/file\.py:attr, got policy='teleport'$"),
     ("experiment.policies", ["fusion", "fusion"],
      r"experiment\.policies must be a non-empty list of distinct strings"),
     ("experiment.envs", [], r"experiment\.envs must be a non-empty list"),
