@@ -197,7 +197,9 @@ def run_episode(
     within ``success_radius_m`` of its goal has arrived, one touching an obstacle has failed;
     either is parked (taken out of the world). With ``episode.departure`` other than
     ``together`` a robot waits at its start until its departure tick; its trajectory and time
-    limit start then, and it is parked when its time is up.
+    limit start then, and it is parked when its time is up. The controller's ``finish(robot)``
+    is called once for every robot when it leaves: arrived, failed or out of time (including
+    the robots still driving when the last tick ends).
     """
     cfg = config or SwarmConfig()
     method = resolve(policy)
