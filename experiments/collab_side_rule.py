@@ -15,8 +15,8 @@ import argparse
 
 import numpy as np
 
-from fftnav.episode import bugcontrol
 from fftnav.episode.loop import run_episode
+from fftnav.navigation import bugcontrol
 from fftnav.runner.config import load_config
 from fftnav.runner.tasks import episode_seed, task_world
 

@@ -9,7 +9,7 @@ A :class:`SwarmConfig` has four sections, the tables of an experiment TOML file:
 
 The simulator (:class:`fftnav.sim.swarm.SimConfig` composes ``robot`` and ``sensor``), the
 observation pipeline (:meth:`SwarmConfig.pipeline`) and the planner
-(:meth:`fftnav.planning.bug.BugPlanner.for_swarm`) are all built from it. Every field declares
+(:meth:`fftnav.navigation.bug.BugPlanner.for_swarm`) are all built from it. Every field declares
 its own check (the field helpers of :mod:`fftnav.validate`, run by its
 :class:`~fftnav.validate.Checked` base), so the same rule refuses a bad value from Python, from a
 TOML file (``sensor.range_m must be ...``) or from ``fftnav episode --set``:

@@ -29,7 +29,7 @@ MAX_GRID_CELLS = 100_000_000
 #: Cells of the grid the A* / geodesic reference (SPL) searches: its 32-connected graph costs
 #: about 2 kB per cell (measured: 2.9 GB peak for a 60 m x 60 m map at 0.05 m, 1.44 million
 #: cells). Larger maps get a coarser reference grid
-#: (:func:`fftnav.planning.reference.reference_resolution`).
+#: (:func:`fftnav.optimal.reference.reference_resolution`).
 MAX_REFERENCE_CELLS = 1_500_000
 #: Lidar rays cast in one control tick (robots x beams).
 MAX_RAYS_PER_TICK = 2_000_000

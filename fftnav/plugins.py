@@ -2,7 +2,7 @@
 or an entry point of an installed package.
 
 This module only finds and imports objects; what they must be (a decision policy, a
-controller) is checked by :mod:`fftnav.planning.resolve`. Standard library only.
+controller) is checked by :mod:`fftnav.navigation.resolve`. Standard library only.
 
 Reference forms:
 

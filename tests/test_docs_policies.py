@@ -46,8 +46,8 @@ def test_side_vote_example_runs_and_sends_its_votes(tmp_path):
 
 
 def test_decision_policy_example_resolves_and_decides(tmp_path):
-    from fftnav.planning.policies import DecisionContext
-    from fftnav.planning.resolve import resolve
+    from fftnav.navigation.policies import DecisionContext
+    from fftnav.navigation.resolve import resolve
 
     path = _plugin(tmp_path, "def confident_fusion", "confident.py")
     found = resolve(f"{path}:CONFIDENT_FUSION")

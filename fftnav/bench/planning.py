@@ -1,9 +1,9 @@
 """Timing of the optimal-path reference on a generated world (``fftnav bench planning``).
 
 Side by side in one run, on the world's 0.05 m grid inflated by r0: the readable heapq A*
-(:func:`fftnav.planning.astar.astar`, one query per robot), the batched compiled Dijkstra
+(:func:`fftnav.optimal.astar.astar`, one query per robot), the batched compiled Dijkstra
 with 8-connected moves (the same lengths, checked) and with 32-connected moves (geodesic), and
-the compiled A* of :mod:`fftnav.planning.gridsearch` (what ``optimal_lengths`` uses when numba
+the compiled A* of :mod:`fftnav.optimal.gridsearch` (what ``optimal_lengths`` uses when numba
 is installed) with both move sets.
 """
 
@@ -13,10 +13,10 @@ import time
 
 import numpy as np
 
-from fftnav.planning import gridsearch
-from fftnav.planning.astar import astar
-from fftnav.planning.gridgraph import shortest_paths
-from fftnav.planning.reference import robot_cells
+from fftnav.optimal import gridsearch
+from fftnav.optimal.astar import astar
+from fftnav.optimal.gridgraph import shortest_paths
+from fftnav.optimal.reference import robot_cells
 from fftnav.validate import check_number
 from fftnav.world import generate_world
 from fftnav.world.grid import occupancy_grid

@@ -9,7 +9,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from fftnav.cli import CliError
-from fftnav.planning.resolve import registered_names, resolve
+from fftnav.navigation.resolve import registered_names, resolve
 
 if TYPE_CHECKING:
     from fftnav.episode.record import EpisodeRow

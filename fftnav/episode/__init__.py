@@ -1,10 +1,10 @@
-"""One swarm episode: the robots' messages, the side decider, the tick loop and its record;
-3D quadrotor flights.
+"""One swarm episode: the robots' message channel, the tick loop and its record; 3D quadrotor
+flights.
 
 Modules: :mod:`~fftnav.episode.comms` (the lossy, delayed, range-limited channel),
-:mod:`~fftnav.episode.decider` (P_s and the fused P of a robot), :mod:`~fftnav.episode.record`
-(``EpisodeRow``, the CSV columns), :mod:`~fftnav.episode.loop` (``run_episode``),
-:mod:`~fftnav.episode.flight3d` (the 3D flight controller and experiment).
+:mod:`~fftnav.episode.record` (``EpisodeRow``, the CSV columns), :mod:`~fftnav.episode.loop`
+(``run_episode``), :mod:`~fftnav.episode.flight3d` (the 3D flight controller and experiment).
+The robots' controllers are in :mod:`fftnav.navigation`.
 """
 
 from fftnav.config import CommsConfig, EpisodeConfig, RobotConfig, SensorConfig, SwarmConfig

@@ -1,45 +1,21 @@
 """Swarm messages: compressed observations broadcast as real bytes (paper Sec. III-D/E, IV-B).
 
-A :class:`Channel` carries each robot's encoded Sigma (the compact codec of
-:mod:`fftnav.observe.codec`) to the robots within a communication range, with independent packet
-loss and a fixed delay in control ticks. Receivers keep the newest packet of each sender.
-It counts the bytes and messages each robot sends. All randomness (packet loss) comes from
-the episode's seeded ``numpy.random.Generator``.
+A :class:`Channel` carries each robot's message (for ``fusion`` the encoded Sigma of
+:mod:`fftnav.observe.codec`) to the robots within a communication range, with independent
+packet loss and a fixed delay in control ticks, as :class:`~fftnav.navigation.controllers.Packet`
+objects. Receivers keep the newest packet of each sender. It counts the bytes and messages each
+robot sends, and tells why a robot has no packet from another (:meth:`Channel.unheard`). All
+randomness (packet loss) comes from the episode's seeded ``numpy.random.Generator``.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
-
 import numpy as np
 
+from fftnav.navigation.controllers import Packet
 from fftnav.validate import check_integer, check_number
 
-__all__ = ["Packet", "Channel"]
-
-
-@dataclass(frozen=True)
-class Packet:
-    """One received message.
-
-    Attributes
-    ----------
-    sender : int
-        Index of the sending robot.
-    tick : int
-        Control tick at which it was sent.
-    payload : bytes
-        The encoded message (compact Sigma layout).
-    sender_pose : tuple of float
-        The sender's ground-truth pose ``(x_m, y_m, yaw_rad)`` when it sent the message; the
-        receiver turns it into a relative pose (optionally with noise) to rotate Sigma into its
-        own frame.
-    """
-
-    sender: int
-    tick: int
-    payload: bytes
-    sender_pose: tuple[float, float, float]
+__all__ = ["Channel"]
 
 
 class Channel:
@@ -85,10 +61,11 @@ class Channel:
         # in flight: (deliver_at_tick, receiver, packet); inbox: receiver -> {sender: packet}
         self._in_flight: list[tuple[int, int, Packet]] = []
         self._inbox: list[dict[int, Packet]] = [{} for _ in range(self.n_robots)]
+        # delivered by the latest deliver(): receiver -> {sender: packet}
+        self._arrived: list[dict[int, Packet]] = [{} for _ in range(self.n_robots)]
         #: Tick of each sender's last broadcast, and per (sender, receiver) the tick of the last
         #: packet lost on the way and of the last one the receiver was out of range for
-        #: (``NEVER`` if none): why a robot has no message from another (the neighbour
-        #: accounting of :class:`fftnav.episode.decider.Decider`).
+        #: (``NEVER`` if none): why a robot has no message from another (:meth:`unheard`).
         self.last_sent = np.full(self.n_robots, self.NEVER, dtype=np.int64)
         self.last_lost = np.full((self.n_robots, self.n_robots), self.NEVER, dtype=np.int64)
         self.last_out_of_range = np.full((self.n_robots, self.n_robots), self.NEVER,
@@ -124,11 +101,14 @@ class Channel:
             self._in_flight.append((tick + 1 + self.delay_ticks, int(r), packet))
 
     def deliver(self, tick: int) -> None:
-        """Move the packets due at or before ``tick`` into the receivers' inboxes."""
+        """Move the packets due at or before ``tick`` into the receivers' inboxes; they are
+        the ones :meth:`arrived` returns until the next call."""
         keep = []
+        self._arrived = [{} for _ in range(self.n_robots)]
         for due, receiver, packet in self._in_flight:
             if due <= tick:
                 self._inbox[receiver][packet.sender] = packet
+                self._arrived[receiver][packet.sender] = packet
             else:
                 keep.append((due, receiver, packet))
         self._in_flight = keep
@@ -140,3 +120,31 @@ class Channel:
             for _, p in sorted(self._inbox[receiver].items())
             if tick - p.tick <= max_age_ticks
         ]
+
+    def arrived(self, receiver: int) -> list[Packet]:
+        """The packets the latest :meth:`deliver` brought to ``receiver`` (the newest of each
+        sender), in sender order."""
+        return [p for _, p in sorted(self._arrived[receiver].items())]
+
+    def unheard(self, receiver: int, *, tick: int, max_age_ticks: int,
+                present: np.ndarray) -> dict[int, str]:
+        """Why ``receiver`` has no packet of each other robot of ``present`` (a mask) in its
+        inbox (``inbox(receiver, tick=tick, max_age_ticks=max_age_ticks)``): ``"no_message"``
+        (the robot sent nothing since ``tick - max_age_ticks``, or its packet is still in
+        flight), ``"lost"`` (its packet to ``receiver`` was lost) or ``"out_of_range"``
+        (``receiver`` was out of range when it sent). Robot index -> reason, in index order."""
+        heard = {p.sender for p in self.inbox(receiver, tick=tick, max_age_ticks=max_age_ticks)}
+        oldest = tick - max_age_ticks
+        reasons: dict[int, str] = {}
+        for j in np.flatnonzero(present).tolist():
+            if j == receiver or j in heard:
+                continue
+            if self.last_sent[j] < oldest:
+                reasons[j] = "no_message"
+            elif self.last_lost[j, receiver] >= oldest:
+                reasons[j] = "lost"
+            elif self.last_out_of_range[j, receiver] >= oldest:
+                reasons[j] = "out_of_range"
+            else:  # sent, reached, still in flight (delay_ticks)
+                reasons[j] = "no_message"
+        return reasons

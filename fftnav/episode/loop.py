@@ -1,11 +1,12 @@
 """One swarm episode: a world, a decision policy and a seed -> one row per robot.
 
 Each control tick ties the stages together: the PyBullet swarm's lidar scans (:mod:`fftnav.sim`)
--> the FFT pipeline (:mod:`fftnav.observe`) -> the controller: by default the Bug planner, which
-asks the decision policy for a side when a goal direction is blocked (:mod:`fftnav.planning`),
-or any controller (:mod:`fftnav.planning.controllers`) -> swarm messages
-(:mod:`fftnav.episode.comms`) -> the simulator advances one control period. The metrics of the
-rows come from :mod:`fftnav.metrics` applied to the trajectories.
+-> the FFT pipeline (:mod:`fftnav.observe`) -> the controller (:mod:`fftnav.navigation`): by
+default the Bug planner, which asks the decision policy for a side when a goal direction is
+blocked (:class:`~fftnav.navigation.bugcontrol.BugController`), or any controller
+(:mod:`fftnav.navigation.controllers`) -> swarm messages (:mod:`fftnav.episode.comms`) -> the
+simulator advances one control period. The metrics of the rows come from :mod:`fftnav.metrics`
+applied to the trajectories.
 """
 
 from __future__ import annotations
@@ -18,12 +19,12 @@ import numpy as np
 
 from fftnav import metrics
 from fftnav.config import SwarmConfig
-from fftnav.episode.bugcontrol import BugController
-from fftnav.episode.comms import Channel, Packet
+from fftnav.episode.comms import Channel
 from fftnav.episode.record import EpisodeResult, EpisodeRow
-from fftnav.planning.controllers import Controller, ControllerSetup, SwarmStep
-from fftnav.planning.reference import optimal_lengths
-from fftnav.planning.resolve import Resolved, resolve
+from fftnav.navigation.bugcontrol import BugController
+from fftnav.navigation.controllers import Controller, ControllerSetup, Packet, SwarmStep
+from fftnav.navigation.resolve import Resolved, resolve
+from fftnav.optimal.reference import optimal_lengths
 from fftnav.sim.swarm import Observation, SimConfig, SwarmSim
 from fftnav.validate import check_integer
 from fftnav.world.model import World
@@ -70,10 +71,10 @@ class _Robots:
         return self.active & (self.departure <= tick)
 
 
-class _Swarm:
+class _Onboard:
     """The robots' software: FFT pipeline, message channel and the controller."""
 
-    def __init__(self, world: World, policy: Resolved, config: SwarmConfig,
+    def __init__(self, world: World, method: Resolved, config: SwarmConfig,
                  rng: np.random.Generator) -> None:
         self.config, self.rng = config, rng
         self.pipe = config.pipeline()
@@ -83,17 +84,21 @@ class _Swarm:
                                loss=config.comms.packet_loss,
                                delay_ticks=config.comms.delay_ticks, rng=rng)
         setup = ControllerSetup(n, config, rng)
-        if policy.policy is not None:
-            self.controller: Controller = BugController(setup, policy.policy, self.channel,
+        if method.policy is not None:
+            self.controller: Controller = BugController(setup, method.policy,
                                                         full_circle=self.pipe.bank.full_circle,
                                                         area_m=world.size_m)
         else:
-            assert policy.controller is not None
-            self.controller = policy.controller(setup)
+            assert method.controller is not None
+            self.controller = method.controller(setup)
         self.max_age_ticks = int(config.episode.control_hz)
 
     def _inbox(self, tick: int) -> Callable[[int], list[Packet]]:
         return lambda i: self.channel.inbox(i, tick=tick, max_age_ticks=self.max_age_ticks)
+
+    def _unheard(self, tick: int, present: np.ndarray) -> Callable[[int], dict[int, str]]:
+        return lambda i: self.channel.unheard(i, tick=tick, max_age_ticks=self.max_age_ticks,
+                                              present=present)
 
     def commands(self, tick: int, obs: Observation, moving: np.ndarray,
                  active: np.ndarray) -> np.ndarray:
@@ -114,7 +119,8 @@ class _Swarm:
         step = SwarmStep(tick=tick, time_s=obs.time_s, poses=obs.poses, goals=self.goals,
                          active=idx, ranges_m=ranges, angles_rad=self.pipe.angles_rad, safe=safe,
                          y1=y1, messages=messages, inbox=self._inbox(tick), sigma=sigma,
-                         present=active)
+                         present=active, arrived=self.channel.arrived,
+                         unheard=self._unheard(tick, active))
         commands, outgoing = self.controller.step(step)
         for i in sorted(outgoing):
             self.channel.broadcast(int(i), outgoing[i], tick=tick, poses=obs.poses,
@@ -160,7 +166,7 @@ def run_episode(
     policy : str
         A decision policy (run by the Bug planner) or a controller: a registered name
         (``fusion``, ``vfh``, ...), ``module:attr``, ``path/to/file.py:attr`` or an entry point
-        of group ``fftnav.policies`` (:func:`fftnav.planning.resolve.resolve`). The rows carry
+        of group ``fftnav.policies`` (:func:`fftnav.navigation.resolve.resolve`). The rows carry
         its name.
     seed : int
         Episode seed: sensor noise, packet loss, pose noise and the ``random`` policy all derive
@@ -172,7 +178,7 @@ def run_episode(
     reference : (ndarray, ndarray), optional
         The robots' grid A* and geodesic lengths (m) if already known (an experiment computes
         them once per map); default: computed here
-        (:func:`fftnav.planning.reference.optimal_lengths`, cached per process).
+        (:func:`fftnav.optimal.reference.optimal_lengths`, cached per process).
 
     Returns
     -------
@@ -191,41 +197,46 @@ def run_episode(
     within ``success_radius_m`` of its goal has arrived, one touching an obstacle has failed;
     either is parked (taken out of the world). With ``episode.departure`` other than
     ``together`` a robot waits at its start until its departure tick; its trajectory and time
-    limit start then, and it is parked when its time is up.
+    limit start then, and it is parked when its time is up. The controller's ``finish(robot)``
+    is called once for every robot when it leaves: arrived, failed or out of time (including
+    the robots still driving when the last tick ends).
     """
     cfg = config or SwarmConfig()
-    pol = resolve(policy)
+    method = resolve(policy)
     sim_seed, rng = _seeds(seed)
-    swarm = _Swarm(world, pol, cfg, rng)
+    onboard = _Onboard(world, method, cfg, rng)
     optimal, geodesic = (_reference_lengths(world.to_json(), cfg.robot.r0_m)  # unreachable: fail
                          if reference is None else reference)
     with SwarmSim(world, config=SimConfig.for_swarm(cfg), gui=gui) as sim:
         obs = sim.reset(seed=sim_seed)
         robots = _Robots.start(obs, cfg.episode.departure_ticks(len(world.starts)))
         for i in np.flatnonzero(robots.departure > 0):
-            swarm.controller.hold(int(i))
+            onboard.controller.hold(int(i))
         for tick in range(cfg.episode.max_ticks + int(robots.departure.max())):
             for i in np.flatnonzero(robots.active & (robots.departure == tick) & (tick > 0)):
-                swarm.controller.release(int(i))
+                onboard.controller.release(int(i))
             out_of_time = tick - robots.departure >= cfg.episode.max_ticks  # waves, staggered
             for i in np.flatnonzero(robots.active & out_of_time):
                 robots.active[i] = False
-                swarm.controller.finish(int(i))
+                onboard.controller.finish(int(i))
                 sim.park(int(i))
             if not robots.active.any():
                 break
-            commands = swarm.commands(tick, obs, robots.moving(tick), robots.active)
-            obs = swarm.advance(sim, commands, robots, tick)
+            commands = onboard.commands(tick, obs, robots.moving(tick), robots.active)
+            obs = onboard.advance(sim, commands, robots, tick)
+        for i in np.flatnonzero(robots.active):  # out of ticks: time is up for everyone left
+            robots.active[i] = False
+            onboard.controller.finish(int(i))
     trajectories = [np.array(t) for t in robots.trajectories]
-    rows = [_row(i, pol.name, trajectories[i], swarm, robots, float(optimal[i]),
+    rows = [_row(i, method.name, trajectories[i], onboard, robots, float(optimal[i]),
                  float(geodesic[i])) for i in range(len(trajectories))]
     return EpisodeResult(rows=rows, trajectories=trajectories)
 
 
-def _row(i: int, policy: str, trajectory: np.ndarray, swarm: _Swarm, robots: _Robots,
+def _row(i: int, policy: str, trajectory: np.ndarray, onboard: _Onboard, robots: _Robots,
          optimal_m: float, geodesic_m: float) -> EpisodeRow:
     """Robot ``i``'s row: metrics of its trajectory and counts of the episode."""
-    ep, goal = swarm.config.episode, swarm.goals[i]
+    ep, goal = onboard.config.episode, onboard.goals[i]
     dt = 1.0 / ep.control_hz
     collided = bool(robots.collided[i])
     ok = metrics.arrived(trajectory[:, :2], goal, dt_s=dt, collided=collided,
@@ -243,8 +254,8 @@ def _row(i: int, policy: str, trajectory: np.ndarray, swarm: _Swarm, robots: _Ro
         time_s=metrics.time_to_goal_s(trajectory[:, :2], goal, dt_s=dt,
                                       success_radius_m=ep.success_radius_m)
         if ok else float("nan"),
-        bytes_sent=int(swarm.channel.bytes_sent[i]),
-        messages_sent=int(swarm.channel.messages_sent[i]),
-        **swarm.controller.counters(i),
+        bytes_sent=int(onboard.channel.bytes_sent[i]),
+        messages_sent=int(onboard.channel.messages_sent[i]),
+        **onboard.controller.counters(i),
         robot_contacts=int(robots.robot_contacts[i]),
     )

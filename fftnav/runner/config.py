@@ -23,7 +23,7 @@ from typing import Any
 from fftnav.config import SwarmConfig
 from fftnav.files import read_toml
 from fftnav.limits import MAX_RAYS_PER_TICK, MAX_TASKS, check_limit
-from fftnav.planning.resolve import Resolved, resolve
+from fftnav.navigation.resolve import Resolved, resolve
 from fftnav.validate import Checked, checked_field, integer_field
 from fftnav.world import load_preset, load_world, world_kinds, world_parameters
 
@@ -68,7 +68,7 @@ class ExperimentConfig(Checked):
         Decision policies and controllers, each run on every map (paired comparison): registered
         names, ``module:attr``, ``path/to/file.py:attr`` (relative paths are taken from the
         config file's folder and stored absolute) or entry points
-        (:func:`fftnav.planning.resolve.resolve`).
+        (:func:`fftnav.navigation.resolve.resolve`).
     out : str
         Default output folder (``--out`` overrides it).
     trajectory_maps : int

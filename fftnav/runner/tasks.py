@@ -17,7 +17,7 @@ from functools import lru_cache
 import numpy as np
 
 from fftnav.episode import EpisodeRow, run_episode
-from fftnav.planning.reference import optimal_lengths
+from fftnav.optimal.reference import optimal_lengths
 from fftnav.runner.config import ExperimentConfig
 from fftnav.world import World, generate_world, load_world
 
@@ -116,7 +116,7 @@ def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
 
 def map_reference(config: ExperimentConfig, task: Task) -> np.ndarray:
     """The reference lengths of the task's map, ``(2, N)``: grid A* and geodesic (m) of every
-    robot (:func:`fftnav.planning.reference.optimal_lengths`), the same for all its policies."""
+    robot (:func:`fftnav.optimal.reference.optimal_lengths`), the same for all its policies."""
     world = task_world(config, task.env, task.map_seed)
     return np.array(optimal_lengths(world, r0_m=config.swarm.robot.r0_m))
 

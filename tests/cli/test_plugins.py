@@ -56,7 +56,9 @@ def test_the_readme_controller_runs_into_the_summary_and_the_report(project):
 
 
 @pytest.mark.parametrize(("reference", "match"), [
-    ("teleport", r"experiment\.policies: unknown policy or controller 'teleport'"),
+    ("teleport", r"experiment\.policies: policy must be a registered policy or controller "
+                 r"\('bug-left', .*\) or module:attr or path/to/file\.py:attr, got "
+                 r"policy='teleport'$"),
     ("missing.py:X", r"experiment\.policies: cannot load '.*missing\.py:X': no such file"),
     ("my_controller.py:Nope", r"has no attribute 'Nope'"),
 ])

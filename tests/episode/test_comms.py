@@ -33,6 +33,24 @@ def test_newest_packet_per_sender_and_age_limit():
     assert ch.inbox(1, tick=20, max_age_ticks=10) == []
 
 
+def test_arrived_holds_each_packet_once_at_its_delivery_in_sender_order():
+    ch = Channel(4, range_m=5.0, delay_ticks=1, rng=np.random.default_rng(0))
+    poses, active = _poses((0, 0), (1, 0), (2, 0), (3, 0)), np.ones(4, bool)
+    for sender in (3, 1, 2):
+        ch.broadcast(sender, bytes([sender]), tick=5, poses=poses, active=active)
+    ch.broadcast(1, b"later", tick=6, poses=poses, active=active)
+    ch.deliver(6)
+    assert ch.arrived(0) == []
+    ch.deliver(7)  # due at 5 + 1 + 1
+    assert [(p.sender, p.payload) for p in ch.arrived(0)] == [(1, b"\x01"), (2, b"\x02"),
+                                                             (3, b"\x03")]
+    assert [p.sender for p in ch.arrived(2)] == [1, 3]
+    ch.deliver(8)
+    assert [(p.sender, p.payload) for p in ch.arrived(0)] == [(1, b"later")]
+    ch.deliver(9)
+    assert ch.arrived(0) == [] and len(ch.inbox(0, tick=9, max_age_ticks=10)) == 3
+
+
 def test_inactive_robots_receive_nothing():
     ch = Channel(2, range_m=5.0, rng=np.random.default_rng(0))
     ch.broadcast(0, b"x", tick=0, poses=_poses((0, 0), (1, 0)), active=np.array([True, False]))

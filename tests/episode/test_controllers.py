@@ -10,7 +10,7 @@ import pytest
 
 from fftnav.config import CommsConfig, EpisodeConfig, SwarmConfig
 from fftnav.episode import run_episode
-from fftnav.planning.controllers import Action, Controller
+from fftnav.navigation.controllers import Action, Controller
 from fftnav.world import Circle, World
 
 UP = math.pi / 2
@@ -59,6 +59,34 @@ def test_a_controller_returning_no_command_is_refused():
                                          r"Action, got 'fast' for robot 0"):
         run_episode(world, f"{__name__}:Wrong", seed=0,
                     config=SwarmConfig(episode=EpisodeConfig(time_limit_s=1.0)))
+
+
+class Straight(Controller):
+    """Drives straight at its goal and logs every finish() call with its tick."""
+
+    uses_pipeline = False
+    finished: list[int] = []
+
+    def act(self, obs):
+        return self.v_max_mps, 2.0 * obs.goal_bearing_rad
+
+    def finish(self, robot):
+        Straight.finished.append(robot)
+
+
+@pytest.mark.parametrize("departure", ["together", "staggered"])
+def test_finish_is_called_once_for_every_robot_arrived_collided_or_timed_out(departure):
+    """Robot 0 arrives after 1 m, robot 1 drives into a trunk, robot 2's goal is 11 m away:
+    out of time after 6 s; with ``together`` it is still driving when the tick loop ends."""
+    Straight.finished = []
+    world = _world([Circle((4.0, 3.0), 0.3, 1.0)], [[1, 1, UP], [4, 1, UP], [7, 1, UP]],
+                   [[1, 2], [4, 6], [7, 12]])
+    cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=6.0, departure=departure,
+                                            stagger_s=0.5))
+    rows = run_episode(world, f"{__name__}:Straight", seed=0, config=cfg).rows
+    assert [(r.arrived, r.collided) for r in rows] == [(True, False), (False, True),
+                                                       (False, False)]
+    assert sorted(Straight.finished) == [0, 1, 2]
 
 
 @pytest.mark.slow

@@ -131,7 +131,8 @@ def test_bad_episode_parameters_are_named():
     with pytest.raises(ValueError, match=r"packet_loss must be a finite number in \[0, 1\), got "
                        r"packet_loss=1.5"):
         CommsConfig(packet_loss=1.5)
-    with pytest.raises(ValueError, match=r"unknown policy or controller 'bug-up'"):
+    with pytest.raises(ValueError, match=r"must be a registered policy or controller .*, got "
+                                         r"policy='bug-up'$"):
         run_episode(_world([], [[4, 1, UP]], [[4, 9]]), "bug-up", seed=0)
     with pytest.raises(ValueError, match=r"seed must be an integer >= 0, got seed=-1"):
         run_episode(_world([], [[4, 1, UP]], [[4, 9]]), "bug-left", seed=-1)
@@ -194,7 +195,16 @@ def test_cli_bad_policy_exits_2_with_one_line(tmp_path):
     _fftnav("world", "generate", "--env", "forest", "--seed", "3", "--out", "w.json", cwd=tmp_path)
     run = _fftnav("episode", "--world", "w.json", "--policy", "nope", cwd=tmp_path)
     assert run.returncode == 2 and "Traceback" not in run.stderr
-    assert run.stderr.count("\n") == 1 and "unknown policy or controller 'nope'" in run.stderr
+    assert run.stderr.count("\n") == 1 and "got policy='nope'" in run.stderr
+    assert "must be a registered policy or controller ('bug-left'" in run.stderr
+
+
+def test_cli_misspelled_policy_gets_a_suggestion(tmp_path):
+    _fftnav("world", "generate", "--env", "forest", "--seed", "3", "--out", "w.json", cwd=tmp_path)
+    run = _fftnav("episode", "--world", "w.json", "--policy", "fusoin", cwd=tmp_path)
+    assert run.returncode == 2 and "Traceback" not in run.stderr
+    assert run.stderr.count("\n") == 1
+    assert run.stderr.rstrip().endswith("got policy='fusoin'; did you mean 'fusion'?")
 
 
 @pytest.mark.parametrize("turn", [0.0, 0.7, 2.0, -2.9])
@@ -203,7 +213,8 @@ def test_decider_fuses_in_the_goal_frame_whatever_the_world_orientation(turn):
     and placed with the relative pose) gives the same P_s and P when the whole scene is rotated,
     and the same P as decide_turn called by hand in the goal frame."""
     from fftnav.episode.comms import Channel
-    from fftnav.episode.decider import Decider
+    from fftnav.navigation.controllers import SwarmStep
+    from fftnav.navigation.decider import Decider
     from fftnav.observe.fusion import rotate_sigma
 
     pipe = Pipeline(SIM_ROBOT, beams=360, range_m=3.0)
@@ -221,8 +232,12 @@ def test_decider_fuses_in_the_goal_frame_whatever_the_world_orientation(turn):
     channel = Channel(2, range_m=6.0, rng=np.random.default_rng(0))
     channel.broadcast(1, res.messages[1], tick=0, poses=poses, active=np.ones(2, bool))
     channel.deliver(1)
-    dec = Decider(CFG, channel, np.random.default_rng(0), full_circle=True)
-    dec.observe(1, poses, np.array([goal, [2.5, 9.0]]), np.array([0]), [res.sigma[0]])
+    dec = Decider(CFG, np.random.default_rng(0), full_circle=True)
+    dec.observe(SwarmStep(
+        tick=1, time_s=0.1, poses=poses, goals=np.array([goal, [2.5, 9.0]]),
+        active=np.array([0]), ranges_m=np.zeros((2, 1)), angles_rad=np.zeros(1), safe=None,
+        y1=None, messages=None, sigma=[res.sigma[0]],
+        inbox=lambda i: channel.inbox(i, tick=1, max_age_ticks=10)))
     p_s, p = dec.own_probability(0), dec.fused_probability(0)
 
     # by hand, in the unrotated world: goal frame = heading + beta

@@ -1,4 +1,5 @@
-"""Neighbour accounting of fused decisions: why each other robot was or was not fused."""
+"""Neighbour accounting of fused decisions: why each other robot was or was not fused (the
+channel says why a robot was not heard, the decider why a heard one was not fused)."""
 
 from __future__ import annotations
 
@@ -11,7 +12,8 @@ from fftnav import metrics
 from fftnav.config import CommsConfig, EpisodeConfig, SwarmConfig
 from fftnav.episode import EPISODE_COLUMNS, run_episode
 from fftnav.episode.comms import Channel
-from fftnav.episode.decider import Decider
+from fftnav.navigation.controllers import SwarmStep
+from fftnav.navigation.decider import Decider
 from fftnav.world import Polygon, World
 
 UP = math.pi / 2
@@ -25,6 +27,17 @@ class _Coin:
 
     def normal(self, *args):  # pragma: no cover - pose noise is 0 here
         raise AssertionError
+
+
+def _observe(decider, ch, poses, goals, res, present):
+    """The decider sees the swarm at tick 100 through a SwarmStep, as in an episode."""
+    k = len(poses)
+    decider.observe(SwarmStep(
+        tick=100, time_s=10.0, poses=poses, goals=goals, active=np.arange(k),
+        ranges_m=np.zeros((k, 1)), angles_rad=np.zeros(1), safe=None, y1=None,
+        messages=res.messages, sigma=res.sigma, present=present,
+        inbox=lambda i: ch.inbox(i, tick=100, max_age_ticks=10),
+        unheard=lambda i: ch.unheard(i, tick=100, max_age_ticks=10, present=present)))
 
 
 def _scene():
@@ -49,13 +62,26 @@ def _scene():
     ch.loss = 0.5
     ch.broadcast(6, res.messages[6], tick=99, poses=poses, active=active)
     ch.deliver(100)
-    decider = Decider(cfg, ch, np.random.default_rng(0), full_circle=True)
-    decider.observe(100, poses, goals, np.arange(len(poses)), res.sigma)
-    return decider
+    decider = Decider(cfg, np.random.default_rng(0), full_circle=True)
+    everyone = np.ones(len(poses), dtype=bool)
+    _observe(decider, ch, poses, goals, res, everyone)
+    return decider, ch, (poses, goals, res)
+
+
+def test_the_channel_says_why_a_robot_was_not_heard():
+    _, ch, _ = _scene()
+    everyone = np.ones(8, dtype=bool)
+    assert ch.unheard(0, tick=100, max_age_ticks=10, present=everyone) == {
+        4: "out_of_range", 5: "no_message", 6: "lost", 7: "no_message"}
+    assert ch.unheard(0, tick=100, max_age_ticks=25, present=everyone) == {
+        4: "out_of_range", 5: "no_message", 6: "lost"}  # 7's packet of tick 80 is heard now
+    gone = everyone & ~np.isin(np.arange(8), [4, 6])
+    assert ch.unheard(0, tick=100, max_age_ticks=10, present=gone) == {
+        5: "no_message", 7: "no_message"}
 
 
 def test_each_neighbour_gets_its_reason_and_the_counts_add_up():
-    decider = _scene()
+    decider, ch, (poses, goals, res) = _scene()
     decider.fused_probability(0)
     counts = decider.neighbour_reasons[0]
     assert dict(counts) == {"fused": 1, "too_close": 1, "behind": 1, "out_of_range": 1,
@@ -65,7 +91,7 @@ def test_each_neighbour_gets_its_reason_and_the_counts_add_up():
     decider.fused_probability(0)
     assert sum(decider.neighbour_reasons[0].values()) == 14
     # a robot that is gone (arrived) is no candidate
-    decider.present = np.array([True] * 7 + [False])
+    _observe(decider, ch, poses, goals, res, np.array([True] * 7 + [False]))
     decider.fused_probability(0)
     assert sum(decider.neighbour_reasons[0].values()) == 20
     assert set(metrics.NEIGHBOUR_REASONS) == set(counts)

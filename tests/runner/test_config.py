@@ -46,7 +46,8 @@ def test_valid_config_maps_sections_to_episode_config():
     ("experiment.trajectory_maps", 4,
      r"\[experiment\] trajectory_maps must be <= maps=3, got trajectory_maps=4"),
     ("experiment.policies", ["fusion", "teleport"],
-     r"experiment\.policies: unknown policy or controller 'teleport'"),
+     r"experiment\.policies: policy must be a registered policy or controller \('bug-left', "
+     r".*\) or module:attr or path/to/file\.py:attr, got policy='teleport'$"),
     ("experiment.policies", ["fusion", "fusion"],
      r"experiment\.policies must be a non-empty list of distinct strings"),
     ("experiment.envs", [], r"experiment\.envs must be a non-empty list"),

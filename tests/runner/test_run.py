@@ -176,7 +176,7 @@ def test_reference_lengths_are_computed_once_per_map_and_reused(tmp_path, monkey
     from pathlib import Path
 
     from fftnav.episode import loop
-    from fftnav.planning.reference import optimal_lengths
+    from fftnav.optimal.reference import optimal_lengths
     from fftnav.runner import load_config
     from fftnav.runner.tasks import task_world
 

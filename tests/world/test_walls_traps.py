@@ -10,8 +10,8 @@ import pytest
 from scipy import ndimage
 
 from fftnav.config import EpisodeConfig, SwarmConfig
-from fftnav.planning.gridgraph import UnreachableGoalError
-from fftnav.planning.reference import optimal_lengths
+from fftnav.optimal.gridgraph import UnreachableGoalError
+from fftnav.optimal.reference import optimal_lengths
 from fftnav.runner.config import parse_config
 from fftnav.sim.swarm import SwarmSim
 from fftnav.world import Polygon, World, generate_world, load_world, raycast_world

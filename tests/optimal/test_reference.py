@@ -10,9 +10,9 @@ import sys
 import numpy as np
 import pytest
 
-from fftnav.planning import gridsearch
-from fftnav.planning.astar import UnreachableGoalError
-from fftnav.planning.reference import optimal_lengths
+from fftnav.optimal import gridsearch
+from fftnav.optimal.astar import UnreachableGoalError
+from fftnav.optimal.reference import optimal_lengths
 from fftnav.world import Circle, Polygon, World, generate_world
 
 

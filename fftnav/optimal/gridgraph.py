@@ -11,7 +11,7 @@ Their free-space lengths exceed the Euclidean distance by at most 8.2 %, 2.7 % a
 (:func:`max_excess`).
 
 :func:`shortest_paths` is the fast exact solver (``scipy.sparse.csgraph.dijkstra``, compiled,
-one run per distinct start); :func:`fftnav.planning.astar.astar` is the readable reference
+one run per distinct start); :func:`fftnav.optimal.astar.astar` is the readable reference
 that the tests compare it with.
 """
 
@@ -66,7 +66,7 @@ class GridPath:
         ``(row, col)`` of each visited cell, start first, goal last.
     length_cells : float
         Sum of the Euclidean lengths of the moves, in cells (multiply by the resolution for
-        metres, see :func:`fftnav.planning.astar.path_length_m`).
+        metres, see :func:`fftnav.optimal.astar.path_length_m`).
     """
 
     cells: np.ndarray
@@ -246,7 +246,7 @@ def shortest_paths(
     """Exact shortest grid paths for many start/goal pairs on one grid (batched Dijkstra).
 
     Builds :func:`grid_graph` once and runs ``scipy.sparse.csgraph.dijkstra`` from every
-    distinct start. Same lengths as :func:`fftnav.planning.astar.astar` (tested).
+    distinct start. Same lengths as :func:`fftnav.optimal.astar.astar` (tested).
 
     Parameters
     ----------

@@ -4,7 +4,7 @@
 (at 22.5 degrees), which inflates SPL (Anderson et al. 2018). Searching with the 32 primitive
 moves of components up to 3 (``(1, 0), (3, 1), (2, 1), (3, 2), (1, 1)`` and their mirror images,
 each allowed only if the segment between cell centres touches free cells only) bounds the free-space
-excess at 1.3 % (:func:`fftnav.planning.gridgraph.max_excess`), while staying an exact shortest
+excess at 1.3 % (:func:`fftnav.optimal.gridgraph.max_excess`), while staying an exact shortest
 path over a feasible set of segments: the length never undercuts a collision-free polyline.
 """
 
@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from fftnav.planning import gridsearch
-from fftnav.planning.gridgraph import shortest_paths
+from fftnav.optimal import gridsearch
+from fftnav.optimal.gridgraph import shortest_paths
 from fftnav.validate import check_choice
 
 __all__ = ["METHODS", "geodesic_lengths"]
@@ -41,9 +41,9 @@ def geodesic_lengths(
     connectivity : int, optional
         32 (default, <= 1.3 % over Euclidean in free space), 16 (<= 2.7 %) or 8 (<= 8.2 %).
     method : {"auto", "astar", "dijkstra"}, optional
-        ``"astar"``: compiled A* per pair (:func:`fftnav.planning.gridsearch.astar_lengths`,
+        ``"astar"``: compiled A* per pair (:func:`fftnav.optimal.gridsearch.astar_lengths`,
         needs numba); ``"dijkstra"``: scipy's Dijkstra from every start
-        (:func:`fftnav.planning.gridgraph.shortest_paths`); ``"auto"`` (default): A* when
+        (:func:`fftnav.optimal.gridgraph.shortest_paths`); ``"auto"`` (default): A* when
         numba is installed. The two agree to 1e-12 relative (equally short paths may sum
         their moves in another order).
 

@@ -5,8 +5,8 @@ safety radius r0 (configuration space of a disc robot), start and goal positions
 their grid cells, and two lengths are returned per robot: the 8-connected length (the paper's
 A* reference, exact) and the near-Euclidean 32-connected geodesic length, which does not carry
 the up-to-8 % excess of 8-connected paths; both by
-:func:`fftnav.planning.geodesic.geodesic_lengths` (the compiled A* of
-:mod:`fftnav.planning.gridsearch` when numba is installed, else scipy's Dijkstra).
+:func:`fftnav.optimal.geodesic.geodesic_lengths` (the compiled A* of
+:mod:`fftnav.optimal.gridsearch` when numba is installed, else scipy's Dijkstra).
 """
 
 from __future__ import annotations
@@ -16,7 +16,7 @@ import math
 import numpy as np
 
 from fftnav.limits import MAX_REFERENCE_CELLS, grid_cells
-from fftnav.planning.geodesic import geodesic_lengths
+from fftnav.optimal.geodesic import geodesic_lengths
 from fftnav.validate import check_number
 from fftnav.world import World
 from fftnav.world.grid import OccupancyGrid, occupancy_grid
@@ -107,7 +107,7 @@ def optimal_lengths(
     ------
     ValueError
         If a start or goal lies in an inflated obstacle cell (naming the robot), or
-        :class:`~fftnav.planning.gridgraph.UnreachableGoalError` if a goal cannot be reached.
+        :class:`~fftnav.optimal.gridgraph.UnreachableGoalError` if a goal cannot be reached.
     """
     check_number("r0_m", r0_m, low=0)
     og = occupancy_grid(world, resolution_m=reference_resolution(world, resolution_m),

@@ -8,10 +8,10 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fftnav.planning import gridsearch
-from fftnav.planning.astar import astar
-from fftnav.planning.geodesic import geodesic_lengths
-from fftnav.planning.gridgraph import UnreachableGoalError, shortest_paths
+from fftnav.optimal import gridsearch
+from fftnav.optimal.astar import astar
+from fftnav.optimal.geodesic import geodesic_lengths
+from fftnav.optimal.gridgraph import UnreachableGoalError, shortest_paths
 
 pytestmark = pytest.mark.skipif(not gridsearch.AVAILABLE, reason="numba is not installed")
 
@@ -55,7 +55,7 @@ def test_lengths_equal_dijkstra(case, connectivity):
 
 def test_lengths_on_a_benchmark_map_equal_dijkstra_and_the_readable_astar():
     """A rocky map at the paper's 0.05 m: every robot's 8- and 32-connected lengths."""
-    from fftnav.planning.reference import robot_cells
+    from fftnav.optimal.reference import robot_cells
     from fftnav.world.generate import generate_world
     from fftnav.world.grid import occupancy_grid
 

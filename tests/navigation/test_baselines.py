@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from fftnav.config import SwarmConfig
+from fftnav.navigation.baselines import FFTGoController, FTGController, VFHController
+from fftnav.navigation.controllers import ControllerSetup, RobotObservation
 from fftnav.observe.scan import beam_angles_rad, wrap_angle
-from fftnav.planning.baselines import FFTGoController, FTGController, VFHController
-from fftnav.planning.controllers import ControllerSetup, RobotObservation
 
 CFG = SwarmConfig()
 ANGLES = beam_angles_rad(360, 2 * math.pi)  # beam 180 is the heading, 1 degree apart

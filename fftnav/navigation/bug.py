@@ -19,10 +19,10 @@ from enum import IntEnum
 import numpy as np
 
 from fftnav.config import SwarmConfig
+from fftnav.navigation import corridor
+from fftnav.navigation.ownmap import OwnMaps
 from fftnav.observe.safe import beam_index, nearest_safe_headings
 from fftnav.observe.scan import beam_angles_rad, wrap_angle
-from fftnav.planning import corridor
-from fftnav.planning.ownmap import OwnMaps
 from fftnav.validate import check_integer, check_number
 
 __all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
@@ -97,7 +97,7 @@ class PlannerParams:
         Once a following robot is this much farther from the goal than its best distance of
         the follow (it backs out of a pocket, or runs along a wall away from the goal), it
         escapes too. An escaping robot steers along the shortest way to its goal through its
-        own map (:class:`~fftnav.planning.ownmap.OwnMaps`) instead of toward the goal, until
+        own map (:class:`~fftnav.navigation.ownmap.OwnMaps`) instead of toward the goal, until
         the leave rule.
     map_resolution_m, map_clearance_m : float
         Cell size of the robots' own maps, and the distance from a seen obstacle within which
@@ -167,6 +167,20 @@ class _Memory:
     turn: int = 0  # escape: the side turned to while the way's bearing is unsafe (0: none)
     #: Hit points: (x m, y m, goal distance m, side taken).
     hits: list[tuple[float, float, float, int]] = field(default_factory=list)
+
+
+@dataclass(frozen=True)
+class _View:
+    """What one robot's decision looks at, at one tick (arguments of ``_target`` and
+    ``_escape_heading``)."""
+
+    pose: np.ndarray  # (3,) x_m, y_m, yaw_rad
+    goal: np.ndarray  # (2,)
+    safe: np.ndarray  # (M,) its safe mask, clearance guard applied
+    dist_m: float  # to the goal
+    clear: bool  # the goal direction is safe
+    beta: float  # goal bearing, robot frame
+    nearest: tuple[float, float]  # the nearest safe headings left and right of the goal
 
 
 @dataclass
@@ -256,7 +270,7 @@ class BugPlanner:
         goals: np.ndarray,
         safe: np.ndarray,
         ranges_m: np.ndarray,
-        openness: np.ndarray,
+        y1: np.ndarray,
     ) -> tuple[np.ndarray, np.ndarray]:
         """Commands for every robot for one control period.
 
@@ -272,8 +286,8 @@ class BugPlanner:
             Safe masks of the robots' current scans.
         ranges_m : ndarray, shape (K, M)
             Sanitised ranges (used only for the near-goal test and the fallback drive check).
-        openness : ndarray, shape (K, M)
-            Filtered clipped scan y1 (fallback when no beam is safe: the most open direction).
+        y1 : ndarray, shape (K, M)
+            Filtered clipped scan (fallback when no beam is safe: the most open direction).
 
         Returns
         -------
@@ -318,7 +332,6 @@ class BugPlanner:
             self.maps.update(self._tick, np.flatnonzero(moving), poses, ranges_m, angles,
                              beam_step=2)
         self._tick += 1
-        self._step = (poses, goals, safe)
         commands = np.zeros((k, 2))
         for i in range(k):
             mem = self.memory[i]
@@ -327,25 +340,22 @@ class BugPlanner:
             if not visible[i] and mem.mode == Mode.GO_TO_GOAL:
                 commands[i] = self._command(float(beta[i]))
                 continue
-            target = self._target(i, mem, time_s, poses[i, :2], float(dist[i]), bool(clear[i]),
-                                  beta[i], (left[i], right[i]))
+            view = _View(poses[i], goals[i], safe[i], float(dist[i]), bool(clear[i]), beta[i],
+                         (left[i], right[i]))
+            target = self._target(i, mem, time_s, view)
             self.follow_ticks[i] += mem.mode == Mode.FOLLOW
             if math.isnan(target):  # no safe heading on the chosen side: stall fallback
                 self.stall_ticks[i] += 1
-                commands[i] = self._stall_command(mem.side, angles, openness[i], ranges_m[i],
-                                                  free[i])
+                commands[i] = self._stall_command(mem.side, angles, y1[i], ranges_m[i], free[i])
             else:
                 commands[i] = self._command(target)
         return commands, visible & ~clear
 
-    def _target(
-        self, i: int, mem: _Memory, t: float, xy: np.ndarray, dist: float, clear: bool,
-        beta: float, nearest: tuple[float, float],
-    ) -> float:
-        """Heading (rad, robot frame) to steer to; NaN if the chosen side has no safe beam.
-        ``nearest``: the nearest safe headings left and right of the goal."""
+    def _target(self, i: int, mem: _Memory, t: float, view: _View) -> float:
+        """Heading (rad, robot frame) to steer to; NaN if the chosen side has no safe beam."""
         p = self.params
-        left, right = nearest
+        left, right = view.nearest
+        xy, dist, clear, beta = view.pose[:2], view.dist_m, view.clear, view.beta
         if mem.mode == Mode.FOLLOW:
             if clear and dist < mem.hit_dist_m - p.progress_m:
                 mem.mode = Mode.GO_TO_GOAL  # leave rule: goal direction safe and progress made
@@ -364,7 +374,7 @@ class BugPlanner:
                     mem.flips += looping
                     mem.escape, mem.planned_s, mem.turn = True, -math.inf, 0
                 if mem.escape:  # until the leave rule (no way: follow side s meanwhile)
-                    heading = self._escape_heading(i, mem, t)
+                    heading = self._escape_heading(i, mem, t, view)
                     if heading is not None:
                         self.escape_ticks[i] += 1
                         return heading
@@ -390,28 +400,27 @@ class BugPlanner:
         mem.hits.append((float(xy[0]), float(xy[1]), dist, side))
         return left if side > 0 else right
 
-    def _escape_heading(self, i: int, mem: _Memory, t: float) -> float | None:
+    def _escape_heading(self, i: int, mem: _Memory, t: float, view: _View) -> float | None:
         """Heading toward the point ``escape_lookahead_m`` along the way to the goal through
         robot ``i``'s own map (replanned every ``replan_s``): that bearing if it is safe, else
         the nearest safe heading to it on either side; None without a way (or a safe heading)."""
         p, maps = self.params, self.maps
         assert maps is not None
-        poses, goals, safe = self._step
-        xy, yaw = poses[i, :2], float(poses[i, 2])
+        safe = view.safe
+        xy, yaw = view.pose[:2], float(view.pose[2])
         if t - mem.planned_s >= p.replan_s - 1e-9:
             mem.planned_s = t
-            maps.plan(i, xy, goals[i])
+            maps.plan(i, xy, view.goal)
         point = maps.waypoint(i, xy, p.escape_lookahead_m)
         if point is None:
             return None
         bearing = float(wrap_angle(math.atan2(point[1] - xy[1], point[0] - xy[0]) - yaw))
-        beams = safe.shape[1]
         if abs(bearing) <= self.fov_rad / 2.0 + 1e-9:
-            if safe[i, beam_index(np.array([bearing]), beams=beams, fov_rad=self.fov_rad)[0]]:
+            if safe[beam_index(np.array([bearing]), beams=len(safe), fov_rad=self.fov_rad)[0]]:
                 mem.turn = 0
                 return bearing
         left, right = (float(h[0]) for h in nearest_safe_headings(
-            safe[i:i + 1], np.array([bearing]), fov_rad=self.fov_rad))
+            safe[None, :], np.array([bearing]), fov_rad=self.fov_rad))
         if mem.turn == 0:  # the nearer side, kept until the bearing is safe (no dithering)
             dev = [abs(float(wrap_angle(h - bearing))) if not math.isnan(h) else math.inf
                    for h in (left, right)]
@@ -432,7 +441,7 @@ class BugPlanner:
         return None
 
     def _stall_command(
-        self, side: int, angles: np.ndarray, openness: np.ndarray, ranges_m: np.ndarray,
+        self, side: int, angles: np.ndarray, y1: np.ndarray, ranges_m: np.ndarray,
         free: np.ndarray,
     ) -> tuple[float, float]:
         """No safe beam on side ``side``: head for the most open drivable direction that is
@@ -443,7 +452,7 @@ class BugPlanner:
         ahead_on_side = angles * side >= -p.heading_tol_rad
         candidates = ahead_on_side & free & (ranges_m > self.l_th_m / 2.0)
         if candidates.any():
-            best = int(np.argmax(np.where(candidates, openness, -np.inf)))
+            best = int(np.argmax(np.where(candidates, y1, -np.inf)))
             return self._command(float(angles[best]))
         return (0.0, side * p.w_max_radps)
 

@@ -1,10 +1,10 @@
 """Compiled grid A* for many start/goal pairs: the SPL reference lengths, fast (optional numba).
 
-The same graph as :func:`fftnav.planning.gridgraph.grid_graph` (cells are nodes; a move joins
+The same graph as :func:`fftnav.optimal.gridgraph.grid_graph` (cells are nodes; a move joins
 two cell centres and is allowed only if its whole footprint is free), searched per pair by A*
 (Hart, Nilsson & Raphael 1968) with the Euclidean heuristic: admissible and consistent, since
 every move costs its Euclidean length, so the first time the goal leaves the open list its
-cost is the shortest length. Where :func:`~fftnav.planning.gridgraph.shortest_paths` runs a
+cost is the shortest length. Where :func:`~fftnav.optimal.gridgraph.shortest_paths` runs a
 full Dijkstra over the map from every start (scipy, compiled), A* expands only the cells whose
 cost plus straight-line remainder stays below the answer: on the 20 m x 20 m benchmark maps at
 0.05 m, a tenth of the time or less (``fftnav bench planning`` has the figure).
@@ -14,7 +14,7 @@ paths are equally short, A* may return another one, whose sum can differ in the 
 (``1 + sqrt(2) + 1`` against ``sqrt(2) + 1 + 1``): the tests hold the lengths to Dijkstra's to
 1e-12 relative, far below the 1e-6 m of the CSV files.
 
-Without numba (:data:`AVAILABLE` False), :func:`fftnav.planning.geodesic.geodesic_lengths`
+Without numba (:data:`AVAILABLE` False), :func:`fftnav.optimal.geodesic.geodesic_lengths`
 uses the Dijkstra solver.
 """
 
@@ -23,7 +23,7 @@ from __future__ import annotations
 import numpy as np
 
 from fftnav.observe.kernels import AVAILABLE, njit
-from fftnav.planning.gridgraph import (
+from fftnav.optimal.gridgraph import (
     UnreachableGoalError,
     _allowed,
     check_grid,
@@ -50,7 +50,7 @@ def astar_lengths(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, *
     Returns
     -------
     ndarray of float, shape (N,)
-        Lengths in cells, equal to :func:`fftnav.planning.gridgraph.shortest_paths`'
+        Lengths in cells, equal to :func:`fftnav.optimal.gridgraph.shortest_paths`'
         ``length_cells`` to 1e-12 relative.
 
     Raises

@@ -1,7 +1,7 @@
 """What a robot knows when it picks a side: its own P_s and the fused P (paper Sec. III-E).
 
 The :class:`Decider` holds the swarm's latest observations (extrema Sigma per robot, poses, goal
-bearings) and the message channel, and computes, for one robot on demand, P_s from its own Sigma
+bearings, the robots' inboxes) and computes, for one robot on demand, P_s from its own Sigma
 and the fused P from its own and its neighbours' messages. Both are taken in the goal frame: the
 robot frame rotated by the goal bearing beta, so that the quadrants of Fig. 2b and the
 neighbours' target sector are centred on the goal (docs/planner.md).
@@ -10,11 +10,12 @@ neighbours' target sector are centred on the goal (docs/planner.md).
 from __future__ import annotations
 
 import collections
+from collections.abc import Callable, Mapping, Sequence
 
 import numpy as np
 
 from fftnav.config import SwarmConfig
-from fftnav.episode.comms import Channel, Packet
+from fftnav.navigation.controllers import Packet, SwarmStep
 from fftnav.observe.codec import decode_message
 from fftnav.observe.compress import quadrant_areas
 from fftnav.observe.fusion import decide_turn, own_probability, rotate_sigma
@@ -29,17 +30,15 @@ class Decider:
     ----------
     config : SwarmConfig
         Robot geometry (alpha), sensor range R, communication range and pose noise.
-    channel : Channel
-        The episode's message channel (the inboxes).
     rng : numpy.random.Generator
         The episode's generator (pose noise of received messages).
     full_circle : bool
         Whether the scans cover 360 degrees.
     """
 
-    def __init__(self, config: SwarmConfig, channel: Channel, rng: np.random.Generator, *,
+    def __init__(self, config: SwarmConfig, rng: np.random.Generator, *,
                  full_circle: bool) -> None:
-        self.config, self.channel, self.rng = config, channel, rng
+        self.config, self.rng = config, rng
         self.geometry = config.geometry
         self.full_circle = full_circle
         self.tick = 0
@@ -54,21 +53,19 @@ class Decider:
         #: over its fused decisions, another robot in the world was fused or not, and why.
         self.neighbour_reasons: dict[int, collections.Counter[str]] = collections.defaultdict(
             collections.Counter)
-        self.present: np.ndarray = np.zeros(0, dtype=bool)
+        self.inbox: Callable[[int], Sequence[Packet]] = lambda i: ()
+        self.unheard: Callable[[int], Mapping[int, str]] = lambda i: {}
 
-    def observe(self, tick: int, poses: np.ndarray, goals: np.ndarray, robots: np.ndarray,
-                sigma: list[np.ndarray], present: np.ndarray | None = None) -> None:
-        """The swarm at ``tick``: poses ``(K, 3)``, goals ``(K, 2)`` and the Sigma of each robot
-        in ``robots`` (robot frame); ``present`` marks the robots in the world (moving or
-        waiting to depart; default: ``robots``), the candidates of the neighbour accounting."""
-        delta = goals - poses[:, :2]
-        self.tick, self.poses = tick, poses
-        self.beta = np.arctan2(delta[:, 1], delta[:, 0]) - poses[:, 2]
-        self.sigma = dict(zip(robots.tolist(), sigma, strict=True))
-        if present is None:
-            present = np.zeros(len(poses), dtype=bool)
-            present[robots] = True
-        self.present = present
+    def observe(self, swarm: SwarmStep) -> None:
+        """The swarm at one tick: poses, goals and the Sigma of each active robot (robot frame),
+        the robots' inboxes, and why a robot in the world was not heard (``swarm.unheard``,
+        for the neighbour accounting)."""
+        assert swarm.sigma is not None  # the Bug controller runs the pipeline
+        delta = swarm.goals - swarm.poses[:, :2]
+        self.tick, self.poses = swarm.tick, swarm.poses
+        self.beta = np.arctan2(delta[:, 1], delta[:, 0]) - swarm.poses[:, 2]
+        self.sigma = dict(zip(swarm.active.tolist(), swarm.sigma, strict=True))
+        self.inbox, self.unheard = swarm.inbox, swarm.unheard
 
     def _own_sigma(self, i: int) -> np.ndarray:
         return rotate_sigma(self.sigma[i], -float(self.beta[i]))
@@ -79,19 +76,11 @@ class Decider:
                             range_m=self.config.sensor.range_m, full_circle=self.full_circle)
         return float(own_probability(x0))
 
-    def _packets(self, i: int) -> list[Packet]:
-        """The fresh packets of robot ``i``'s inbox (sent in the last second)."""
-        return self.channel.inbox(i, tick=self.tick, max_age_ticks=self._max_age_ticks)
-
-    @property
-    def _max_age_ticks(self) -> int:
-        return int(self.config.episode.control_hz)
-
     def _neighbours(self, i: int) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray]:
         """Decoded messages in robot ``i``'s inbox and the senders' poses relative to its goal
         frame ``(n, 3)`` (with pose noise)."""
         cfg = self.config
-        packets = self._packets(i)
+        packets = self.inbox(i)
         frame = float(self.poses[i, 2] + self.beta[i])  # goal-frame heading in the world
         c, s = np.cos(frame), np.sin(frame)
         neighbours, rel = [], []
@@ -120,12 +109,11 @@ class Decider:
 
     def _account(self, i: int, rel: np.ndarray, sides: np.ndarray) -> None:
         """Count, for robot ``i``'s decision, why each other robot in the world was fused or
-        not (:data:`fftnav.metrics.NEIGHBOUR_REASONS`); ``rel`` and ``sides`` are those of the
-        fresh packets of its inbox, in order."""
+        not (:data:`fftnav.metrics.NEIGHBOUR_REASONS`): ``rel`` and ``sides`` are those of the
+        packets of its inbox, in order; the robots it has no packet from come with their
+        reason from ``unheard``."""
         counts = self.neighbour_reasons[i]
-        heard = set()
-        for pkt, (x, y, _), side in zip(self._packets(i), rel, sides, strict=True):
-            heard.add(pkt.sender)
+        for (x, y, _), side in zip(rel, sides, strict=True):
             dist = float(np.hypot(x, y))
             if side:
                 counts["fused"] += 1
@@ -135,15 +123,5 @@ class Decider:
                 counts["out_of_range"] += 1
             else:
                 counts["behind"] += 1
-        ch, oldest = self.channel, self.tick - self._max_age_ticks
-        for j in np.flatnonzero(self.present):
-            if j == i or j in heard:
-                continue
-            if ch.last_sent[j] < oldest:
-                counts["no_message"] += 1
-            elif ch.last_lost[j, i] >= oldest:
-                counts["lost"] += 1
-            elif ch.last_out_of_range[j, i] >= oldest:
-                counts["out_of_range"] += 1
-            else:  # sent, reached, still in flight (delay_ticks)
-                counts["no_message"] += 1
+        for reason in self.unheard(i).values():
+            counts[reason] += 1

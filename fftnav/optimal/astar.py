@@ -3,8 +3,8 @@
 The paper takes l_i in SPL (Anderson et al. 2018) from "the A* algorithm with a resolution of
 0.05 m". :func:`astar` is that search, written to be read (a ``heapq`` open list, the octile
 heuristic for 8-connected moves, PythonRobotics style). It serves as the reference the tests
-hold the fast batched solver :func:`fftnav.planning.gridgraph.shortest_paths` to; episodes use
-the latter (:func:`fftnav.planning.reference.optimal_lengths`).
+hold the fast batched solver :func:`fftnav.optimal.gridgraph.shortest_paths` to; episodes use
+the latter (:func:`fftnav.optimal.reference.optimal_lengths`).
 """
 
 from __future__ import annotations
@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from fftnav.planning.gridgraph import (
+from fftnav.optimal.gridgraph import (
     GridPath,
     UnreachableGoalError,
     check_cell,
@@ -52,7 +52,7 @@ def astar(
         ``(row, col)`` of free cells.
     connectivity : int, optional
         8 (default; octile heuristic, exact in free space), 16 or 32 (Euclidean heuristic).
-        Moves and the corner-cutting rule are those of :mod:`fftnav.planning.gridgraph`.
+        Moves and the corner-cutting rule are those of :mod:`fftnav.optimal.gridgraph`.
 
     Returns
     -------

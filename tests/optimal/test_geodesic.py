@@ -7,9 +7,9 @@ import math
 import numpy as np
 import pytest
 
-from fftnav.planning.astar import UnreachableGoalError
-from fftnav.planning.geodesic import geodesic_lengths
-from fftnav.planning.gridgraph import max_excess
+from fftnav.optimal.astar import UnreachableGoalError
+from fftnav.optimal.geodesic import geodesic_lengths
+from fftnav.optimal.gridgraph import max_excess
 
 
 def circle_goals(centre: int, radius: float, n: int) -> np.ndarray:

@@ -1,19 +1,21 @@
 """Controllers: whole per-robot control laws, looked up by name like decision policies.
 
-A decision policy (:mod:`fftnav.planning.policies`) only picks the side on which the Bug planner
-passes an obstacle. A *controller* replaces the planner: every control tick, each active robot's
-:class:`RobotObservation` (its scan, the FFT pipeline's outputs, its pose and goal, its inbox of
-received messages) goes to :meth:`Controller.act`, which returns the velocity command
+A decision policy (:mod:`fftnav.navigation.policies`) only picks the side on which the Bug
+planner passes an obstacle. A *controller* replaces the planner: every control tick, each active
+robot's :class:`RobotObservation` (its scan, the FFT pipeline's outputs, its pose and goal, its
+inbox of received messages) goes to :meth:`Controller.act`, which returns the velocity command
 ``(v_mps, w_radps)`` or an :class:`Action` that may also carry a message. Messages travel
 through the episode's channel (:class:`fftnav.episode.comms.Channel`): the same lossy, delayed,
-range-limited broadcast ``fusion`` uses, with its bytes counted in ``bytes_sent``.
+range-limited broadcast ``fusion`` uses, with its bytes counted in ``bytes_sent``; they arrive
+as :class:`Packet` objects.
 
 A controller is a subclass of :class:`Controller`; the episode makes one instance per episode
 (``Controller(setup)``) and calls it for every robot, so per-robot memory is kept by robot index.
 Registered controllers (:data:`CONTROLLERS`) are the classic reactive baselines of
-:mod:`fftnav.planning.baselines`: ``vfh``, ``ftg`` and ``fft-go``. The Bug planner with a decision
-policy is itself a controller (:class:`fftnav.episode.bugcontrol.BugController`), which is how
-every policy and controller runs through the same loop, runner, metrics and reports.
+:mod:`fftnav.navigation.baselines`: ``vfh``, ``ftg`` and ``fft-go``. The Bug planner with a
+decision policy is itself a controller (:class:`fftnav.navigation.bugcontrol.BugController`)
+that sees nothing but the :class:`SwarmStep` every controller gets, which is how every policy
+and controller runs through the same loop, runner, metrics and reports.
 
 >>> class Straight(Controller):
 ...     uses_pipeline = False
@@ -26,29 +28,59 @@ every policy and controller runs through the same loop, runner, metrics and repo
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Any, ClassVar
+from typing import ClassVar
 
 import numpy as np
 
 from fftnav.config import SwarmConfig
 from fftnav.observe.scan import wrap_angle
+from fftnav.registry import Registry, first_line
 
 __all__ = [
     "Action",
     "CONTROLLERS",
+    "ENTRY_POINT_GROUP",
     "Controller",
     "ControllerSetup",
+    "ControllerSpec",
+    "Packet",
     "RobotObservation",
     "SwarmStep",
-    "get_controller",
     "register_controller",
 ]
+
+#: Entry-point group in which installed packages declare policies and controllers.
+ENTRY_POINT_GROUP = "fftnav.policies"
 
 #: Counters of a robot's row that a controller may fill (the Bug planner's decisions).
 COUNTERS = ("decisions_left", "decisions_right", "decisions_with_neighbours",
             "decisions_flipped_by_neighbours")
+
+
+@dataclass(frozen=True)
+class Packet:
+    """One received message.
+
+    Attributes
+    ----------
+    sender : int
+        Index of the sending robot.
+    tick : int
+        Control tick at which it was sent.
+    payload : bytes
+        The message's bytes.
+    sender_pose : tuple of float
+        The sender's ground-truth pose ``(x_m, y_m, yaw_rad)`` when it sent the message; the
+        receiver turns it into a relative pose (optionally with noise), e.g. to rotate the
+        sender's Sigma into its own frame.
+    """
+
+    sender: int
+    tick: int
+    payload: bytes
+    sender_pose: tuple[float, float, float]
 
 
 @dataclass(frozen=True)
@@ -96,8 +128,7 @@ class RobotObservation:
         ready to send; None without the pipeline.
     inbox : sequence of Packet
         The newest message of each neighbour received within the last second
-        (:class:`fftnav.episode.comms.Packet`: ``sender``, ``tick``, ``payload`` bytes,
-        ``sender_pose``).
+        (:class:`Packet`: ``sender``, ``tick``, ``payload`` bytes, ``sender_pose``).
     """
 
     robot: int
@@ -110,7 +141,7 @@ class RobotObservation:
     safe_mask: np.ndarray | None
     y1: np.ndarray | None
     message: bytes | None
-    inbox: Sequence[Any]
+    inbox: Sequence[Packet]
 
     @property
     def goal_distance_m(self) -> float:
@@ -133,6 +164,14 @@ class Action:
     message: bytes | None = None
 
 
+def _no_packets(robot: int) -> Sequence[Packet]:
+    return ()
+
+
+def _no_reasons(robot: int) -> Mapping[int, str]:
+    return {}
+
+
 @dataclass(frozen=True)
 class SwarmStep:
     """The whole swarm at one tick (what :meth:`Controller.step` receives).
@@ -140,8 +179,24 @@ class SwarmStep:
     ``active`` are the indices of the robots still driving; the arrays have one row per robot
     (rows of inactive robots are meaningless). ``safe``, ``y1`` and ``messages`` (one per active
     robot, in ``active`` order) and ``sigma`` (the extrema of each active robot's scan) are
-    None without the pipeline; ``inbox(i)`` returns robot
-    ``i``'s received packets.
+    None without the pipeline.
+
+    Attributes
+    ----------
+    inbox : callable
+        ``inbox(i)``: robot ``i``'s received packets, the newest of each sender sent within the
+        last second, in sender order.
+    arrived : callable
+        ``arrived(i)``: the packets that reached robot ``i`` at this tick (each packet is
+        delivered once), in sender order.
+    unheard : callable
+        ``unheard(i)``: for each other robot in the world with no packet in ``inbox(i)``, why:
+        ``"no_message"`` (it sent nothing within the last second, or its packet is still in
+        flight), ``"lost"`` (its packet to ``i`` was lost) or ``"out_of_range"`` (``i`` was out of
+        its communication range when it sent).
+    present : ndarray of bool or None
+        Robots in the world (driving, or waiting at their start to depart:
+        ``episode.departure``), a mask of K; None: those of ``active``.
     """
 
     tick: int
@@ -154,11 +209,19 @@ class SwarmStep:
     safe: np.ndarray | None
     y1: np.ndarray | None
     messages: list[bytes] | None
-    inbox: Callable[[int], Sequence[Any]]
+    inbox: Callable[[int], Sequence[Packet]]
     sigma: list[np.ndarray] | None = None
-    #: Robots in the world (driving, or waiting at their start to depart: ``episode.departure``),
-    #: a mask of K; None: those of ``active``.
     present: np.ndarray | None = None
+    arrived: Callable[[int], Sequence[Packet]] = _no_packets
+    unheard: Callable[[int], Mapping[int, str]] = _no_reasons
+
+    def present_mask(self) -> np.ndarray:
+        """``present``, or the mask of ``active`` when it is None."""
+        if self.present is not None:
+            return self.present
+        mask = np.zeros(len(self.poses), dtype=bool)
+        mask[self.active] = True
+        return mask
 
 
 class Controller:
@@ -227,7 +290,8 @@ class Controller:
         return commands, outgoing
 
     def finish(self, robot: int) -> None:
-        """Robot ``robot`` arrived or failed and left the world (nothing by default)."""
+        """Robot ``robot`` left the episode: it arrived, failed or ran out of time (nothing by
+        default). Called once for every robot."""
 
     def hold(self, robot: int) -> None:
         """Robot ``robot`` waits at its start until :meth:`release` (``episode.departure``); it
@@ -250,30 +314,21 @@ class ControllerSpec:
     description: str
 
 
-CONTROLLERS: dict[str, ControllerSpec] = {}
+#: The registered controllers, by name.
+CONTROLLERS: Registry[ControllerSpec] = Registry("controller", parameter="policy",
+                                                 entry_point_group=ENTRY_POINT_GROUP)
 
 
 def register_controller(name: str, *, description: str = ""
                         ) -> Callable[[type[Controller]], type[Controller]]:
-    """Class decorator registering a :class:`Controller` subclass under ``name``."""
+    """Class decorator registering a :class:`Controller` subclass under ``name``
+    (``description``: default, the first line of its docstring)."""
 
     def wrap(cls: type[Controller]) -> type[Controller]:
-        if name in CONTROLLERS:
-            raise ValueError(f"controller name {name!r} is already registered")
         if not (isinstance(cls, type) and issubclass(cls, Controller)):
             raise ValueError(f"register_controller expects a Controller subclass, got {cls!r}")
+        CONTROLLERS.add(name, ControllerSpec(name, cls, description or first_line(cls.__doc__)))
         cls.name = name
-        doc = (cls.__doc__ or "").strip().splitlines()
-        CONTROLLERS[name] = ControllerSpec(name, cls, description or (doc[0] if doc else ""))
         return cls
 
     return wrap
-
-
-def get_controller(name: str) -> ControllerSpec:
-    """The registered controller ``name``; ValueError listing the known names otherwise."""
-    try:
-        return CONTROLLERS[name]
-    except KeyError:
-        raise ValueError(f"unknown controller {name!r}; known controllers: "
-                         f"{sorted(CONTROLLERS)}") from None

@@ -1,4 +1,4 @@
-"""Compiled :func:`fftnav.planning.bug.corridor_free` (optional numba), bit for bit.
+"""Compiled :func:`fftnav.navigation.bug.corridor_free` (optional numba), bit for bit.
 
 The planner asks, every tick and for every robot, which headings a short straight move can
 take without touching a scan point: ``M`` headings against the ``P`` scan points within reach.
@@ -7,7 +7,7 @@ heading and point and stops at the first point in the corridor. The trigonometry
 numpy (its vectorised ``cos`` and ``sin`` need not round as the C library's do), passed in
 as arrays; every other operation is the same IEEE double operation in the same order
 (``x = cos h * px + sin h * py``, ``y = cos h * py - sin h * px``, no fused multiply-add), so
-the mask is identical (``tests/planning/test_corridor.py``).
+the mask is identical (``tests/navigation/test_corridor.py``).
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ __all__ = ["AVAILABLE", "corridor_free_compiled"]
 
 def corridor_free_compiled(ranges_m: np.ndarray, angles_rad: np.ndarray, *,
                            half_width_m: float, lookahead_m: float, reach_m: float) -> np.ndarray:
-    """:func:`fftnav.planning.bug.corridor_free` by the compiled loop (needs numba): the
+    """:func:`fftnav.navigation.bug.corridor_free` by the compiled loop (needs numba): the
     points within ``reach_m`` (``0 < d < reach``) of each scan, in the frame of each heading."""
     if np.ndim(ranges_m) != 2 or np.shape(angles_rad) != (np.shape(ranges_m)[1],):
         raise ValueError("ranges_m must be (K, M) and angles_rad (M,), got "

@@ -1,13 +1,15 @@
 """The Bug planner with a decision policy, as a controller (the default of every episode).
 
-:class:`BugController` is what ran before controllers existed, unchanged: the FFT pipeline's safe
-masks feed the :class:`~fftnav.planning.bug.BugPlanner`, which asks the decision policy for a side
-when a goal direction is blocked; with a policy whose messages are ``"observation"``
-(``fusion``) a robot whose goal direction is blocked broadcasts its compressed observation (or
-every tick, with ``comms.broadcast = "every_tick"``); with ``"walls"`` (``collab``) robots
-share the wall segments they see (:mod:`fftnav.episode.collab`), drawn into the receivers' own
-maps, and the policy may ask which side the way through that map passes
-(:meth:`~fftnav.planning.ownmap.OwnMaps.side_costs`). Its rows carry the policy's name,
+:class:`BugController`: the FFT pipeline's safe masks feed the
+:class:`~fftnav.navigation.bug.BugPlanner`, which asks the decision policy for a side when a goal
+direction is blocked. What its robots broadcast and how they read it is the policy's message
+kind (:mod:`fftnav.navigation.messages`): with ``"observation"`` (``fusion``) a robot whose goal
+direction is blocked broadcasts its compressed observation (or every tick, with
+``comms.broadcast = "every_tick"``); with ``"walls"`` (``collab``) robots share the wall segments
+they see (:mod:`fftnav.navigation.collab`), drawn into the receivers' own maps, and the policy
+may ask which side the way through that map passes
+(:meth:`~fftnav.navigation.ownmap.OwnMaps.side_costs`). Like every controller it sees the swarm
+only through :class:`~fftnav.navigation.controllers.SwarmStep`. Its rows carry the policy's name,
 its decision counters, the planner's diagnostics and the neighbour accounting.
 """
 
@@ -16,18 +18,10 @@ from __future__ import annotations
 import numpy as np
 
 from fftnav import metrics
-from fftnav.episode.collab import (
-    MAX_SEGMENTS_PER_MESSAGE,
-    PERIOD_TICKS,
-    decode_segments,
-    encode_segments,
-    scan_segments,
-)
-from fftnav.episode.comms import Channel
-from fftnav.episode.decider import Decider
-from fftnav.planning.bug import BugPlanner
-from fftnav.planning.controllers import Controller, ControllerSetup, SwarmStep
-from fftnav.planning.policies import DecisionContext, Policy
+from fftnav.navigation.bug import BugPlanner
+from fftnav.navigation.controllers import Controller, ControllerSetup, SwarmStep
+from fftnav.navigation.decider import Decider
+from fftnav.navigation.policies import DecisionContext, Policy
 
 __all__ = ["SIDE_MARGIN_M", "SIDE_RADIUS_M", "UNKNOWN_COST", "BugController"]
 
@@ -50,25 +44,23 @@ class BugController(Controller):
         Swarm size, configuration, the episode's generator.
     policy : Policy
         The decision policy.
-    channel : Channel
-        The episode's message channel (the decider reads the inboxes from it).
     full_circle : bool
         Whether the scans cover 360 degrees.
     area_m : (float, float), optional
         Width and height (m) of the mission area (the world's map, corner at the origin): the
-        robots' own maps cover it (:class:`~fftnav.planning.bug.BugPlanner`).
+        robots' own maps cover it (:class:`~fftnav.navigation.bug.BugPlanner`).
     """
 
     uses_pipeline = True
 
-    def __init__(self, setup: ControllerSetup, policy: Policy, channel: Channel, *,
+    def __init__(self, setup: ControllerSetup, policy: Policy, *,
                  full_circle: bool, area_m: tuple[float, float] | None = None) -> None:
         super().__init__(setup)
         n = setup.n_robots
-        self.policy, self.rng, self.channel = policy, setup.rng, channel
+        self.policy, self.rng = policy, setup.rng
         self.name = policy.name  # type: ignore[misc]  # its rows carry the policy's name
-        self.decider = Decider(setup.config, channel, setup.rng, full_circle=full_circle)
-        self.heard = np.zeros(n, dtype=np.int64)  # wall messages read (collab)
+        self.decider = Decider(setup.config, setup.rng, full_circle=full_circle)
+        self.heard = np.zeros(n, dtype=np.int64)  # messages read (the message kind counts)
         self._seen = np.zeros(n, dtype=np.int64)  # messages read at the last (re)decision
         self.poses = np.zeros((n, 3))
         self.goals = np.zeros((n, 2))
@@ -102,50 +94,17 @@ class BugController(Controller):
             return side
         return self._decide(i)
 
-    def _read_walls(self, tick: int, present: np.ndarray) -> None:
-        maps, delay = self.planner.maps, self.config.comms.delay_ticks
-        if maps is None:
-            return
-        for r in np.flatnonzero(present):
-            for pkt in self.channel.inbox(int(r), tick=tick, max_age_ticks=1 + delay):
-                if pkt.tick == tick - 1 - delay:  # each packet once, when it arrives
-                    maps.add_segments(int(r), tick, decode_segments(pkt.payload))
-                    self.heard[r] += 1
-
-    def _walls(self, swarm: SwarmStep, idx: np.ndarray) -> dict[int, bytes]:
-        """``collab``: every PERIOD_TICKS ticks a robot broadcasts the longest wall segments of
-        its current scan (robots take turns by index)."""
-        outgoing: dict[int, bytes] = {}
-        for i in idx.tolist():
-            if (swarm.tick + i) % PERIOD_TICKS:
-                continue
-            segments = scan_segments(swarm.poses[i], swarm.ranges_m[i], swarm.angles_rad,
-                                     range_m=self.config.sensor.range_m)
-            if len(segments):
-                outgoing[i] = encode_segments(segments[:MAX_SEGMENTS_PER_MESSAGE])
-        return outgoing
-
     def step(self, swarm: SwarmStep) -> tuple[np.ndarray, dict[int, bytes]]:
-        """Observe, decide, plan; the messages of the robots that broadcast this tick."""
-        idx, sigma = swarm.active, swarm.sigma
-        present = swarm.present
-        if present is None:
-            present = np.zeros(len(swarm.poses), dtype=bool)
-            present[idx] = True
+        """Observe, read the messages that arrived, decide, plan; the messages of the robots
+        that broadcast this tick."""
         self.poses, self.goals = swarm.poses, swarm.goals
-        self.decider.observe(swarm.tick, swarm.poses, swarm.goals, idx, sigma, present=present)
-        if self.policy.messages == "walls":
-            self._read_walls(swarm.tick, present)
+        self.decider.observe(swarm)
+        kind = self.policy.messages
+        if kind is not None:
+            kind.receive(self, swarm, swarm.present_mask())
         commands, blocked = self.planner.step(swarm.time_s, swarm.poses, swarm.goals,
                                               swarm.safe, swarm.ranges_m, swarm.y1)
-        outgoing: dict[int, bytes] = {}
-        if self.policy.messages == "walls":
-            outgoing = self._walls(swarm, idx)
-        elif self.policy.messages == "observation":
-            every_tick = self.config.comms.broadcast == "every_tick"
-            for j, i in enumerate(idx.tolist()):
-                if every_tick or blocked[i]:
-                    outgoing[i] = swarm.messages[j]
+        outgoing = kind.send(self, swarm, blocked) if kind is not None else {}
         return commands, outgoing
 
     def finish(self, robot: int) -> None:

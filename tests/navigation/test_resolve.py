@@ -6,14 +6,14 @@ import textwrap
 
 import pytest
 
-from fftnav.planning.baselines import VFHController
-from fftnav.planning.controllers import CONTROLLERS, Controller
-from fftnav.planning.policies import LEFT, POLICIES, Policy
-from fftnav.planning.resolve import registered_names, resolve
+from fftnav.navigation.baselines import VFHController
+from fftnav.navigation.controllers import CONTROLLERS, Controller
+from fftnav.navigation.policies import LEFT, POLICIES, Policy
+from fftnav.navigation.resolve import ENTRY_POINT_GROUP, registered_names, resolve
 
 PLUGIN = textwrap.dedent("""\
-    from fftnav.planning.controllers import Controller
-    from fftnav.planning.policies import LEFT, Policy
+    from fftnav.navigation.controllers import Controller
+    from fftnav.navigation.policies import LEFT, Policy
 
     class Spin(Controller):
         uses_pipeline = False
@@ -51,7 +51,7 @@ def test_registered_names_are_policies_then_controllers():
 
 
 def test_module_reference_to_a_registered_class_keeps_its_name():
-    found = resolve("fftnav.planning.baselines:VFHController")
+    found = resolve("fftnav.navigation.baselines:VFHController")
     assert found.name == "vfh" and found.controller is VFHController
 
 
@@ -81,11 +81,40 @@ def test_wrong_objects_are_refused_in_one_line(plugin, attr, match):
 
 
 def test_unknown_name_lists_the_registered_ones():
-    with pytest.raises(ValueError, match=r"unknown policy or controller 'teleport': not a "
-                                         r"registered name \(bug-left, .*vfh\)"):
+    with pytest.raises(ValueError, match=r"^policy must be a registered policy or controller "
+                                         r"\('bug-left', .*'vfh', 'ftg', 'fft-go'\) or "
+                                         r"module:attr or path/to/file.py:attr, got "
+                                         r"policy='teleport'$"):
         resolve("teleport")
     with pytest.raises(ValueError, match="Controller base class"):
-        resolve("fftnav.planning.controllers:Controller")
+        resolve("fftnav.navigation.controllers:Controller")
+
+
+@pytest.mark.parametrize(("name", "suggestion"), [
+    ("fusoin", "'fusion'"), ("bug-lft", "'bug-left'"), ("vhf", "'vfh'"),
+])
+def test_a_misspelled_name_gets_a_suggestion_in_one_line(name, suggestion):
+    with pytest.raises(ValueError, match=rf"got policy='{name}'; did you mean {suggestion}") \
+            as info:
+        resolve(name)
+    assert "\n" not in str(info.value)
+
+
+def test_the_unknown_name_error_lists_and_suggests_installed_entry_points(monkeypatch):
+    import importlib.metadata
+
+    class Point:
+        def __init__(self, name):
+            self.name = name
+
+    def entry_points(group=None):
+        return [Point("swarm-dance")] if group == ENTRY_POINT_GROUP else []
+
+    monkeypatch.setattr(importlib.metadata, "entry_points", entry_points)
+    with pytest.raises(ValueError, match=r"an installed entry point of group 'fftnav.policies' "
+                                         r"\('swarm-dance'\).*got policy='swarm-danse'; did you "
+                                         r"mean 'swarm-dance'\?$"):
+        resolve("swarm-danse")
 
 
 def test_an_installed_package_registers_a_controller_by_entry_point(tmp_path, monkeypatch):

@@ -3,8 +3,8 @@ import math
 import numpy as np
 import pytest
 
-from fftnav.planning.bug import BugPlanner, Mode, PlannerParams
-from fftnav.planning.policies import LEFT, RIGHT
+from fftnav.navigation.bug import BugPlanner, Mode, PlannerParams
+from fftnav.navigation.policies import LEFT, RIGHT
 
 M = 360
 FOV = 2 * math.pi
@@ -96,9 +96,9 @@ def test_no_safe_beam_rotates_toward_the_side_when_the_open_direction_is_too_clo
     p, _ = _planner(RIGHT)
     safe = np.zeros((1, M), bool)
     ranges = np.full((1, M), 0.2)
-    openness = ranges.copy()
-    openness[0, 180] = 0.25  # most open straight ahead but only 0.2 m: cannot drive
-    cmd = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[10, 0]]), safe, ranges, openness)[0]
+    y1 = ranges.copy()
+    y1[0, 180] = 0.25  # most open straight ahead but only 0.2 m: cannot drive
+    cmd = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[10, 0]]), safe, ranges, y1)[0]
     assert cmd.tolist() == [[0.0, -1.5]]
 
 
@@ -123,7 +123,7 @@ def test_bad_params_are_named():
 
 
 def test_corridor_free_blocks_exactly_the_headings_whose_corridor_holds_the_point():
-    from fftnav.planning.bug import corridor_free
+    from fftnav.navigation.bug import corridor_free
 
     ang = -math.pi + np.arange(M) * 2 * math.pi / M
     ranges = np.zeros((2, M))  # zero readings are not points
@@ -147,9 +147,9 @@ def test_stall_fallback_turns_one_way_until_it_faces_the_only_opening():
         world_dir = np.degrees((ang + yaw + math.pi) % (2 * math.pi) - math.pi)
         ranges = np.where(np.abs(world_dir - 120.0) < 45.0, 0.5, 0.28)[None]
         safe = np.zeros((1, M), bool)  # nothing reads l_th = 0.6 m
-        openness = np.minimum(ranges, 0.6) / 3.0
+        y1 = np.minimum(ranges, 0.6) / 3.0
         cmd = p.step(0.1 * tick, np.array([[0, 0, yaw]]), np.array([[10, 0]]), safe, ranges,
-                     openness)[0][0]
+                     y1)[0][0]
         if cmd[0] > 0:
             drove_at = yaw
             break
@@ -180,8 +180,7 @@ def test_partial_field_of_view_uses_its_own_beam_angles():
 
 def test_every_policy_still_escapes_a_pocket_open_toward_it():
     """A U pocket 4 m wide and 2 m deep right in the way: the robot walks in and out round an
-    arm by escaping through its own map (a lone robot escaped before the change too: a
-    regression test)."""
+    arm by escaping through its own map."""
     import math
 
     from fftnav.config import EpisodeConfig, SwarmConfig
@@ -219,7 +218,7 @@ def test_a_robot_on_the_wrong_side_of_a_wall_joined_to_the_map_edge_turns_back()
     into the corner and back is part of the price of the wrong side)."""
     from fftnav.config import EpisodeConfig, SwarmConfig
     from fftnav.episode import run_episode
-    from fftnav.planning.reference import optimal_lengths
+    from fftnav.optimal.reference import optimal_lengths
     from fftnav.world import World
     from fftnav.world.obstacles import rectangle
 

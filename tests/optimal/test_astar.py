@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 from scipy.optimize import minimize_scalar
 
-from fftnav.planning.astar import UnreachableGoalError, astar, path_length_m
-from fftnav.planning.gridgraph import grid_moves, move_footprint, shortest_paths
+from fftnav.optimal.astar import UnreachableGoalError, astar, path_length_m
+from fftnav.optimal.gridgraph import grid_moves, move_footprint, shortest_paths
 
 SQRT2 = math.sqrt(2.0)
 

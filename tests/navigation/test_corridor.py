@@ -11,8 +11,8 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
+from fftnav.navigation import bug, corridor
 from fftnav.observe.scan import beam_angles_rad
-from fftnav.planning import bug, corridor
 from fftnav.world.scenes import trunk_scans
 
 pytestmark = pytest.mark.skipif(not corridor.AVAILABLE, reason="numba is not installed")

@@ -3,7 +3,7 @@
 
 They share the Bug planner's safety rules so that differences come from the choice of
 direction: a robot drives only along a heading whose short corridor is free
-(:func:`fftnav.planning.bug.corridor_free`, half width r0 + 3 cm, length r0 + 10 cm), and turns
+(:func:`fftnav.navigation.bug.corridor_free`, half width r0 + 3 cm, length r0 + 10 cm), and turns
 towards its target heading at most ``w_max`` (closing the error in one control period).
 ``vfh`` and ``ftg`` drive while turning when the heading error is below ``drive_tol_deg``
 (arcs, as their authors' robots did); ``fft-go`` uses the Bug planner's motion (rotate in place,
@@ -19,14 +19,14 @@ import math
 
 import numpy as np
 
-from fftnav.observe.scan import wrap_angle
-from fftnav.planning.bug import corridor_free
-from fftnav.planning.controllers import (
+from fftnav.navigation.bug import corridor_free
+from fftnav.navigation.controllers import (
     Controller,
     ControllerSetup,
     RobotObservation,
     register_controller,
 )
+from fftnav.observe.scan import wrap_angle
 
 __all__ = ["FFTGoController", "FTGController", "VFHController", "obstacle_points"]
 

@@ -6,11 +6,11 @@ least :data:`MIN_SEGMENT_M` long: walls and long obstacle sides, not trunks or r
 broadcasts the :data:`MAX_SEGMENTS_PER_MESSAGE` longest through the episode's lossy, delayed,
 range-limited :class:`~fftnav.episode.comms.Channel`, in at most :data:`MAX_MESSAGE_BYTES` bytes
 (:func:`encode_segments`: a count byte, then the end points in centimetres as int16). A receiver
-draws them into its own map (:meth:`fftnav.planning.ownmap.OwnMaps.add_segments`): a robot at a
+draws them into its own map (:meth:`fftnav.navigation.ownmap.OwnMaps.add_segments`): a robot at a
 wall then knows where its neighbours saw the wall go on, and where they saw it end.
 
 At a decision ``collab`` compares the two sides by the length of the way to the goal through
-that map (:meth:`fftnav.planning.ownmap.OwnMaps.side_costs`) and takes the clearly shorter one
+that map (:meth:`fftnav.navigation.ownmap.OwnMaps.side_costs`) and takes the clearly shorter one
 (docs/planner.md, "collab"). Pure numpy; nothing but the robot's own scan and pose and its
 neighbours' messages.
 """
@@ -31,7 +31,7 @@ __all__ = [
     "scan_segments",
 ]
 
-#: Upper bound of a message (issue 10: at most 64 bytes per message).
+#: Upper bound of a message (bytes).
 MAX_MESSAGE_BYTES = 64
 #: Segments per message: 1 count byte + 8 bytes each (two end points, x and y in cm) = 57 bytes.
 MAX_SEGMENTS_PER_MESSAGE = 7

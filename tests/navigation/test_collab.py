@@ -10,14 +10,14 @@ import pytest
 
 from fftnav.config import EpisodeConfig, SwarmConfig
 from fftnav.episode import episode_csv, run_episode
-from fftnav.episode.collab import (
+from fftnav.navigation.collab import (
     MAX_MESSAGE_BYTES,
     MAX_SEGMENTS_PER_MESSAGE,
     decode_segments,
     encode_segments,
     scan_segments,
 )
-from fftnav.planning.ownmap import OwnMaps
+from fftnav.navigation.ownmap import OwnMaps
 from fftnav.world import Polygon, World
 
 UP = math.pi / 2
@@ -135,3 +135,17 @@ def test_unknown_cells_cost_more_only_where_the_robot_has_not_looked():
     with pytest.raises(ValueError, match=r"unknown_cost must be a finite number >= 1, "
                                          r"got unknown_cost=0.5"):
         maps.side_costs(0, pose[:2], goal, radius_m=1.0, unknown_cost=0.5)
+
+
+def test_collab_reconsider_changes_sides_when_walls_arrive_and_collab_never_does():
+    """Four robots meet the barrier together; while they follow it their neighbours' wall
+    segments arrive: ``collab-reconsider`` asks again and changes side (at most once per
+    follow, so never more often than it decided), ``collab`` keeps its sides."""
+    world = _barrier_world()
+    cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=40.0))
+    again = run_episode(world, "collab-reconsider", seed=5, config=cfg).rows
+    assert [r.policy for r in again] == ["collab-reconsider"] * 4
+    assert any(r.sides_reconsidered > 0 for r in again)
+    assert all(r.sides_reconsidered <= r.decisions_left + r.decisions_right for r in again)
+    once = run_episode(world, "collab", seed=5, config=cfg).rows
+    assert all(r.sides_reconsidered == 0 for r in once)

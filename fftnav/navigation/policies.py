@@ -16,10 +16,13 @@ Registered policies:
 ``random``
     A seeded coin per decision.
 ``collab``
-    Ours (issue 10): robots share the *walls* they see (a few line segments a second,
-    :mod:`fftnav.episode.collab`), drawn into the receivers' own maps; at a decision the side
+    Robots share the *walls* they see (a few line segments a second,
+    :mod:`fftnav.navigation.collab`), drawn into the receivers' own maps; at a decision the side
     whose way to the goal through that map is clearly shorter (by 1 m, a step through a cell
     the robot never saw counting three), else P_s as ``own-only``.
+``collab-reconsider``
+    ``collab`` that also asks again while following a wall, when wall segments arrived since
+    it decided (``Policy.reconsiders``).
 """
 
 from __future__ import annotations
@@ -29,9 +32,12 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fftnav.navigation.controllers import ENTRY_POINT_GROUP
+from fftnav.navigation.messages import MESSAGE_KINDS, MessageKind
+from fftnav.registry import Registry, first_line
+
 __all__ = [
     "LEFT",
-    "MESSAGES",
     "RIGHT",
     "DecisionContext",
     "Policy",
@@ -71,26 +77,42 @@ class DecisionContext:
     shared_side: Callable[[], int | None] = lambda: None
 
 
-#: What a policy's robots broadcast: nothing, their compressed observation (the paper's
-#: Sigma, ``fusion``) or the wall segments they see (``collab``).
-MESSAGES: tuple[str | None, ...] = (None, "observation", "walls")
+def _message_kind(messages: str | MessageKind | None) -> MessageKind | None:
+    """The registered kind named ``messages`` (a kind object or None passes through)."""
+    if messages is None or isinstance(messages, MessageKind):
+        return messages
+    return MESSAGE_KINDS.lookup(messages)
 
 
 @dataclass(frozen=True)
 class Policy:
-    """A named decision rule. ``messages`` says what its robots broadcast (:data:`MESSAGES`);
-    ``reconsiders``: the planner asks ``decide`` again, while following, when news arrives."""
+    """A named decision rule.
+
+    Attributes
+    ----------
+    name : str
+        The name its rows carry.
+    decide : callable
+        ``(DecisionContext) -> LEFT | RIGHT``.
+    messages : MessageKind or None
+        What its robots broadcast and how they read it
+        (:data:`~fftnav.navigation.messages.MESSAGE_KINDS`: ``"observation"``, ``"walls"``; a
+        name is looked up there); None: nothing.
+    description : str
+        One line.
+    reconsiders : bool
+        Whether the planner asks ``decide`` again while following a boundary, when messages
+        arrived since the robot decided (at most one change of side per follow).
+    """
 
     name: str
     decide: Callable[[DecisionContext], int]
-    messages: str | None
+    messages: MessageKind | None
     description: str
     reconsiders: bool = False
 
     def __post_init__(self) -> None:
-        if self.messages not in MESSAGES:
-            raise ValueError(f"messages must be one of {list(MESSAGES)}, got "
-                             f"messages={self.messages!r}")
+        object.__setattr__(self, "messages", _message_kind(self.messages))
 
     @property
     def uses_messages(self) -> bool:
@@ -98,22 +120,22 @@ class Policy:
         return self.messages is not None
 
 
-POLICIES: dict[str, Policy] = {}
+#: The registered decision policies, by name.
+POLICIES: Registry[Policy] = Registry("policy", parameter="policy",
+                                      entry_point_group=ENTRY_POINT_GROUP)
 
 
 def register_policy(
     name: str, *, messages: str | None = None, reconsiders: bool = False, description: str = ""
 ) -> Callable[[Callable[[DecisionContext], int]], Callable[[DecisionContext], int]]:
     """Decorator registering a decision function under ``name`` (``messages``: what its robots
-    broadcast, one of :data:`MESSAGES`)."""
-    if messages not in MESSAGES:
-        raise ValueError(f"messages must be one of {list(MESSAGES)}, got messages={messages!r}")
+    broadcast, a name of :data:`~fftnav.navigation.messages.MESSAGE_KINDS` or None;
+    ``description``: default, the first line of its docstring)."""
+    kind = _message_kind(messages)
 
     def wrap(fn: Callable[[DecisionContext], int]) -> Callable[[DecisionContext], int]:
-        if name in POLICIES:
-            raise ValueError(f"policy name {name!r} is already registered")
-        POLICIES[name] = Policy(name, fn, messages, description or (fn.__doc__ or ""),
-                                reconsiders)
+        POLICIES.add(name, Policy(name, fn, kind, description or first_line(fn.__doc__),
+                                  reconsiders))
         return fn
 
     return wrap
@@ -121,10 +143,7 @@ def register_policy(
 
 def get_policy(name: str) -> Policy:
     """The registered policy ``name``; ValueError listing the known names otherwise."""
-    try:
-        return POLICIES[name]
-    except KeyError:
-        raise ValueError(f"unknown policy {name!r}; known policies: {sorted(POLICIES)}") from None
+    return POLICIES.lookup(name)
 
 
 @register_policy("bug-left")
@@ -157,7 +176,7 @@ def _fusion(ctx: DecisionContext) -> int:
     return LEFT if ctx.fused_probability() > 0.5 else RIGHT
 
 
-@register_policy("collab", messages="walls", reconsiders=False)
+@register_policy("collab", messages="walls")
 def _collab(ctx: DecisionContext) -> int:
     """The side whose way to the goal through the robot's map (its own scans and the walls its
     neighbours shared) is clearly shorter; else P_s, as ``own-only``."""
@@ -165,3 +184,9 @@ def _collab(ctx: DecisionContext) -> int:
     if shared is not None:
         return shared
     return LEFT if ctx.own_probability() > 0.5 else RIGHT
+
+
+@register_policy("collab-reconsider", messages="walls", reconsiders=True)
+def _collab_reconsider(ctx: DecisionContext) -> int:
+    """``collab``, asked again while following when wall segments arrived since it decided."""
+    return _collab(ctx)

@@ -1,6 +1,6 @@
 """Each robot's memory of what its own lidar has seen, and the way to its goal through it.
 
-The Bug planner (:mod:`fftnav.planning.bug`) only looks at the current scan, so a robot that
+The Bug planner (:mod:`fftnav.navigation.bug`) only looks at the current scan, so a robot that
 chose the wrong side of a long wall, or walked into a pocket, has forgotten the walls it saw a
 few seconds ago. :class:`OwnMaps` keeps, per robot, a coarse occupancy grid built from that
 robot's own scans and poses only (nothing shared, no ground truth beyond the robot's pose): a
@@ -11,7 +11,7 @@ through it (the beam went on), so robots that moved away are cleared when seen t
 shortest 8-connected path to its goal through its own map, with cells never seen taken as free
 (optimistic: the path tries the unknown, and the map learns the walls it meets). The distance
 field to the goal is a Dijkstra run from the goal cell
-(:func:`fftnav.planning.gridgraph.grid_graph`, ``scipy.sparse.csgraph.dijkstra``), recomputed
+(:func:`fftnav.optimal.gridgraph.grid_graph`, ``scipy.sparse.csgraph.dijkstra``), recomputed
 when asked (the planner asks once a second while a robot escapes).
 """
 
@@ -25,7 +25,7 @@ from scipy.sparse.csgraph import dijkstra
 
 from fftnav.observe import kernels
 from fftnav.observe.kernels import njit
-from fftnav.planning.gridgraph import grid_graph
+from fftnav.optimal.gridgraph import grid_graph
 from fftnav.validate import check_number
 
 __all__ = ["OwnMaps"]

@@ -1,12 +1,12 @@
-"""The robots' own maps (fftnav.planning.ownmap) against hand geometry and grid A*."""
+"""The robots' own maps (fftnav.navigation.ownmap) against hand geometry and grid A*."""
 
 import math
 
 import numpy as np
 import pytest
 
-from fftnav.planning.astar import astar
-from fftnav.planning.ownmap import OwnMaps
+from fftnav.navigation.ownmap import OwnMaps
+from fftnav.optimal.astar import astar
 
 R = 3.0
 ANGLES = -math.pi + np.arange(360) * 2 * math.pi / 360
@@ -128,7 +128,7 @@ def test_compiled_update_marks_the_same_cells_as_numpy(monkeypatch, beam_step):
     """The compiled marking loop against the numpy version (the oracle), cell for cell: random
     poses near and beyond the map's edges, readings of walls and random ranges with zeros
     (no reading), NaN and R (no return), several ticks so that later scans overwrite earlier."""
-    from fftnav.planning import ownmap
+    from fftnav.navigation import ownmap
 
     if not ownmap.kernels_available():
         pytest.skip("numba is not installed")

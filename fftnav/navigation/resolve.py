@@ -3,14 +3,14 @@
 :func:`resolve` turns what a config or the command line says (``policies = [...]`` of an
 experiment, ``fftnav episode --policy``) into a :class:`Resolved`:
 
-1. a registered name: a decision policy of :data:`~fftnav.planning.policies.POLICIES`
+1. a registered name: a decision policy of :data:`~fftnav.navigation.policies.POLICIES`
    (``fusion``, ``bug-left``, ...; run by the Bug planner) or a controller of
-   :data:`~fftnav.planning.controllers.CONTROLLERS` (``vfh``, ``ftg``, ``fft-go``);
+   :data:`~fftnav.navigation.controllers.CONTROLLERS` (``vfh``, ``ftg``, ``fft-go``);
 2. ``module:attr`` or ``path/to/file.py:attr`` (:func:`fftnav.plugins.load_reference`);
 3. the name of an entry point in the group ``fftnav.policies`` of an installed package.
 
-The object found must be a :class:`~fftnav.planning.controllers.Controller` subclass (a
-controller), a :class:`~fftnav.planning.policies.Policy` or a plain function
+The object found must be a :class:`~fftnav.navigation.controllers.Controller` subclass (a
+controller), a :class:`~fftnav.navigation.policies.Policy` or a plain function
 ``(DecisionContext) -> +1 | -1`` (a decision policy). Its rows carry its ``name`` attribute if it
 has one, else the attribute's name (the entry point's name for an entry point). Anything else
 raises ``ValueError`` with one line, before any episode starts.
@@ -18,10 +18,10 @@ raises ``ValueError`` with one line, before any episode starts.
 >>> resolve("fusion").policy.name, resolve("vfh").controller.name
 ('fusion', 'vfh')
 >>> try:
-...     resolve("nope")
+...     resolve("fusoin")
 ... except ValueError as exc:
-...     print(str(exc)[:60])
-unknown policy or controller 'nope': not a registered name (
+...     print(str(exc).split("; ")[-1])
+did you mean 'fusion'?
 """
 
 from __future__ import annotations
@@ -32,16 +32,24 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
-from fftnav.planning import baselines  # noqa: F401  (registers vfh, ftg, fft-go)
-from fftnav.planning.controllers import CONTROLLERS, Controller, ControllerSpec
-from fftnav.planning.policies import POLICIES, Policy
+from fftnav.navigation import baselines  # noqa: F401  (registers vfh, ftg, fft-go)
+from fftnav.navigation.controllers import (
+    CONTROLLERS,
+    ENTRY_POINT_GROUP,
+    Controller,
+    ControllerSpec,
+)
+from fftnav.navigation.policies import POLICIES, Policy
 from fftnav.plugins import PluginError, entry_points, is_reference, load_reference, reference_file
+from fftnav.registry import Registry, first_line
 
 __all__ = ["ENTRY_POINT_GROUP", "Resolved", "registered_names", "resolve"]
 
-#: Entry-point group in which installed packages declare policies and controllers.
-ENTRY_POINT_GROUP = "fftnav.policies"
 _NAME = re.compile(r"^[A-Za-z0-9_.+-]+$")
+#: Every name :func:`resolve` accepts, for its unknown-name error: the registered policies and
+#: controllers (passed as ``also``) and the installed entry points of the group.
+_ACCEPTED = Registry("policy or controller", parameter="policy",
+                     entry_point_group=ENTRY_POINT_GROUP)
 
 
 @dataclass(frozen=True)
@@ -89,7 +97,7 @@ def _wrap(obj: object, reference: str, default_name: str, file: Path | None) -> 
     if isinstance(obj, Policy):
         return Resolved(name, reference, policy=obj, file=file)
     if inspect.isfunction(obj) or inspect.isbuiltin(obj):
-        return Resolved(name, reference, policy=Policy(name, obj, None, obj.__doc__ or ""),
+        return Resolved(name, reference, policy=Policy(name, obj, None, first_line(obj.__doc__)),
                         file=file)
     raise PluginError(f"{reference!r} must be a Controller subclass, a Policy or a decision "
                       f"function, got {type(obj).__name__}")
@@ -111,7 +119,10 @@ def resolve(reference: str) -> Resolved:
     Raises
     ------
     fftnav.plugins.PluginError
-        (a ``ValueError``) unknown name, import error, or an object of the wrong kind; one line.
+        (a ``ValueError``) import error, or an object of the wrong kind; one line.
+    fftnav.registry.UnknownNameError
+        (a ``ValueError``) an unknown name: one line listing the registered names and the
+        installed entry points, with the closest as suggestions ("did you mean 'fusion'?").
     """
     if not isinstance(reference, str) or not reference:
         raise PluginError(f"a policy or controller must be a non-empty string, got {reference!r}")
@@ -127,10 +138,8 @@ def resolve(reference: str) -> Resolved:
         obj = load_reference(reference, group=ENTRY_POINT_GROUP)
         found = _wrap(obj, reference, reference, None)
     else:
-        raise PluginError(
-            f"unknown policy or controller {reference!r}: not a registered name "
-            f"({', '.join(sorted(registered_names()))}), module:attr, file.py:attr or an entry "
-            f"point of group {ENTRY_POINT_GROUP!r}")
+        raise _ACCEPTED.unknown(reference, also=registered_names(),
+                                forms="module:attr or path/to/file.py:attr")
     builtin = POLICIES.get(found.name) or CONTROLLERS.get(found.name)
     if builtin is not None:
         same = (found.policy is builtin) or (isinstance(builtin, ControllerSpec)

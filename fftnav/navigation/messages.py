@@ -1,0 +1,126 @@
+"""Message kinds: what the robots of a decision policy broadcast, and how they read it.
+
+A :class:`~fftnav.navigation.policies.Policy` names its message kind (``messages="walls"``);
+the Bug controller (:class:`~fftnav.navigation.bugcontrol.BugController`) asks the kind, every
+tick, to :meth:`~MessageKind.receive` what arrived (before the planner decides) and to
+:meth:`~MessageKind.send` the robots' messages (after it). Registered kinds
+(:data:`MESSAGE_KINDS`):
+
+``observation``
+    The paper's messages (``fusion``): a robot whose goal direction is blocked broadcasts its
+    compressed observation (every tick with ``comms.broadcast = "every_tick"``); receivers read
+    their inboxes when they decide (the fused P, :class:`~fftnav.navigation.decider.Decider`).
+``walls``
+    ``collab``'s messages: every :data:`~fftnav.navigation.collab.PERIOD_TICKS` ticks a robot
+    broadcasts the longest wall segments of its current scan; each packet is drawn into its
+    receiver's own map when it arrives (:meth:`fftnav.navigation.ownmap.OwnMaps.add_segments`).
+
+A new kind is a :class:`MessageKind` subclass registered with :func:`register_message_kind`.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from fftnav.navigation.collab import (
+    MAX_SEGMENTS_PER_MESSAGE,
+    PERIOD_TICKS,
+    decode_segments,
+    encode_segments,
+    scan_segments,
+)
+from fftnav.navigation.controllers import SwarmStep
+from fftnav.registry import Registry, first_line
+
+if TYPE_CHECKING:
+    from fftnav.navigation.bugcontrol import BugController
+
+__all__ = ["MESSAGE_KINDS", "MessageKind", "register_message_kind"]
+
+
+class MessageKind:
+    """What the robots of a policy broadcast; the default receives and sends nothing.
+
+    Attributes
+    ----------
+    name : str
+        The kind's registered name (``Policy(..., messages=name)``).
+    description : str
+        One line.
+    """
+
+    name: str = ""
+    description: str = ""
+
+    def receive(self, control: BugController, swarm: SwarmStep, present: np.ndarray) -> None:
+        """Read what arrived at this tick, before the planner decides (``present``: the robots
+        in the world)."""
+
+    def send(self, control: BugController, swarm: SwarmStep,
+             blocked: np.ndarray) -> dict[int, bytes]:
+        """The messages of the robots that broadcast this tick (robot -> bytes), after the
+        planner decided (``blocked``: whose goal direction was blocked, one per robot)."""
+        return {}
+
+    def __repr__(self) -> str:
+        return f"<message kind {self.name!r}>"
+
+
+#: The registered message kinds, by name (one instance each).
+MESSAGE_KINDS: Registry[MessageKind] = Registry("message kind", parameter="messages")
+
+
+def register_message_kind(name: str) -> Callable[[type[MessageKind]], type[MessageKind]]:
+    """Class decorator registering one instance of a :class:`MessageKind` subclass as ``name``."""
+
+    def wrap(cls: type[MessageKind]) -> type[MessageKind]:
+        kind = cls()
+        kind.name, kind.description = name, first_line(cls.__doc__)
+        MESSAGE_KINDS.add(name, kind)
+        return cls
+
+    return wrap
+
+
+@register_message_kind("observation")
+class Observations(MessageKind):
+    """The compressed observation (Sigma), from robots whose goal direction is blocked."""
+
+    def send(self, control: BugController, swarm: SwarmStep,
+             blocked: np.ndarray) -> dict[int, bytes]:
+        assert swarm.messages is not None  # the Bug controller runs the pipeline
+        every_tick = control.config.comms.broadcast == "every_tick"
+        return {i: swarm.messages[j] for j, i in enumerate(swarm.active.tolist())
+                if every_tick or blocked[i]}
+
+
+@register_message_kind("walls")
+class Walls(MessageKind):
+    """Wall segments fitted to the scan, every PERIOD_TICKS ticks, drawn into the receivers'
+    own maps."""
+
+    def receive(self, control: BugController, swarm: SwarmStep, present: np.ndarray) -> None:
+        maps = control.planner.maps
+        if maps is None:
+            return
+        for r in np.flatnonzero(present).tolist():
+            for pkt in swarm.arrived(r):
+                maps.add_segments(r, swarm.tick, decode_segments(pkt.payload))
+                control.heard[r] += 1
+
+    def send(self, control: BugController, swarm: SwarmStep,
+             blocked: np.ndarray) -> dict[int, bytes]:
+        """Robots take turns by index: robot i broadcasts at the ticks t with
+        (t + i) % PERIOD_TICKS == 0."""
+        outgoing: dict[int, bytes] = {}
+        for i in swarm.active.tolist():
+            if (swarm.tick + i) % PERIOD_TICKS:
+                continue
+            segments = scan_segments(swarm.poses[i], swarm.ranges_m[i], swarm.angles_rad,
+                                     range_m=control.config.sensor.range_m)
+            if len(segments):
+                outgoing[i] = encode_segments(segments[:MAX_SEGMENTS_PER_MESSAGE])
+        return outgoing
