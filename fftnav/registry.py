@@ -111,7 +111,7 @@ class Registry(dict[str, T]):
         and the closest of them (``also``: more names accepted in the same place, such as
         another registry's; ``forms``: other accepted forms, in words)."""
         names = [*self, *(n for n in also if n not in self)]
-        points = self.entry_point_names()
+        points = [p for p in self.entry_point_names() if p not in names]
         known = ", ".join(repr(n) for n in names)
         text = f"{self.parameter} must be a registered {self.kind} ({known})"
         if points:

@@ -59,6 +59,8 @@ def test_installed_entry_points_are_listed_and_suggested(monkeypatch):
     text = str(reg.unknown("my-planer"))
     assert "an installed entry point of group 'fftnav.policies' ('my-planner')" in text
     assert text.endswith("did you mean 'my-planner'?")
+    # a name accepted beside the registry (another registry's) is not listed again as a point
+    assert str(reg.unknown("x", also=("my-planner",))).count("my-planner") == 1
     assert Registry("shape").entry_point_names() == ()
 
 

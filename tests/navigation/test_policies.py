@@ -42,7 +42,7 @@ def test_a_policy_names_its_message_kind():
 
 
 def test_a_policy_name_is_registered_once():
-    with pytest.raises(ValueError, match="policy name 'fusion' is already registered"):
+    with pytest.raises(ValueError, match="policy 'fusion' is already registered"):
         register_policy("fusion")(lambda ctx: LEFT)
 
 
