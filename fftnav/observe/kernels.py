@@ -290,7 +290,7 @@ def finish(out: np.ndarray, reals: np.ndarray, ints: np.ndarray, valid: np.ndarr
     """:func:`_scan` of one scan: ``out`` ``(2, L)`` (y1, y2), ``mask`` ``(1, M)``; returns n,
     the extrema in the first n rows of ``sigma`` and ``is_min``. The scalars come packed, as
     :func:`finish_constants` packs them (fewer arguments to convert per call):
-    ``reals = [limit, eps, range_m, angle_scale, dist_scale]``, ``ints = [tau, circular,
+    ``reals = [limit, eps, range_m, angle_scale, dist_scale, ...]``, ``ints = [tau, circular,
     head]``."""
     return _scan(out, 0, 1, ints[0], reals[0], valid, ints[1] != 0, reals[1], angles, reals[2],
                  reals[3], reals[4], mask, 0, sigma, is_min, 0, message, ints[2], crc_table,

@@ -231,6 +231,15 @@ def test_without_rocket_fft_the_fft_runs_by_numpy_between_the_kernels(monkeypatc
         assert differences(fast, Pipeline(SIM_ROBOT, compiled=False, **kwargs), scans) == []
 
 
+def test_fft_lengths_with_large_prime_factors_give_numpys_results():
+    """274 = 2 x 137 beams in circular mode: an FFT length whose transforms may take another
+    route in rocket-fft than in numpy; whichever route the pipeline takes, its results are
+    numpy's."""
+    fast, slow = pair(mode="circular", beams=274)
+    assert fast.bank.fft_size == 274
+    assert differences(fast, slow, np.random.default_rng(9).uniform(0.1, 3.5, (3, 274))) == []
+
+
 @pytest.mark.skipif(not kernels.FFT_IN_KERNEL, reason="rocket-fft is not installed")
 def test_a_kernel_fft_that_differs_from_numpy_is_not_used(monkeypatch):
     """The pipeline checks its in-kernel FFT against the numpy path when it is built: an FFT
