@@ -110,9 +110,43 @@ def bench_pipeline(*, repeats: int = 2000, seed: int = 0, runs: int = 1) -> dict
     check_integer("repeats", repeats, low=1)
     check_integer("runs", runs, low=1)
     pipe = Pipeline(SIM_ROBOT)
+    scans = trunk_scans(np.random.default_rng(seed), BATCH)
+    groups, masks_agree = _alternatives(pipe, scans, seed)
+    with _one_cpu() as cpu:
+        us: dict[str, float] = {}
+        for _ in range(runs):
+            run = {name: t for fns in groups for name, t in _median_us(fns, repeats).items()}
+            us = {k: min(v, us.get(k, v)) for k, v in run.items()}
+    per_scan = {"batch15_us_per_scan": "batch", "batch15_with_p_s_us_per_scan": "batch_p_s",
+                "mask_fft_us_per_scan": "mask_fft", "mask_convolve_us_per_scan": "mask_convolve",
+                "mask_sliding_min_us_per_scan": "mask_sliding_min"}
+    return {
+        "single_us": round(us["single"], 2),
+        "single_numpy_us": round(us["single_numpy"], 2),
+        "single_all_fields_us": round(us["single_all_fields"], 2),
+        "compiled": pipe.compiled,
+        **{key: round(us[name] / BATCH, 2) for key, name in per_scan.items()},
+        "depth90x360_us": round(us["depth90x360"], 2),
+        "masks_agree": masks_agree,
+        "repeats": repeats,
+        "runs": runs,
+        "cpu": cpu,
+        "load_avg_1min": round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None,
+    }
+
+
+def _alternatives(pipe: Pipeline, scans: np.ndarray,
+                  seed: int) -> tuple[list[dict[str, Callable[[], object]]], bool]:
+    """The timed alternatives of :func:`bench_pipeline` in their three groups, and whether
+    the three ways to the safe mask agree on ``scans``.
+
+    Each group is timed round-robin within itself: one scan, batches of 15 scans, one 3D
+    image. A member of one group is not an alternative to a member of another, and its larger
+    working set (a batch's arrays and temporaries, the 3D image's megabytes of FFT work) would
+    evict the other's caches between two of its calls.
+    """
     reference = Pipeline(SIM_ROBOT, compiled=False)
     bank = pipe.bank
-    scans = trunk_scans(np.random.default_rng(seed), BATCH)
     box = bank.h1[bank.h1 > 0]  # the centred window of h1
 
     def mask_convolve() -> np.ndarray:
@@ -128,10 +162,6 @@ def bench_pipeline(*, repeats: int = 2000, seed: int = 0, runs: int = 1) -> dict
     masks = [pipe.safe_mask(scans), mask_convolve(), mask_sliding_min()]
     bank3d = DiscFilterBank(SphericalGrid(90, 360))  # the paper's drone, 90 x 360 deg, R = 10 m
     depth3d = np.random.default_rng(seed).uniform(0.5, 12.0, (90, 360))
-    # Timed in three groups, each round-robin within itself: one scan, batches of 15 scans,
-    # one 3D image. A member of one group is not an alternative to a member of another, and
-    # its larger working set (a batch's arrays and temporaries, the 3D image's megabytes of
-    # FFT work) would evict the other's caches between two of its calls.
     groups = [
         {
             "single": lambda: pipe.process(scans[0], with_p_s=False),
@@ -147,29 +177,7 @@ def bench_pipeline(*, repeats: int = 2000, seed: int = 0, runs: int = 1) -> dict
         },
         {"depth90x360": lambda: bank3d.safe_mask(depth3d)},
     ]
-    with _one_cpu() as cpu:
-        best: dict[str, float] = {}
-        for _ in range(runs):
-            us = {name: t for fns in groups for name, t in _median_us(fns, repeats).items()}
-            best = {k: min(v, best.get(k, v)) for k, v in us.items()}
-    us = best
-    return {
-        "single_us": round(us["single"], 2),
-        "single_numpy_us": round(us["single_numpy"], 2),
-        "single_all_fields_us": round(us["single_all_fields"], 2),
-        "compiled": pipe.compiled,
-        "batch15_us_per_scan": round(us["batch"] / BATCH, 2),
-        "batch15_with_p_s_us_per_scan": round(us["batch_p_s"] / BATCH, 2),
-        "mask_fft_us_per_scan": round(us["mask_fft"] / BATCH, 2),
-        "mask_convolve_us_per_scan": round(us["mask_convolve"] / BATCH, 2),
-        "mask_sliding_min_us_per_scan": round(us["mask_sliding_min"] / BATCH, 2),
-        "depth90x360_us": round(us["depth90x360"], 2),
-        "masks_agree": all(np.array_equal(masks[0], m) for m in masks[1:]),
-        "repeats": repeats,
-        "runs": runs,
-        "cpu": cpu,
-        "load_avg_1min": round(os.getloadavg()[0], 2) if hasattr(os, "getloadavg") else None,
-    }
+    return groups, all(np.array_equal(masks[0], m) for m in masks[1:])
 
 
 def format_pipeline(result: dict) -> str:

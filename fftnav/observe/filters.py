@@ -37,6 +37,35 @@ def _cutoff_3db(h: np.ndarray) -> float:
     return (k - 1 + (m0 - _MINUS_3DB) / (m0 - m1)) / n
 
 
+def _checked(geometry: RobotGeometry, beams: int, fov_rad: float, range_m: float, mode: str,
+             blind_rad: float | None) -> tuple[float, bool, float, int]:
+    """:class:`FilterBank`'s parameters checked: ``(increment_rad, full_circle, blind_rad,
+    Tc)``, the blind sector defaulted (15 degrees for a full circle, else 0)."""
+    if not isinstance(geometry, RobotGeometry):
+        raise ValueError(f"geometry must be a RobotGeometry, got geometry={geometry!r}")
+    inc = angle_increment_rad(beams, fov_rad)  # validates beams >= 2 and fov_rad
+    if not (math.isfinite(range_m) and range_m >= geometry.l_th_m):
+        raise ValueError(
+            f"range_m must be finite and >= l_th_m={geometry.l_th_m:.4g}, "
+            f"got range_m={range_m!r}"
+        )
+    check_choice("mode", mode, MODES)
+    full = is_full_circle(fov_rad)
+    if mode == "circular" and not full:
+        raise ValueError(
+            f"mode='circular' needs a full 360 degree field of view, got fov_rad={fov_rad!r}"
+        )
+    if blind_rad is None:
+        blind_rad = DEFAULT_BLIND_RAD if full else 0.0
+    if not (check_number("blind_rad", blind_rad, low=0) < fov_rad):
+        raise ValueError(f"blind_rad must be < fov_rad={fov_rad!r}, "
+                         f"got blind_rad={blind_rad!r}")
+    tc = math.ceil(geometry.alpha_rad / inc - 1e-9)
+    if beams < tc:
+        raise ValueError(f"beams must be an integer >= Tc={tc}, got beams={beams}")
+    return inc, full, blind_rad, tc
+
+
 class FilterBank:
     """Filters h1 (safe directions, eq. (h1)) and h2 (dimension reduction, eq. (h2)).
 
@@ -100,30 +129,7 @@ class FilterBank:
         mode: str = "linear",
         blind_rad: float | None = None,
     ) -> None:
-        if not isinstance(geometry, RobotGeometry):
-            raise ValueError(f"geometry must be a RobotGeometry, got geometry={geometry!r}")
-        inc = angle_increment_rad(beams, fov_rad)  # validates beams >= 2 and fov_rad
-        if not (math.isfinite(range_m) and range_m >= geometry.l_th_m):
-            raise ValueError(
-                f"range_m must be finite and >= l_th_m={geometry.l_th_m:.4g}, "
-                f"got range_m={range_m!r}"
-            )
-        check_choice("mode", mode, MODES)
-        full = is_full_circle(fov_rad)
-        if mode == "circular" and not full:
-            raise ValueError(
-                f"mode='circular' needs a full 360 degree field of view, got fov_rad={fov_rad!r}"
-            )
-        if blind_rad is None:
-            blind_rad = DEFAULT_BLIND_RAD if full else 0.0
-        if not (check_number("blind_rad", blind_rad, low=0) < fov_rad):
-            raise ValueError(f"blind_rad must be < fov_rad={fov_rad!r}, "
-                             f"got blind_rad={blind_rad!r}")
-        alpha = geometry.alpha_rad
-        tc = math.ceil(alpha / inc - 1e-9)
-        if beams < tc:
-            raise ValueError(f"beams must be an integer >= Tc={tc}, got beams={beams}")
-
+        inc, full, blind_rad, tc = _checked(geometry, beams, fov_rad, range_m, mode, blind_rad)
         self.geometry, self.beams, self.fov_rad, self.range_m = (
             geometry,
             int(beams),
@@ -132,15 +138,20 @@ class FilterBank:
         )
         self.mode, self.blind_rad, self.full_circle = mode, float(blind_rad), full
         self.increment_rad = inc
-        self.f0 = fov_rad / alpha
-        self.fc = inc / alpha
+        self.f0 = fov_rad / geometry.alpha_rad
+        self.fc = inc / geometry.alpha_rad
         self.tc = tc
         self.window_beams = tc if tc % 2 else tc + 1
         self.threshold = geometry.l_th_m / range_m
         n = beams + 1 if beams % 2 == 0 else beams
         self.n1 = self.n2 = n
         self.tau = (n - 1) // 2
+        self._design_filters()
+        self._repeated: dict[int, np.ndarray] = {}
 
+    def _design_filters(self) -> None:
+        """h1, h2, their measured cutoffs, the FFT lengths and the stored spectra."""
+        n, beams = self.n1, self.beams
         h1 = np.zeros(n)
         half = self.window_beams // 2
         h1[self.tau - half : self.tau + half + 1] = 1.0 / self.window_beams
@@ -151,7 +162,7 @@ class FilterBank:
         self.cutoff_3db_h2 = _cutoff_3db(self.h2)
 
         kernels = np.stack([self.h1, self.h2])
-        if mode == "linear":
+        if self.mode == "linear":
             need = max(2 * max(beams, n), beams + n - 1)
             self.n0 = 1 << need.bit_length()  # smallest power of two > need
             # the aligned slice [tau, tau + M) of a circular convolution of length L equals the
@@ -163,7 +174,6 @@ class FilterBank:
             folded = np.zeros((2, beams))
             np.add.at(folded, (slice(None), k % beams), kernels)
             self._spectra = scipy.fft.rfft(folded, beams, axis=1)
-        self._repeated: dict[int, np.ndarray] = {}
         self.H1, self.H2 = scipy.fft.rfft(kernels, self.n0, axis=1)
 
     def __repr__(self) -> str:

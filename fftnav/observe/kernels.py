@@ -3,36 +3,53 @@
 One scan through :meth:`fftnav.observe.pipeline.Pipeline.process` costs about 45 numpy calls on
 360-element arrays, each with its fixed dispatch cost; the arithmetic itself is a few
 microseconds. The compiled paths (one scan, and a batch of K scans) keep the paper's FFT
-formulation and pocketfft (the reference filtering, bit for bit) and replace everything before
-and after it by two compiled loops:
+formulation and pocketfft's algorithms (the reference filtering, bit for bit) and run the whole
+scan in one compiled call, :func:`scan` (one scan) or :func:`scan_batch` (K scans):
 
 - :func:`prepare` / :func:`prepare_batch`: sanitise and normalise the ranges and write the
   clipped rows (for h1) and the raw rows (for h2) into the zero-padded FFT input, exactly as
   :meth:`fftnav.observe.filters.FilterBank.filter_ranges` does;
+- :func:`filter_rows`: the real FFT, the product with the stored spectra and the inverse FFT,
+  by rocket-fft's public low-level transforms (``numpy.fft`` / ``scipy.fft`` for numba, built
+  on DUCC0, pocketfft's successor) and the complex product as numpy computes it
+  (:func:`complex_product`);
 - :func:`finish` / :func:`finish_batch`: the safe mask ``y1 >= limit`` (``limit = l_th/R -
   tolerance``, computed by the caller, :func:`fftnav.observe.safe.safe_mask`'s test), the
   extrema of y2 exactly as :func:`fftnav.observe.compress.find_extrema_flat` (same slopes, same
   plateau rule, same clipping of distances) and the whole compact message (header, payload
   words, CRC-16), as :func:`fftnav.observe.codec.encode_sigma` writes it.
 
+Without rocket-fft (:data:`FFT_IN_KERNEL` False) :func:`scan_numpy_fft` and
+:func:`scan_batch_numpy_fft` run the same steps with the FFT by ``numpy.fft`` between two
+compiled calls.
+
 :func:`entry` returns a kernel's compiled entry point for the one signature the pipeline uses,
-which skips numba's per-call type dispatch (about half a microsecond per call with 17
+which skips numba's per-call type dispatch (about half a microsecond per call with 16
 arguments); the pipeline gets its kernels through it once, when it is built.
+
+Every kernel caches its machine code on disk (``cache=True``): only the first run after an
+install compiles (numba writes beside this file, or in its user cache directory where the
+package folder is read-only, see docs/pipeline.md).
 
 Every operation is the same IEEE double operation as in the numpy path, in the same order, so
 masks, y1, y2, extrema and messages are bit-identical (``tests/observe/test_kernels.py`` checks it
-on random scans and batches and on every scan of the four Radish logs). Without numba,
-:data:`AVAILABLE` is False and the pipeline uses its numpy path.
+on random scans and batches and on every scan of the four Radish logs; the pipeline checks it
+on probe scans when it is built). Without numba, :data:`AVAILABLE` is False and the pipeline uses
+its numpy path.
 """
 
 from __future__ import annotations
 
 import binascii
+import math
+from fractions import Fraction
 
 import numpy as np
 
-__all__ = ["AVAILABLE", "CRC_TABLE", "crc_heads", "entry", "finish", "finish_batch",
-           "finish_constants", "nearest_safe_beams", "prepare", "prepare_batch"]
+__all__ = ["AVAILABLE", "CRC_TABLE", "FFT_IN_KERNEL", "complex_product", "crc_heads", "entry",
+           "filter_rows", "finish", "finish_batch", "finish_constants", "nearest_safe_beams",
+           "prepare", "prepare_batch", "scan", "scan_batch", "scan_batch_numpy_fft",
+           "scan_numpy_fft"]
 
 try:  # optional dependency: pip install fftnav[fast]
     from numba import njit, types
@@ -45,6 +62,16 @@ except ImportError:  # pragma: no cover - exercised where numba is missing
         return args[0] if args and callable(args[0]) else (lambda fn: fn)
 else:
     AVAILABLE = True
+
+try:  # optional dependency of the extra ``fast``: the FFT inside the compiled kernels
+    import rocket_fft
+except ImportError:  # pragma: no cover - exercised where rocket-fft is missing
+    rocket_fft = None
+
+#: The compiled kernels run the FFT themselves (numba and rocket-fft installed).
+FFT_IN_KERNEL = AVAILABLE and rocket_fft is not None
+#: rocket-fft's ``axes`` argument: transform along axis 1 of ``(rows, L)`` arrays.
+_ROW_AXIS = np.array([1], dtype=np.int64)
 
 
 def _crc_table() -> np.ndarray:
@@ -74,8 +101,13 @@ def crc_heads(head: int) -> np.ndarray:
 
 def _signatures() -> dict[str, tuple]:
     """The one signature of each kernel in the pipeline (C-contiguous arrays)."""
-    f8, i8, b1, u1 = types.float64, types.int64, types.boolean, types.uint8
+    f8, i8, b1, u1, c16 = types.float64, types.int64, types.boolean, types.uint8, types.complex128
     return {
+        "scan": (f8[:, ::1], c16[:, ::1], c16[:, ::1], b1, f8[::1], i8[::1], b1[::1], f8[::1],
+                 u1[::1], i8[::1], i8[::1], f8[::1], f8[:, ::1], b1[:, ::1], f8[:, ::1], b1[::1]),
+        "scan_batch": (c16[:, ::1], b1, f8[::1], i8[::1], b1[::1], f8[::1], i8[::1], i8[::1],
+                       f8[:, ::1], f8[:, ::1], c16[:, ::1], f8[:, ::1], b1[:, ::1], f8[:, ::1],
+                       b1[::1], i8[::1], u1[:, ::1]),
         "prepare": (f8[::1], f8, f8, f8[:, ::1]),
         "finish": (f8[:, ::1], f8[::1], i8[::1], b1[::1], f8[::1], b1[:, ::1], f8[:, ::1],
                    b1[::1], u1[::1], i8[::1], i8[::1]),
@@ -86,8 +118,8 @@ def _signatures() -> dict[str, tuple]:
 
 
 def entry(name: str):
-    """The kernel ``name`` (``"prepare"``, ``"finish"``, ``"prepare_batch"`` or
-    ``"finish_batch"``) as the pipeline calls it: numba's
+    """The kernel ``name`` (``"scan"``, ``"scan_batch"``, ``"prepare"``, ``"finish"``,
+    ``"prepare_batch"`` or ``"finish_batch"``) as the pipeline calls it: numba's
     compiled entry point for the pipeline's argument types (loaded from numba's cache after
     the first run), or the function itself when it is plain Python (no numba, or a test's
     replacement). The entry point does no type dispatch: the caller passes exactly the types
@@ -258,7 +290,7 @@ def finish(out: np.ndarray, reals: np.ndarray, ints: np.ndarray, valid: np.ndarr
     """:func:`_scan` of one scan: ``out`` ``(2, L)`` (y1, y2), ``mask`` ``(1, M)``; returns n,
     the extrema in the first n rows of ``sigma`` and ``is_min``. The scalars come packed, as
     :func:`finish_constants` packs them (fewer arguments to convert per call):
-    ``reals = [limit, eps, range_m, angle_scale, dist_scale]``, ``ints = [tau, circular,
+    ``reals = [limit, eps, range_m, angle_scale, dist_scale, ...]``, ``ints = [tau, circular,
     head]``."""
     return _scan(out, 0, 1, ints[0], reals[0], valid, ints[1] != 0, reals[1], angles, reals[2],
                  reals[3], reals[4], mask, 0, sigma, is_min, 0, message, ints[2], crc_table,
@@ -266,12 +298,13 @@ def finish(out: np.ndarray, reals: np.ndarray, ints: np.ndarray, valid: np.ndarr
 
 
 def finish_constants(tau: int, limit: float, circular: bool, eps: float, range_m: float,
-                     angle_scale: float, dist_scale: float,
-                     head: int) -> tuple[np.ndarray, np.ndarray]:
-    """``(reals, ints)``, the scalar arguments of :func:`finish` packed (read-only arrays):
-    ``reals = [limit, eps, range_m, angle_scale, dist_scale]``, ``ints = [tau, circular,
-    head]``."""
-    reals = np.array([limit, eps, range_m, angle_scale, dist_scale], dtype=np.float64)
+                     angle_scale: float, dist_scale: float, head: int,
+                     threshold: float) -> tuple[np.ndarray, np.ndarray]:
+    """``(reals, ints)``, the scalar arguments of :func:`finish` and :func:`scan` packed
+    (read-only arrays): ``reals = [limit, eps, range_m, angle_scale, dist_scale, threshold]``,
+    ``ints = [tau, circular, head]``."""
+    reals = np.array([limit, eps, range_m, angle_scale, dist_scale, threshold],
+                     dtype=np.float64)
     ints = np.array([tau, int(circular), head], dtype=np.int64)
     for a in (reals, ints):
         a.flags.writeable = False
@@ -296,6 +329,129 @@ def finish_batch(out: np.ndarray, tau: int, limit: float, valid: np.ndarray, cir
                   crc_heads)
         offsets[i + 1] = offsets[i] + n
     return offsets[k]
+
+
+if AVAILABLE:
+    from llvmlite import ir
+    from numba.extending import intrinsic
+
+    @intrinsic
+    def _fma(typingctx, a, b, c):
+        """``a * b + c`` rounded once (LLVM's ``llvm.fma.f64``: the CPU's fused multiply-add,
+        or its exact emulation where there is none)."""
+        f8, double = types.float64, ir.DoubleType()
+
+        def codegen(context, builder, signature, args):
+            fma = builder.module.declare_intrinsic("llvm.fma", [double],
+                                                   ir.FunctionType(double, [double] * 3))
+            return builder.call(fma, args)
+
+        return f8(f8, f8, f8), codegen
+else:  # pragma: no cover - exercised where numba is missing
+
+    def _fma(a: float, b: float, c: float) -> float:
+        """``a * b + c`` rounded once (exact rational arithmetic, then one rounding)."""
+        if not all(map(math.isfinite, (a, b, c))):
+            return a * b + c
+        return float(Fraction(a) * Fraction(b) + Fraction(c))
+
+
+@njit(cache=True, nogil=True)
+def complex_product(a: complex, b: complex, fused: bool) -> complex:
+    """``a * b`` as numpy's ``multiply`` loop computes it: ``(ar br - ai bi) + i (ar bi + ai
+    br)``, each part with one rounding (``fma(ar, br, -(ai bi))`` and ``fma(ar, bi, ai br)``,
+    numpy's SIMD loop where the CPU has fused multiply-add) if ``fused``, else with every
+    product rounded (numpy's loop without it). The pipeline checks which one equals numpy's
+    on its machine when it is built."""
+    ar, ai, br, bi = a.real, a.imag, b.real, b.imag
+    if fused:
+        return complex(_fma(ar, br, -(ai * bi)), _fma(ar, bi, ai * br))
+    return complex(ar * br - ai * bi, ar * bi + ai * br)
+
+
+@njit(cache=True, nogil=True)
+def filter_rows(work: np.ndarray, spec: np.ndarray, spectra: np.ndarray, k: int, fused: bool,
+                out: np.ndarray) -> None:
+    """``out = irfft(rfft(work) * H)`` row by row, as
+    :meth:`~fftnav.observe.filters.FilterBank.filter_ranges` filters: ``work`` and ``out``
+    ``(2 K, L)``, ``spec`` ``(2 K, L // 2 + 1)`` (a workspace), rows ``0..K-1`` multiplied by
+    ``spectra[0]`` (H1) and rows ``K..2K-1`` by ``spectra[1]`` (H2) (:func:`complex_product`);
+    the inverse scaled by ``1 / L``, as ``numpy.fft.irfft``."""
+    rocket_fft.r2c(work, spec, _ROW_AXIS, True, 1.0, 1)
+    for i in range(spec.shape[0]):
+        h = i // k
+        for j in range(spec.shape[1]):
+            spec[i, j] = complex_product(spec[i, j], spectra[h, j], fused)
+    rocket_fft.c2r(spec, out, _ROW_AXIS, False, 1.0 / out.shape[1], 1)
+
+
+@njit(cache=True, nogil=True)
+def scan(work: np.ndarray, spec: np.ndarray, spectra: np.ndarray, fused: bool,
+         reals: np.ndarray, ints: np.ndarray, valid: np.ndarray, angles: np.ndarray,
+         message: np.ndarray, crc_table: np.ndarray, crc_heads: np.ndarray, ranges: np.ndarray,
+         out: np.ndarray, mask: np.ndarray, sigma: np.ndarray, is_min: np.ndarray) -> int:
+    """One scan ``ranges`` ``(M,)``, whole: :func:`_prepare_row` into ``work`` ``(2, L)``,
+    :func:`filter_rows` into ``out`` ``(2, L)`` (y1, y2 from column tau), :func:`_scan` into
+    ``mask`` ``(1, M)``, ``sigma``, ``is_min`` and ``message``; returns n, the number of
+    extrema. The constants come first (the pipeline binds them once) and packed as
+    :func:`finish_constants` packs them."""
+    _prepare_row(ranges, reals[2], reals[5], work, 0, 1)
+    filter_rows(work, spec, spectra, 1, fused, out)
+    return _scan(out, 0, 1, ints[0], reals[0], valid, ints[1] != 0, reals[1], angles, reals[2],
+                 reals[3], reals[4], mask, 0, sigma, is_min, 0, message, ints[2], crc_table,
+                 crc_heads)
+
+
+@njit(cache=True, nogil=True)
+def scan_batch(spectra: np.ndarray, fused: bool, reals: np.ndarray, ints: np.ndarray,
+               valid: np.ndarray, angles: np.ndarray, crc_table: np.ndarray,
+               crc_heads: np.ndarray, ranges: np.ndarray, work: np.ndarray, spec: np.ndarray,
+               out: np.ndarray, mask: np.ndarray, sigma: np.ndarray, is_min: np.ndarray,
+               offsets: np.ndarray, messages: np.ndarray) -> int:
+    """K scans ``ranges`` ``(K, M)``, whole: :func:`prepare_batch` into ``work`` ``(2 K, L)``
+    (zero from column M), :func:`filter_rows` into ``out``, :func:`finish_batch` into the
+    rest; returns the total number of extrema."""
+    prepare_batch(ranges, reals[2], reals[5], work)
+    filter_rows(work, spec, spectra, ranges.shape[0], fused, out)
+    return finish_batch(out, ints[0], reals[0], valid, ints[1] != 0, reals[1], angles,
+                        reals[2], reals[3], reals[4], mask, sigma, is_min, offsets, messages,
+                        ints[2], crc_table, crc_heads)
+
+
+def _numpy_filter(work: np.ndarray, spectra: np.ndarray, out: np.ndarray) -> None:
+    """:func:`filter_rows` by ``numpy.fft``, ``spectra`` already one row per row of ``work``
+    (the calls of :meth:`~fftnav.observe.filters.FilterBank.filter_ranges`)."""
+    spec = np.fft.rfft(work, axis=1)
+    spec *= spectra
+    out[...] = np.fft.irfft(spec, out.shape[1], axis=1)
+
+
+def scan_numpy_fft(work: np.ndarray, spec: np.ndarray, spectra: np.ndarray, fused: bool,
+                   reals: np.ndarray, ints: np.ndarray, valid: np.ndarray, angles: np.ndarray,
+                   message: np.ndarray, crc_table: np.ndarray, crc_heads: np.ndarray,
+                   ranges: np.ndarray, out: np.ndarray, mask: np.ndarray, sigma: np.ndarray,
+                   is_min: np.ndarray) -> int:
+    """:func:`scan` with the FFT by ``numpy.fft`` between the compiled :func:`prepare` and
+    :func:`finish` (without rocket-fft); ``spec`` and ``fused`` are unused."""
+    prepare(ranges, reals[2], reals[5], work)
+    _numpy_filter(work, spectra, out)
+    return finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, crc_table,
+                  crc_heads)
+
+
+def scan_batch_numpy_fft(spectra: np.ndarray, fused: bool, reals: np.ndarray, ints: np.ndarray,
+                         valid: np.ndarray, angles: np.ndarray, crc_table: np.ndarray,
+                         crc_heads: np.ndarray, ranges: np.ndarray, work: np.ndarray,
+                         spec: np.ndarray, out: np.ndarray, mask: np.ndarray,
+                         sigma: np.ndarray, is_min: np.ndarray, offsets: np.ndarray,
+                         messages: np.ndarray) -> int:
+    """:func:`scan_batch` with the FFT by ``numpy.fft`` (without rocket-fft); ``spec`` and
+    ``fused`` are unused."""
+    prepare_batch(ranges, reals[2], reals[5], work)
+    _numpy_filter(work, np.repeat(spectra, ranges.shape[0], axis=0), out)
+    return finish_batch(out, int(ints[0]), reals[0], valid, bool(ints[1]), reals[1], angles,
+                        reals[2], reals[3], reals[4], mask, sigma, is_min, offsets, messages,
+                        int(ints[2]), crc_table, crc_heads)
 
 
 @njit(cache=True, nogil=True)

@@ -13,8 +13,8 @@ from __future__ import annotations
 import math
 from collections.abc import Callable
 from dataclasses import dataclass
-from functools import cached_property
-from types import MethodType
+from functools import partial
+from typing import Any
 
 import numpy as np
 
@@ -28,24 +28,14 @@ from fftnav.observe.safe import nearest_safe_headings, safe_mask, safe_tolerance
 from fftnav.observe.scan import as_scan_batch, beam_angles_rad, sanitize_ranges
 from fftnav.validate import check_choice
 
-# The single-scan path calls pocketfft through scipy's binding, without the Python wrappers of
-# numpy.fft / scipy.fft (a few microseconds per call), else numpy.fft itself. Both run
-# pocketfft; that the results equal numpy.fft's bit for bit is tested
-# (tests/observe/test_kernels.py).
-try:
-    from scipy.fft._pocketfft import pypocketfft as _pp
-except ImportError:  # pragma: no cover - other scipy layouts
-    _pp = None
-
 __all__ = ["Pipeline", "PipelineResult", "safe_limit"]
 
-#: pypocketfft's axes argument: transform along axis 1 of (2, L) arrays.
-_AXIS = (1,)
 #: The dtype of the scans the single-scan path takes as they are (native float64).
 _FLOAT64 = np.dtype(np.float64)
 _BOOL = np.dtype(bool)
 _CONTIGUOUS = (_FLOAT64.itemsize,)  # strides of a C-contiguous scan (M,)
-#: The layout byte of compact messages, which the compiled kernel writes...
+_NDARRAY, _EMPTY, _NEW = np.ndarray, np.empty, object.__new__
+#: The layout byte of compact messages, which the compiled kernels write...
 _COMPACT_HEAD = LAYOUTS["compact"]
 #: ... and the payload-free parts of their CRCs.
 _CRC_HEADS = kernels.crc_heads(_COMPACT_HEAD)
@@ -77,6 +67,23 @@ def safe_limit(threshold: float) -> float:
     ``y1 >= threshold - tolerance``, for the compiled single-scan path (one place to change if
     the tolerance does)."""
     return threshold - safe_tolerance(threshold)
+
+
+class _made_once:  # noqa: N801 - used as a decorator, like functools.cached_property
+    """A field made on first access and kept in the instance's ``__dict__`` (which then
+    shadows this non-data descriptor): :func:`functools.cached_property` without its lock,
+    which costs about half a microsecond per access on Python 3.11 (results are not shared
+    between threads while their fields are made). The one lazy-field descriptor of results."""
+
+    def __init__(self, make: Callable[[PipelineResult], Any]) -> None:
+        self.make, self.name = make, make.__name__
+        self.__doc__ = make.__doc__
+
+    def __get__(self, obj: PipelineResult | None, owner: type | None = None):
+        if obj is None:
+            return self
+        value = obj.__dict__[self.name] = self.make(obj)
+        return value
 
 
 @dataclass(frozen=True)
@@ -125,11 +132,11 @@ class PipelineResult:
     x0: np.ndarray
     p_s: np.ndarray
 
-    @cached_property
+    @_made_once
     def sigma(self) -> list[np.ndarray]:
         return [self.sigma_flat[a:z] for a, z in self._spans]
 
-    @cached_property
+    @_made_once
     def is_min(self) -> list[np.ndarray]:
         return [self.is_min_flat[a:z] for a, z in self._spans]
 
@@ -137,23 +144,6 @@ class PipelineResult:
     def _spans(self) -> list[tuple[int, int]]:
         bounds = self.offsets.tolist()
         return list(zip(bounds[:-1], bounds[1:], strict=True))
-
-
-class _made_once:  # noqa: N801 - used as a decorator, like functools.cached_property
-    """A field made on first access and kept in the instance's ``__dict__`` (which then
-    shadows this non-data descriptor): :func:`functools.cached_property` without its lock,
-    which costs about half a microsecond per access on Python 3.11 (one-scan results are not
-    shared between threads while they are made)."""
-
-    def __init__(self, make: Callable[[_OneScanResult], np.ndarray]) -> None:
-        self.make, self.name = make, make.__name__
-        self.__doc__ = make.__doc__
-
-    def __get__(self, obj: _OneScanResult | None, owner: type | None = None):
-        if obj is None:
-            return self
-        value = obj.__dict__[self.name] = self.make(obj)
-        return value
 
 
 class _OneScanResult(PipelineResult):
@@ -188,42 +178,72 @@ class _OneScanResult(PipelineResult):
         return self._filtered[1:2, self._tau : self._tau + self.safe_mask.shape[1]]
 
 
-# A compiled pipeline's ``process`` (bound to it at construction, see Pipeline.process): the
-# single-scan path inline for a native float64 C-contiguous scan (M,) without P_s, one Python
-# call less than the method; anything else goes to the method's general path. A module-level
-# function bound as a method, so that ``pipe.process`` pickles (by pickle and cloudpickle) with
-# its pipeline, as the method does. Its docstring is the method's (set below the class).
-def _process_scan(self: Pipeline, ranges: np.ndarray, *,
-                  with_p_s: bool = True) -> PipelineResult:
-    (any_scan, process_one, m, prepare, range_m, threshold, work, spec, spectra, size,
-     mask_shape, sigma_shape, finish, reals, ints, valid, angles, message, view, compact,
-     layout, tau) = self._scan_state
-    # strides (8,) means one dimension, contiguous
-    if (type(ranges) is not _NDARRAY or ranges.strides != _CONTIGUOUS or len(ranges) != m
-            or ranges.dtype is not _FLOAT64):
-        return any_scan(ranges, with_p_s)
-    if with_p_s:
-        return process_one(ranges, True)
-    prepare(ranges, range_m, threshold, work)
-    _R2C(work, _AXIS, True, 0, spec, 1)
-    _MULTIPLY(spec, spectra, spec)
-    out = _C2R(spec, _AXIS, size, False, 2, None, 1)  # inorm=2: 1/n, as numpy.fft.irfft
-    mask, sigma, is_min = _EMPTY(mask_shape, _BOOL), _EMPTY(sigma_shape), _EMPTY(m, _BOOL)
-    n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, _CRC_TABLE,
-               _CRC_HEADS)
-    if compact and n <= 255:
-        msgs = [view[: 3 * n + 4].tobytes()]
-    else:  # float32 layout, or too many extrema (pack_messages raises)
-        msgs = pack_messages(sigma[:n], is_min[:n], [n], layout=layout, range_m=range_m)
-    result = _NEW(_OneScanResult)  # the fields set directly: no dataclass __init__
-    result.__dict__.update(safe_mask=mask, messages=msgs, _filtered=out, _tau=tau,
-                           _sigma=sigma, _is_min=is_min, _n=n)
-    return result
+class _Workspaces:
+    """The compiled paths' state, made per pipeline: its buffers, its constants and its kernels
+    with the constants bound (so that a scan reads few attributes).
+
+    Attributes
+    ----------
+    m, size, tau, width : int
+        Beams M, FFT length L, group delay (0 in circular mode), and the width of the row
+        searched for extrema (M, or M + 2 in circular mode).
+    compact : bool
+        Compact message layout (written by the kernel itself).
+    out_shape, mask_shape, sigma_shape : tuple
+        Shapes of one scan's fresh outputs: ``(2, L)``, ``(1, M)``, ``(M, 2)``.
+    message, view : ndarray of uint8 and its memoryview
+        The message buffer of one scan (sliced and copied to bytes through the view, faster
+        than through the array).
+    run : callable
+        ``run(ranges, out, mask, sigma, is_min) -> n``: :func:`fftnav.observe.kernels.scan`
+        (or :func:`~fftnav.observe.kernels.scan_numpy_fft`) with its constants and one-scan
+        workspaces bound.
+    run_batch : callable
+        ``run_batch(ranges, work, spec, out, mask, sigma, is_min, offsets, messages) -> N``:
+        :func:`~fftnav.observe.kernels.scan_batch` (or its numpy-FFT twin), constants bound.
+    fft_in_kernel : bool
+        Whether the kernels run the FFT themselves (else ``numpy.fft`` between two calls).
+    """
+
+    __slots__ = ("m", "size", "tau", "width", "compact", "out_shape", "mask_shape",
+                 "sigma_shape", "message", "view", "run", "run_batch", "fft_in_kernel")
+
+    def __init__(self, pipe: Pipeline, fft_in_kernel: bool, fused: bool) -> None:
+        b, linear = pipe.bank, pipe.bank.mode == "linear"
+        m, self.size = b.beams, b.fft_size
+        self.m, self.tau, self.width = m, b.tau if linear else 0, m if linear else m + 2
+        self.compact, self.fft_in_kernel = pipe.layout == "compact", fft_in_kernel
+        self.out_shape, self.mask_shape, self.sigma_shape = (2, self.size), (1, m), (m, 2)
+        # head, n, 3 bytes per extremum, CRC: a message of at most width extrema
+        self.message = np.empty(3 * self.width + 4, dtype=np.uint8)
+        self.view = memoryview(self.message)
+        valid = np.zeros(self.width, bool)  # columns that may hold an extremum
+        inner = pipe.angles_rad[1:-1] if linear else pipe.angles_rad
+        np.less_equal(np.abs(inner), math.pi - b.blind_rad / 2.0, out=valid[1:-1])
+        reals, ints = kernels.finish_constants(
+            self.tau, safe_limit(b.threshold), not linear, EXTREMUM_EPS, b.range_m,
+            *codec_scales(b.range_m), _COMPACT_HEAD, b.threshold)
+        if fft_in_kernel:
+            scan, scan_batch = kernels.entry("scan"), kernels.entry("scan_batch")
+        else:
+            scan, scan_batch = kernels.scan_numpy_fft, kernels.scan_batch_numpy_fft
+        work = np.zeros((2, self.size))  # columns M.. stay 0: the zero padding
+        spec = np.empty((2, self.size // 2 + 1), dtype=complex)
+        constants = (reals, ints, valid, pipe.angles_rad)
+        self.run = partial(scan, work, spec, b._spectra, fused, *constants, self.message,
+                           kernels.CRC_TABLE, _CRC_HEADS)
+        self.run_batch = partial(scan_batch, b._spectra, fused, *constants, kernels.CRC_TABLE,
+                                 _CRC_HEADS)
 
 
-_NDARRAY, _EMPTY, _MULTIPLY, _NEW = np.ndarray, np.empty, np.multiply, object.__new__
-_R2C, _C2R = (_pp.r2c, _pp.c2r) if _pp is not None else (None, None)
-_CRC_TABLE = kernels.CRC_TABLE
+def _probe_scans(beams: int, range_m: float) -> np.ndarray:
+    """Two deterministic scans ``(2, M)`` with open, blocked, invalid and arbitrary readings, on
+    which the compiled paths must reproduce the numpy path bit for bit."""
+    i = np.arange(beams)
+    scans = range_m * np.stack([0.55 + 0.5 * np.sin(0.137 * i) * np.cos(0.0311 * i),
+                                0.6 + 0.45 * np.cos(0.071 * i + 0.3)])
+    scans[0, 3:7], scans[1, beams // 2], scans[1, -3:] = np.inf, np.nan, -1.0
+    return scans
 
 
 class Pipeline:
@@ -278,18 +298,42 @@ class Pipeline:
             self._install_compiled_paths()
 
     def _install_compiled_paths(self) -> None:
-        """Build the compiled paths; make the instance's ``process`` :func:`_process_scan`
-        bound to this pipeline, unless a subclass overrides :meth:`process`."""
-        self._process_one, self._process_many, self._scan_state = self._compiled_paths()
-        if type(self).process is Pipeline.process and _pp is not None:
-            self.process = MethodType(_process_scan, self)
+        """Make the compiled paths' :class:`_Workspaces`: with the FFT inside the kernels if
+        they reproduce the numpy path bit for bit on :func:`_probe_scans` (with the complex
+        product fused or not, whichever numpy computes on this machine), else with
+        ``numpy.fft`` between the compiled steps."""
+        if kernels.FFT_IN_KERNEL:
+            for fused in (True, False):
+                self._w = _Workspaces(self, True, fused)
+                if self._reproduces_numpy_path():
+                    return
+        self._w = _Workspaces(self, False, False)
+
+    def _reproduces_numpy_path(self) -> bool:
+        """Whether the compiled paths, one scan and a batch, give the numpy path's masks,
+        filter outputs and messages bit for bit on :func:`_probe_scans`."""
+        scans = _probe_scans(self.bank.beams, self.bank.range_m)
+        expected = self._process_numpy(scans, False)
+        batch = self._process_many(scans, False)
+        ones = [self._process_one(scan, False) for scan in scans]
+        return (batch.messages == expected.messages
+                and [one.messages[0] for one in ones] == expected.messages
+                and all(np.array_equal(getattr(batch, name), getattr(expected, name))
+                        and np.array_equal(np.concatenate([getattr(one, name) for one in ones]),
+                                           getattr(expected, name))
+                        for name in ("safe_mask", "y1", "y2")))
+
+    @property
+    def fft_in_kernel(self) -> bool:
+        """Whether this pipeline's compiled kernels run the FFT themselves (rocket-fft installed
+        and bit-identical to ``numpy.fft`` here); False for the numpy path."""
+        return self.compiled and self._w.fft_in_kernel
 
     def __getstate__(self) -> dict:
-        """Pickled and copied without the compiled paths' closures (rebuilt on arrival, with
-        workspaces of their own)."""
+        """Pickled and copied without the compiled paths' workspaces (rebuilt on arrival, its
+        own)."""
         state = self.__dict__.copy()
-        for name in ("_process_one", "_process_many", "_scan_state", "process"):
-            state.pop(name, None)
+        state.pop("_w", None)
         return state
 
     def __setstate__(self, state: dict) -> None:
@@ -314,25 +358,26 @@ class Pipeline:
 
         Readings are sanitised first (``+inf`` and ``>= R``: open, NaN and negative: blocked);
         the input is not modified. ``with_p_s=False`` skips the quadrant areas and P_s (NaN).
-        (A compiled pipeline's ``process`` is a module-level function with this signature,
-        bound to the pipeline when it is made, which takes one native float64 C-contiguous scan
-        ``(M,)`` itself and hands everything else to this method's general path; a subclass
-        that overrides ``process`` keeps its own, and a replacement of ``Pipeline.process``
-        reaches pipelines made after it.)
+        A compiled pipeline takes one native float64 C-contiguous scan ``(M,)`` straight to
+        its single-scan path, one compiled call; anything else is checked and converted first.
         """
-        if (type(ranges) is np.ndarray and ranges.shape == self._one_scan
+        if (type(ranges) is _NDARRAY and ranges.shape == self._one_scan
                 and ranges.dtype is _FLOAT64 and ranges.strides == _CONTIGUOUS):
             return self._process_one(ranges, with_p_s)  # one scan, nothing to convert or check
         return self._process_any(ranges, with_p_s)
 
     def _process_any(self, ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
         """:meth:`process` of anything but a native float64 C-contiguous scan ``(M,)``."""
-        b = self.bank
-        batch = as_scan_batch(ranges, beams=b.beams)[0]
-        if self.compiled and batch.shape[0] == 1:
+        batch = as_scan_batch(ranges, beams=self.bank.beams)[0]
+        if not self.compiled:
+            return self._process_numpy(batch, with_p_s)
+        if batch.shape[0] == 1:
             return self._process_one(np.ascontiguousarray(batch[0]), with_p_s)
-        if self.compiled:
-            return self._process_many(np.ascontiguousarray(batch, dtype=float), with_p_s)
+        return self._process_many(np.ascontiguousarray(batch, dtype=float), with_p_s)
+
+    def _process_numpy(self, batch: np.ndarray, with_p_s: bool) -> PipelineResult:
+        """The numpy path (the reference) of a float batch ``(K, M)``."""
+        b = self.bank
         y1, y2 = b.filter_ranges(batch)
         flat, flat_min, off = find_extrema_flat(
             y2,
@@ -347,107 +392,47 @@ class Pipeline:
         return self._result(safe_mask(y1, threshold=b.threshold), y1, y2, flat, flat_min, off,
                             msgs, with_p_s)
 
-    def _compiled_paths(self) -> tuple[Callable[[np.ndarray, bool], PipelineResult],
-                                       Callable[[np.ndarray, bool], PipelineResult], tuple]:
-        """The compiled paths: ``process_one(ranges, with_p_s)`` for one C-contiguous float64
-        scan ``(M,)``, ``process_many(ranges, with_p_s)`` for a C-contiguous float64 batch
-        ``(K, M)``, by the compiled kernels around pocketfft (the same FFT calls as
-        :meth:`FilterBank.filter_ranges`), and the state of :func:`_process_scan` (the
-        instance's ``process``: ``process_one`` inline for such a scan, else
-        :meth:`_process_any`).
+    def _process_one(self, ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
+        """The single-scan path: one C-contiguous float64 scan ``(M,)`` through one compiled
+        call (:func:`fftnav.observe.kernels.scan`) into fresh outputs; without P_s, the result
+        is a :class:`_OneScanResult` over them."""
+        w = self._w
+        out, mask = _EMPTY(w.out_shape), _EMPTY(w.mask_shape, _BOOL)
+        sigma, is_min = _EMPTY(w.sigma_shape), _EMPTY(w.m, _BOOL)
+        n = w.run(ranges, out, mask, sigma, is_min)
+        if w.compact and n <= 255:
+            msgs = [w.view[: 3 * n + 4].tobytes()]
+        else:  # float32 layout, or too many extrema (pack_messages raises)
+            msgs = pack_messages(sigma[:n], is_min[:n], [n], layout=self.layout,
+                                 range_m=self.bank.range_m)
+        if with_p_s:
+            y = out[:, w.tau : w.tau + w.m]
+            return self._result(mask, y[0:1], y[1:2], sigma[:n], is_min[:n], _offsets(n), msgs,
+                                True)
+        result = _NEW(_OneScanResult)  # the fields set directly: no dataclass __init__
+        result.__dict__.update(safe_mask=mask, messages=msgs, _filtered=out, _tau=w.tau,
+                               _sigma=sigma, _is_min=is_min, _n=n)
+        return result
 
-        Closures over their workspaces and constants, so that a call does no attribute lookup:
-        at a dozen microseconds per scan, the interpreter's own work is a tenth of the cost.
-        """
-        b, m, linear = self.bank, self.bank.beams, self.bank.mode == "linear"
-        range_m, threshold, size = b.range_m, b.threshold, b.fft_size
-        tau = b.tau if linear else 0
-        rows_y1, rows_y2 = (slice(0, 1), slice(tau, tau + m)), (slice(1, 2), slice(tau, tau + m))
-        width = m if linear else m + 2  # the row searched for extrema
-        bound = 3 * width + 4  # bytes of a message of at most width extrema
-        work = np.zeros((2, size))  # columns M.. stay 0: the zero padding
-        spec, spectra = np.empty((2, size // 2 + 1), dtype=complex), b._spectra
-        message = np.empty(bound, dtype=np.uint8)  # head, n, 3 bytes per extremum, CRC
-        view = memoryview(message)  # sliced and copied to bytes faster than the array
-        mask_shape, sigma_shape = (1, m), (m, 2)
-        # columns of the row that may hold an extremum, as find_extrema_flat
-        valid = np.zeros(width, bool)
-        inner = self.angles_rad[1:-1] if linear else self.angles_rad
-        np.less_equal(np.abs(inner), math.pi - b.blind_rad / 2.0, out=valid[1:-1])
-        limit, scales, angles = safe_limit(threshold), codec_scales(range_m), self.angles_rad
-        constants = (tau, limit, valid, not linear, EXTREMUM_EPS, angles, range_m, *scales)
-        tables = (_COMPACT_HEAD, _CRC_TABLE, _CRC_HEADS)
-        # finish's scalars packed into two arrays (its tables are the module's)
-        reals, ints = kernels.finish_constants(tau, limit, not linear, EXTREMUM_EPS, range_m,
-                                               *scales, _COMPACT_HEAD)
-        compact, layout, result_of = self.layout == "compact", self.layout, self._result
-        empty, multiply, new = np.empty, np.multiply, object.__new__
-        prepare, finish = kernels.entry("prepare"), kernels.entry("finish")
-        prepare_batch, finish_batch = kernels.entry("prepare_batch"), kernels.entry("finish_batch")
-        r2c = c2r = None
-        if _pp is not None:  # inorm=2: scaled by 1/n on the way back, as numpy.fft.irfft
-            r2c, c2r = _pp.r2c, _pp.c2r
-
-            def filtered(work: np.ndarray, spec: np.ndarray | None,
-                         spectra: np.ndarray) -> np.ndarray:
-                spec = r2c(work, _AXIS, True, 0, spec, 1)
-                multiply(spec, spectra, spec)
-                return c2r(spec, _AXIS, size, False, 2, None, 1)
-        else:  # pragma: no cover - other scipy layouts
-
-            def filtered(work: np.ndarray, spec: np.ndarray | None,
-                         spectra: np.ndarray) -> np.ndarray:
-                return np.fft.irfft(np.fft.rfft(work, axis=1) * spectra, size, axis=1)
-
-        def process_one(ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
-            prepare(ranges, range_m, threshold, work)
-            if r2c is not None:  # filtered(work, spec, spectra), inline: one call less
-                r2c(work, _AXIS, True, 0, spec, 1)
-                multiply(spec, spectra, spec)
-                out = c2r(spec, _AXIS, size, False, 2, None, 1)
-            else:  # pragma: no cover - other scipy layouts
-                out = filtered(work, spec, spectra)
-            mask, sigma, is_min = empty(mask_shape, _BOOL), empty(sigma_shape), empty(m, _BOOL)
-            n = finish(out, reals, ints, valid, angles, mask, sigma, is_min, message, _CRC_TABLE,
-                       _CRC_HEADS)
-            sigma, is_min = sigma[:n], is_min[:n]
-            if compact and n <= 255:
-                msgs = [view[: 3 * n + 4].tobytes()]
-            else:  # float32 layout, or too many extrema (pack_messages raises)
-                msgs = pack_messages(sigma, is_min, [n], layout=layout, range_m=range_m)
-            if with_p_s:
-                return result_of(mask, out[rows_y1], out[rows_y2], sigma, is_min, _offsets(n),
-                                 msgs, True)
-            # the fields set directly: the frozen dataclass's __init__ costs a microsecond
-            result = new(_OneScanResult)
-            result.__dict__.update(safe_mask=mask, sigma_flat=sigma, is_min_flat=is_min,
-                                   offsets=_offsets(n), messages=msgs, _filtered=out, _tau=tau)
-            return result
-
-        def process_many(ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
-            k = ranges.shape[0]
-            stacked = np.zeros((2 * k, size))
-            prepare_batch(ranges, range_m, threshold, stacked)
-            out = filtered(stacked, None, b.repeated_spectra(k))
-            mask, offsets = empty((k, m), bool), empty(k + 1, np.int64)
-            sigma, is_min = empty((k * width, 2)), empty(k * width, bool)
-            messages = empty((k, bound), np.uint8)
-            total = finish_batch(out, *constants, mask, sigma, is_min, offsets, messages,
-                                 *tables)
-            sigma, is_min = sigma[:total], is_min[:total]
-            counts = np.diff(offsets).tolist()
-            if compact and max(counts) <= 255:
-                msgs = [row[: 3 * n + 4].tobytes() for row, n in zip(messages, counts, strict=True)]
-            else:  # float32 layout, or too many extrema (pack_messages raises)
-                msgs = pack_messages(sigma, is_min, counts, layout=layout, range_m=range_m)
-            return result_of(mask, out[:k, tau : tau + m], out[k:, tau : tau + m], sigma,
-                             is_min, offsets, msgs, with_p_s)
-
-        # what _process_scan needs, in the order it unpacks it
-        state = (self._process_any, process_one, m, prepare, range_m, threshold, work, spec,
-                 spectra, size, mask_shape, sigma_shape, finish, reals, ints, valid, angles,
-                 message, view, compact, layout, tau)
-        return process_one, process_many, state
+    def _process_many(self, ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
+        """The compiled path of a C-contiguous float64 batch ``(K, M)``: one compiled call
+        (:func:`fftnav.observe.kernels.scan_batch`)."""
+        w, k = self._w, ranges.shape[0]
+        work = np.zeros((2 * k, w.size))  # columns M.. stay 0: the zero padding
+        spec, out = _EMPTY((2 * k, w.size // 2 + 1), complex), _EMPTY((2 * k, w.size))
+        mask, offsets = _EMPTY((k, w.m), bool), _EMPTY(k + 1, np.int64)
+        sigma, is_min = _EMPTY((k * w.width, 2)), _EMPTY(k * w.width, bool)
+        messages = _EMPTY((k, len(w.message)), np.uint8)
+        total = w.run_batch(ranges, work, spec, out, mask, sigma, is_min, offsets, messages)
+        sigma, is_min = sigma[:total], is_min[:total]
+        counts = np.diff(offsets).tolist()
+        if w.compact and max(counts) <= 255:
+            msgs = [row[: 3 * n + 4].tobytes() for row, n in zip(messages, counts, strict=True)]
+        else:  # float32 layout, or too many extrema (pack_messages raises)
+            msgs = pack_messages(sigma, is_min, counts, layout=self.layout,
+                                 range_m=self.bank.range_m)
+        y = out[:, w.tau : w.tau + w.m]
+        return self._result(mask, y[:k], y[k:], sigma, is_min, offsets, msgs, with_p_s)
 
     def _result(self, mask: np.ndarray, y1: np.ndarray, y2: np.ndarray, flat: np.ndarray,
                 flat_min: np.ndarray, off: np.ndarray, msgs: list[bytes],
@@ -482,9 +467,3 @@ class Pipeline:
     ) -> tuple[np.ndarray, np.ndarray]:
         """Nearest safe heading left and right of each target (rad, NaN if none); batched."""
         return nearest_safe_headings(mask, target_rad, fov_rad=self.bank.fov_rad)
-
-
-_process_scan.__doc__ = Pipeline.process.__doc__
-# pickle reduces a bound method to getattr(instance, __name__): the pipeline's own process;
-# cloudpickle finds the function by module and __qualname__ (_process_scan)
-_process_scan.__name__ = "process"

@@ -148,7 +148,7 @@ MUTANTS = {
         ("work[clipped, i] = s if s <= threshold else threshold", "work[clipped, i] = s"),
     ],
 }
-WRAPPERS = ("prepare", "prepare_batch", "finish", "finish_batch")
+WRAPPERS = ("scan", "scan_batch", "prepare", "prepare_batch", "finish", "finish_batch")
 
 
 def mutant(name: str, before: str, after: str):
@@ -186,16 +186,76 @@ def test_a_broken_kernel_is_caught(monkeypatch, name, before, after):
 
 def test_the_pipeline_calls_compiled_entry_points():
     """The single-scan path calls the kernels without numba's type dispatch (entry points
-    compiled for one signature, held by the path's closure), and takes strided scans too."""
+    compiled for one signature, held by the pipeline's workspaces), and takes strided scans
+    too."""
     for name in WRAPPERS:
         assert type(kernels.entry(name)).__name__ == "builtin_function_or_method"
     fast = Pipeline(SIM_ROBOT, compiled=True)
-    held = {type(cell.cell_contents).__name__ for cell in fast._process_one.__closure__}
-    assert "builtin_function_or_method" in held and "CPUDispatcher" not in held
+    for run in (fast._w.run, fast._w.run_batch):
+        assert type(run.func).__name__ == "builtin_function_or_method"
+    assert fast.fft_in_kernel is kernels.FFT_IN_KERNEL
     scans = trunk_scans(np.random.default_rng(2), 3)
     strided = np.asfortranarray(scans)[1]  # a non-contiguous row
     assert not strided.flags.c_contiguous
     assert differences(fast, SIM[1], strided[None]) == []
+
+
+@pytest.mark.skipif(not kernels.FFT_IN_KERNEL, reason="rocket-fft is not installed")
+def test_the_fft_runs_inside_the_kernels_for_every_tested_configuration():
+    for fast, _ in (SIM, CIRCULAR, FLOAT32, PARTIAL):
+        assert fast.fft_in_kernel
+
+
+@pytest.mark.skipif(not kernels.FFT_IN_KERNEL, reason="rocket-fft is not installed")
+def test_complex_product_is_numpys_and_the_pipeline_picks_numpys_rounding():
+    """numpy's complex multiply rounds each part once (fused multiply-add) on some CPUs and
+    every product on others: the kernel's product equals numpy's for the variant the
+    pipeline picked, and the other variant differs somewhere."""
+    rng = np.random.default_rng(4)
+    a = rng.normal(size=(2, 271)) + 1j * rng.normal(size=(2, 271))
+    b = rng.normal(size=(2, 271)) + 1j * rng.normal(size=(2, 271))
+    expected = a.copy()
+    np.multiply(expected, b, expected)  # in place, as the numpy path multiplies
+    fused = Pipeline(SIM_ROBOT, compiled=True)._w.run.args[3]
+    product = np.vectorize(kernels.complex_product, otypes=[complex])
+    assert np.array_equal(product(a, b, fused), expected)
+    assert not np.array_equal(product(a, b, not fused), expected)
+
+
+def test_without_rocket_fft_the_fft_runs_by_numpy_between_the_kernels(monkeypatch):
+    monkeypatch.setattr(kernels, "FFT_IN_KERNEL", False)
+    for kwargs in ({}, {"mode": "circular"}):
+        fast = Pipeline(SIM_ROBOT, compiled=True, **kwargs)
+        assert fast.compiled and not fast.fft_in_kernel
+        scans = trunk_scans(np.random.default_rng(6), 4)
+        assert differences(fast, Pipeline(SIM_ROBOT, compiled=False, **kwargs), scans) == []
+
+
+def test_fft_lengths_with_large_prime_factors_give_numpys_results():
+    """274 = 2 x 137 beams in circular mode: an FFT length whose transforms may take another
+    route in rocket-fft than in numpy; whichever route the pipeline takes, its results are
+    numpy's."""
+    fast, slow = pair(mode="circular", beams=274)
+    assert fast.bank.fft_size == 274
+    assert differences(fast, slow, np.random.default_rng(9).uniform(0.1, 3.5, (3, 274))) == []
+
+
+@pytest.mark.skipif(not kernels.FFT_IN_KERNEL, reason="rocket-fft is not installed")
+def test_a_kernel_fft_that_differs_from_numpy_is_not_used(monkeypatch):
+    """The pipeline checks its in-kernel FFT against the numpy path when it is built: an FFT
+    that differs in the last bit sends it to the numpy.fft route, with numpy's results."""
+    real = kernels.filter_rows
+
+    def off_by_one_ulp(work, spec, spectra, k, fused, out):
+        real(work, spec, spectra, k, fused, out)
+        out[:] = np.nextafter(out, np.inf)
+
+    monkeypatch.setattr(kernels, "filter_rows", off_by_one_ulp)
+    monkeypatch.setattr(kernels, "scan", kernels.scan.py_func)
+    monkeypatch.setattr(kernels, "scan_batch", kernels.scan_batch.py_func)
+    fast = Pipeline(SIM_ROBOT, compiled=True)
+    assert fast.compiled and not fast.fft_in_kernel
+    assert differences(fast, SIM[1], trunk_scans(np.random.default_rng(7), 3)) == []
 
 
 def test_one_scan_result_behaves_as_a_pipeline_result():
@@ -227,32 +287,28 @@ def test_one_scan_result_behaves_as_a_pipeline_result():
 
 
 def test_a_pipeline_pickles_and_copies_with_workspaces_of_its_own():
-    """The compiled paths are closures over per-pipeline workspaces: a pickled or copied
-    pipeline rebuilds its own (same results; the original's buffers are not shared)."""
+    """The compiled paths write into per-pipeline workspaces: a pickled or copied pipeline
+    rebuilds its own (same results; the original's buffers are not shared)."""
     import copy
     import pickle
 
     fast = Pipeline(SIM_ROBOT, compiled=True)
     scans = trunk_scans(np.random.default_rng(5), 3)
-    for other in (pickle.loads(pickle.dumps(fast)), copy.deepcopy(fast)):
-        assert other._process_one is not fast._process_one
-        assert other.process is not fast.process and "process" in vars(other)
+
+    def workspaces(w) -> set[int]:  # what a scan writes: the message, the FFT's buffers
+        work, spec = w.run.args[:2]
+        assert work.shape == (2, 540) and spec.dtype == complex
+        return {id(w.message), id(work), id(spec)}
+
+    for other in (pickle.loads(pickle.dumps(fast)), copy.copy(fast), copy.deepcopy(fast)):
+        assert other._w is not fast._w and "_w" in vars(other)
         assert differences(other, SIM[1], scans) == []
-        assert other.process.__self__ is other
-        mine = {id(c.cell_contents) for c in fast._process_one.__closure__}
-        theirs = {id(c.cell_contents) for c in other._process_one.__closure__
-                  if isinstance(c.cell_contents, np.ndarray) and c.cell_contents.flags.writeable}
-        assert not mine & theirs
-        mine = {id(x) for x in fast._scan_state}  # the state of the instance's process
-        theirs = {id(x) for x in other._scan_state
-                  if isinstance(x, np.ndarray) and x.flags.writeable}
-        assert not mine & theirs
+        assert not workspaces(fast._w) & workspaces(other._w)
 
 
 def test_a_compiled_pipelines_process_pickles_and_a_subclass_keeps_its_own():
-    """``pipe.process`` of a compiled pipeline (its fast closure, bound) pickles with the
-    pipeline, by pickle and cloudpickle (dask), as the method did; a subclass that overrides
-    ``process`` is not bypassed by it."""
+    """``pipe.process`` of a compiled pipeline pickles with the pipeline, by pickle and
+    cloudpickle (dask); a subclass that overrides ``process`` is not bypassed."""
     import inspect
     import pickle
 
@@ -266,7 +322,6 @@ def test_a_compiled_pipelines_process_pickles_and_a_subclass_keeps_its_own():
         process = pickle.loads(dump(fast.process))
         assert process(scan, with_p_s=False).messages == expected
     assert list(inspect.signature(fast.process).parameters) == ["ranges", "with_p_s"]
-    assert fast.process.__doc__ == Pipeline.process.__doc__
 
     class Counted(Pipeline):
         calls = 0

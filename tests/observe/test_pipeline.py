@@ -99,7 +99,7 @@ def test_flat_outputs_and_per_scan_views_agree(scans):
 @pytest.mark.parametrize("mode", ["linear", "circular"])
 def test_scans_without_any_extremum_give_empty_sigma_and_even_odds(mode):
     """Blocked (all zero) scans: no extremum in any scan of the batch, so every quadrant area
-    is 0 and P_s = sigmoid(0) = 1/2 (this used to fail inside the interpolation)."""
+    is 0 and P_s = sigmoid(0) = 1/2 (an empty interpolation)."""
     res = Pipeline(SIM_ROBOT, mode=mode).process(np.zeros((3, 360)))
     assert [len(s) for s in res.sigma] == [0, 0, 0] and not res.safe_mask.any()
     np.testing.assert_array_equal(res.x0, np.zeros((3, 4)))
