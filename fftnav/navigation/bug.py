@@ -15,6 +15,7 @@ import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
 from enum import IntEnum
+from typing import Any
 
 import numpy as np
 
@@ -23,7 +24,7 @@ from fftnav.navigation import corridor
 from fftnav.navigation.ownmap import OwnMaps
 from fftnav.observe.safe import beam_index, nearest_safe_headings
 from fftnav.observe.scan import beam_angles_rad, wrap_angle
-from fftnav.validate import check_integer, check_number
+from fftnav.validate import Checked, integer_field, number_field
 
 __all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
 
@@ -75,8 +76,16 @@ class Mode(IntEnum):
     WAIT = 3  # not departed yet
 
 
+def _positive(default: float) -> Any:
+    return number_field(default, low=0, low_open=True)
+
+
+def _non_negative(default: float) -> Any:
+    return number_field(default, low=0)
+
+
 @dataclass(frozen=True)
-class PlannerParams:
+class PlannerParams(Checked):
     """Planner constants (SI units).
 
     Attributes
@@ -119,31 +128,22 @@ class PlannerParams:
         ``r0 + clearance_m`` of its line over the next ``r0 + lookahead_m`` (:func:`corridor_free`).
     """
 
-    v_max_mps: float = 0.5
-    w_max_radps: float = 1.5
-    control_hz: float = 10.0
-    heading_tol_rad: float = math.radians(3.0)
-    progress_m: float = 0.05
-    loop_timeout_s: float = 10.0
-    clearance_m: float = 0.03
-    lookahead_m: float = 0.1
-    retreat_m: float = 0.5
-    memory_radius_m: float = 1.0
-    map_resolution_m: float = 0.2
-    map_clearance_m: float = 0.3
-    map_margin_m: float = 2.0
-    escape_lookahead_m: float = 1.0
-    replan_s: float = 1.0
-    map_every: int = 2
-
-    def __post_init__(self) -> None:
-        for name in ("v_max_mps", "w_max_radps", "control_hz", "heading_tol_rad", "loop_timeout_s",
-                     "retreat_m", "map_resolution_m", "escape_lookahead_m", "replan_s"):
-            check_number(name, getattr(self, name), low=0, low_open=True)
-        for name in ("progress_m", "clearance_m", "lookahead_m", "memory_radius_m",
-                     "map_clearance_m", "map_margin_m"):
-            check_number(name, getattr(self, name), low=0)
-        check_integer("map_every", self.map_every, low=1)
+    v_max_mps: float = _positive(0.5)
+    w_max_radps: float = _positive(1.5)
+    control_hz: float = _positive(10.0)
+    heading_tol_rad: float = _positive(math.radians(3.0))
+    progress_m: float = _non_negative(0.05)
+    loop_timeout_s: float = _positive(10.0)
+    clearance_m: float = _non_negative(0.03)
+    lookahead_m: float = _non_negative(0.1)
+    retreat_m: float = _positive(0.5)
+    memory_radius_m: float = _non_negative(1.0)
+    map_resolution_m: float = _positive(0.2)
+    map_clearance_m: float = _non_negative(0.3)
+    map_margin_m: float = _non_negative(2.0)
+    escape_lookahead_m: float = _positive(1.0)
+    replan_s: float = _positive(1.0)
+    map_every: int = integer_field(2, low=1)
 
     @classmethod
     def for_swarm(cls, config: SwarmConfig, **constants: float) -> PlannerParams:
