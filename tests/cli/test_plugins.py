@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-SECTION = re.search(r"### Benchmark your own method\n(.*?)\n### ",
+SECTION = re.search(r"\n## Benchmark your own method\n(.*?)\n## ",
                     (ROOT / "README.md").read_text(), re.S).group(1)
 
 
