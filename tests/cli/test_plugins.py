@@ -13,7 +13,7 @@ import pandas as pd
 import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
-SECTION = re.search(r"\n## Benchmark your own method\n(.*?)\n## ",
+SECTION = re.search(r"## Benchmark your own method\n(.*?)\n## ",
                     (ROOT / "README.md").read_text(), re.S).group(1)
 
 
@@ -56,7 +56,9 @@ def test_the_readme_controller_runs_into_the_summary_and_the_report(project):
 
 
 @pytest.mark.parametrize(("reference", "match"), [
-    ("teleport", r"experiment\.policies: unknown policy or controller 'teleport'"),
+    ("teleport", r"experiment\.policies: policy must be a registered policy or controller "
+                 r"\('bug-left', .*\) or module:attr or path/to/file\.py:attr, got "
+                 r"policy='teleport'$"),
     ("missing.py:X", r"experiment\.policies: cannot load '.*missing\.py:X': no such file"),
     ("my_controller.py:Nope", r"has no attribute 'Nope'"),
 ])
@@ -75,3 +77,77 @@ def test_episode_refuses_a_bad_policy_before_reading_the_world(project):
                   cwd=project)
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1
     assert "cannot load 'nope.py:X': no such file" in proc.stderr
+
+
+NEWCOMER_CONFIG = """\
+[experiment]
+name = "order"
+envs = ["rocky", "forest"]
+maps = 1
+map_seed = 7
+robots = 3
+policies = ["own-only", "plugins/mine.py:mine", "bug-left"]
+
+[world]
+size_m = [8.0, 8.0]
+goal_y_m = 7.0
+
+[episode]
+time_limit_s = 30.0
+"""
+
+
+@pytest.fixture(scope="module")
+def newcomer(tmp_path_factory) -> Path:
+    """A newcomer's decision policy in ``plugins/``, importing ``helpers.py`` beside it, and a
+    config listing it between two built-in policies (neither in alphabetical order)."""
+    where = tmp_path_factory.mktemp("newcomer")
+    (where / "plugins").mkdir()
+    (where / "plugins" / "helpers.py").write_text("def side(context):\n    return 1\n")
+    (where / "plugins" / "mine.py").write_text(
+        "from helpers import side\n\n\ndef mine(context):\n    return side(context)\n")
+    (where / "order.toml").write_text(NEWCOMER_CONFIG)
+    return where
+
+
+@pytest.mark.slow
+def test_a_plugin_importing_its_neighbour_runs_in_order_and_fresh_reruns_it(newcomer):
+    proc = fftnav("run", "order.toml", "--out", "res", "--workers", "2", "--quiet", cwd=newcomer)
+    assert proc.returncode == 0, proc.stderr
+    order = [(env, p) for env in ("rocky", "forest") for p in ("own-only", "mine", "bug-left")]
+    summary = pd.read_csv(newcomer / "res" / "summary.csv")
+    assert list(zip(summary.env, summary.policy, strict=True)) == order
+    report = (newcomer / "res" / "report.md").read_text()
+    rows = re.findall(r"^\| (rocky|forest) \| ([\w-]+) \|", report, re.M)
+    assert rows == order
+    episodes = pd.read_csv(newcomer / "res" / "episodes.csv")
+    mine = episodes[episodes.policy == "mine"]
+    assert len(mine) == 2 * 3 and (mine.decisions_right == 0).all()  # helpers.side: always left
+
+    helpers = newcomer / "plugins" / "helpers.py"
+    helpers.write_text("def side(context):\n    return -1\n")
+    again = fftnav("run", "order.toml", "--out", "res", "--quiet", cwd=newcomer)
+    assert again.returncode == 2 and again.stderr.count("\n") == 1
+    assert f"changed: plugin file {helpers.resolve()}; rerun with --fresh" in again.stderr
+    fresh = fftnav("run", "order.toml", "--out", "res", "--workers", "2", "--quiet", "--fresh",
+                   cwd=newcomer)
+    assert fresh.returncode == 0, fresh.stderr
+    assert fresh.stdout.startswith("6 episodes run, 0 already done, 0 failed")
+    episodes = pd.read_csv(newcomer / "res" / "episodes.csv")
+    assert (episodes[episodes.policy == "mine"].decisions_left == 0).all()
+
+
+@pytest.mark.slow
+def test_episode_runs_a_plugin_importing_its_neighbour_and_says_how_it_went(newcomer):
+    world = fftnav("world", "generate", "--env", "forest", "--seed", "3", "--size", "8", "8",
+                   "--robots", "3", "--out", "w.json", cwd=newcomer)
+    assert world.returncode == 0, world.stderr
+    proc = fftnav("episode", "--world", "w.json", "--policy", "plugins/mine.py:mine",
+                  "--set", "time_limit_s=30", "--out", "e.csv", cwd=newcomer)
+    assert proc.returncode == 0, proc.stderr
+    rows = pd.read_csv(newcomer / "e.csv")
+    assert list(rows.policy) == ["mine"] * 3
+    arrived, collided = int(rows.arrived.sum()), int(rows.collided.sum())
+    assert proc.stderr.splitlines()[-1] == (
+        f"{arrived}/3 arrived, SPL {rows.spl.mean():.2f}, {collided} collided, "
+        f"{3 - arrived - collided} timed out")
