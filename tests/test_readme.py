@@ -1,13 +1,21 @@
-"""The README's Python examples run as written."""
+"""The README and docs/results.md say what is: their examples run, their commands are the
+Makefile's, their Table I figures are the committed CSV's, their links and code references
+resolve."""
 
+import importlib
 import re
 import subprocess
 import sys
 from pathlib import Path
 
+import pandas as pd
 import pytest
 
-README = Path(__file__).resolve().parents[1] / "README.md"
+from fftnav.report.experiment import PAPER_TABLE1
+
+ROOT = Path(__file__).resolve().parents[1]
+README = ROOT / "README.md"
+RESULTS = ROOT / "docs" / "results.md"
 
 
 def test_readme_python_blocks_run():
@@ -23,10 +31,134 @@ def test_readme_scan_example_runs_from_the_repository():
     text = " ".join(README.read_text().split())
     match = re.search(r"`fftnav scan (\S+)` prints (\d+) lines", text)
     assert match, "the README lost its fftnav scan example"
-    root = README.parent
-    if not (root / match.group(1)).exists():
+    if not (ROOT / match.group(1)).exists():
         pytest.skip(f"{match.group(1)} is not beside this repository")
-    proc = subprocess.run([sys.executable, "-m", "fftnav", "scan", match.group(1)], cwd=root,
+    proc = subprocess.run([sys.executable, "-m", "fftnav", "scan", match.group(1)], cwd=ROOT,
                           capture_output=True, text=True, timeout=300)
     assert proc.returncode == 0, proc.stderr
     assert len(proc.stdout.splitlines()) == int(match.group(2))
+
+
+def make_recipes() -> dict[str, str]:
+    """The Makefile's targets and their recipes (the lines after ``target:``)."""
+    recipes, target = {}, None
+    for line in (ROOT / "Makefile").read_text().splitlines():
+        if line.startswith("\t") and target:
+            recipes[target] += line.strip() + "\n"
+        elif match := re.match(r"([\w-]+):", line):
+            target = match.group(1)
+            recipes[target] = ""
+        else:
+            target = None
+    return recipes
+
+
+def test_the_two_commands_are_the_makefiles():
+    text = README.read_text()
+    block = next(b for b in re.findall(r"```bash\n(.*?)```", text, re.S) if "make test" in b)
+    commands = dict(re.findall(r"^make (\w+)\s+# (.*)$", block, re.M))
+    assert list(commands) == ["test", "benchmark"]
+    recipes = make_recipes()
+    assert "pytest" in recipes["test"] and "--doctest-modules fftnav tests" in recipes["test"]
+    config, out = re.search(r"(experiments/\S+\.toml) -> (\S+?)/?(\s|$)",
+                            commands["benchmark"]).groups()[:2]
+    assert f"fftnav run {config} --out {out}" in recipes["benchmark"]
+    assert (ROOT / config).exists() and (ROOT / out / "summary.csv").exists()
+
+
+def test_the_readme_holds_one_test_count_at_most_and_no_history():
+    text = " ".join(README.read_text().split())
+    assert len(re.findall(r"\d[\d,]* tests\b", text)) <= 1
+    assert not re.search(r"\bissues? \d+", text, re.I)
+
+
+def readme_table1() -> list[dict[str, str]]:
+    """The rows of the README's results table, by header."""
+    section = re.search(r"\n## Results[^\n]*\n(.*?)\n## ", README.read_text(), re.S)[1]
+    lines = [line.strip().strip("|").split("|") for line in section.splitlines()
+             if line.startswith("|")]
+    header = [cell.strip() for cell in lines[0]]
+    return [dict(zip(header, (cell.strip() for cell in row), strict=True))
+            for row in lines[2:]]
+
+
+def quoted(cell: str) -> tuple[str, ...]:
+    """The numbers of a table cell (a value, or a value and its interval), as written."""
+    return tuple(re.findall(r"-?\d+(?:\.\d+)?", cell))
+
+
+def same(written: str, value: float) -> bool:
+    """Whether ``written`` is ``value`` rounded to the decimals written."""
+    decimals = len(written.partition(".")[2])
+    return float(written) == round(value, decimals)
+
+
+def test_the_readme_table_is_the_committed_summary_beside_the_papers():
+    """Every figure of the README's Table I is the committed summary.csv's (in percent where
+    the column says %) or the paper's Table I (PAPER_TABLE1), rounded as written."""
+    rows = readme_table1()
+    summary = pd.read_csv(ROOT / "results" / "table1" / "summary.csv")
+    names = [(row["env"], re.search(r"`([\w-]+)`", row["policy"])[1]) for row in rows]
+    assert names == list(zip(summary.env, summary.policy, strict=True))
+    ours = {"AR %": ["ar"], "APL m": ["apl_m"], "SPL %": ["spl"],
+            "SPL % [95% CI]": ["spl", "spl_ci_low", "spl_ci_high"],
+            "SPL geodesic %": ["spl_geodesic"]}
+    papers = {"paper AR %": 0, "paper APL m": 1, "paper SPL %": 2}
+    assert {"AR %", "APL m"} <= set(rows[0]) and set(papers) <= set(rows[0])
+    for row, (name, record) in zip(rows, zip(names, summary.itertuples(), strict=True),
+                                   strict=True):
+        for column, fields in ours.items():
+            if column in row:
+                scale = 100 if "%" in column else 1
+                values = [scale * getattr(record, field) for field in fields]
+                assert len(quoted(row[column])) == len(values), (name, column)
+                assert all(map(same, quoted(row[column]), values)), (name, column, row[column])
+        paper = PAPER_TABLE1.get(name)
+        for column, index in papers.items():
+            if paper is None:
+                assert row[column] == "-", (name, column)
+            else:
+                assert same(row[column], paper[index]), (name, column, row[column])
+
+
+def anchor(heading: str) -> str:
+    """GitHub's anchor of a Markdown heading."""
+    return re.sub(r"[^\w\- ]", "", heading.strip().lower()).replace(" ", "-")
+
+
+@pytest.mark.parametrize("page", [README, RESULTS], ids=lambda p: p.name)
+def test_links_and_anchors_resolve(page):
+    text = re.sub(r"`[^`\n]*`", "", page.read_text())  # code spans hold no links
+    links = re.findall(r"\]\(([^)\s]+)\)", text)
+    assert links
+    for link in links:
+        target, _, fragment = link.partition("#")
+        path = (page.parent / target).resolve() if target else page
+        assert path.exists(), f"{page.name} links to {link}, which does not exist"
+        if fragment:
+            headings = re.findall(r"^#+ (.*)$", path.read_text(), re.M)
+            assert fragment in {anchor(h) for h in headings}, f"{page.name}: no #{fragment}"
+
+
+@pytest.mark.parametrize("page", [README, RESULTS], ids=lambda p: p.name)
+def test_code_references_resolve(page):
+    """Every `fftnav.module.name` names a module or an attribute of one (the modules' new
+    homes, e.g. `fftnav.navigation`, are checked here), every `fftnav/...py` a file."""
+    text = page.read_text()
+    # in text and code, not an entry-point group's name
+    dotted = set(re.findall(r"(?<!group `)(?<![\w/.-])(fftnav(?:\.\w+)+)", text))
+    files = set(re.findall(r"`(fftnav/[\w/]+\.\w+)`", text))
+    assert dotted or files
+    for reference in dotted:
+        parts = reference.split(".")
+        for cut in range(len(parts), 0, -1):
+            try:
+                obj = importlib.import_module(".".join(parts[:cut]))
+            except ModuleNotFoundError:
+                continue
+            for name in parts[cut:]:
+                assert hasattr(obj, name), f"{page.name}: `{reference}` does not resolve"
+                obj = getattr(obj, name)
+            break
+    for file in files:
+        assert (ROOT / file).exists(), f"{page.name}: `{file}` does not exist"
