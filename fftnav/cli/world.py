@@ -1,5 +1,5 @@
-"""``fftnav world {generate,render,grid,import,scan}``: world files, pictures, grids, ROS maps and
-lidar scans."""
+"""``fftnav world {generate,render,grid,import,scan,difficulty}``: world files, pictures, grids,
+ROS maps, lidar scans and how hard each robot's way is."""
 
 from __future__ import annotations
 
@@ -110,6 +110,23 @@ def cmd_scan(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_difficulty(args: argparse.Namespace) -> int:
+    """Print BARN's difficulty measures along each robot's reference path, one JSON line per
+    robot (:func:`fftnav.optimal.difficulty.map_difficulty`); r0 from the config."""
+    from fftnav.cli.episode import _overrides
+    from fftnav.config import SwarmConfig
+    from fftnav.optimal.difficulty import MEASURES, map_difficulty
+    from fftnav.world import load_world
+
+    config = SwarmConfig().replace(_overrides(args.set or []))
+    measures = map_difficulty(load_world(args.world), r0_m=config.robot.r0_m)
+    for i in range(len(measures[MEASURES[0]])):
+        values = (float(measures[name][i]) for name in MEASURES)
+        print(json.dumps({"robot": i} | {name: round(v, 6) if math.isfinite(v) else None
+                                         for name, v in zip(MEASURES, values, strict=True)}))
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("world", help="generate, render, rasterise and scan worlds")
     cmds = p.add_subparsers(dest="world", metavar="ACTION", parser_class=type(p))
@@ -163,3 +180,11 @@ def register(sub: argparse._SubParsersAction) -> None:
     s.add_argument("--range", type=float, default=3.0, help="maximum range R, m")
     s.add_argument("--blind", type=float, default=15.0, help="blind sector at the back, degrees")
     s.set_defaults(func=cmd_scan)
+
+    d = cmds.add_parser("difficulty", help="BARN's difficulty measures along each robot's "
+                        "reference path, one JSON line per robot (docs/analysis.md)")
+    d.add_argument("world", metavar="W.json", help="world JSON file")
+    d.add_argument("--set", action="append", metavar="KEY=VALUE",
+                   help="override a config parameter, e.g. --set robot.r0_m=0.2 (the robot's "
+                   "radius inflates the map; repeatable; keys of docs/experiments.md)")
+    d.set_defaults(func=cmd_difficulty)

@@ -10,7 +10,9 @@ import sys
 import numpy as np
 import pytest
 
-from fftnav.world import load_world
+from fftnav.optimal.difficulty import MEASURES, map_difficulty
+from fftnav.world import World, load_world, save_world
+from fftnav.world.obstacles import rectangle
 from tests.sim.lidar_oracle import assert_ranges_match_analytic
 
 
@@ -74,7 +76,39 @@ def test_scan_prints_the_pybullet_lidar(world_file):
     assert (expected < 3.0).sum() > 10  # the comparison saw returns
 
 
+def test_difficulty_prints_one_json_line_per_robot(world_file, tmp_path):
+    # A 6 m x 2 m corridor, walls y <= 0.5 and y >= 1.5, one robot along y = 1.06 (row 21 of
+    # 0.05 m cells). Inflated by r0 = 0.15 m (the config's default) the free rows are 13..26:
+    # the nearest occupied row is 27, 6 cells up, and the vertical chord 5 + 8 cells; with
+    # r0 = 0.2 m they are 14..25: 5 cells up, chord 4 + 7 cells.
+    corridor = World("corridor", 0, (6.0, 2.0), (rectangle(0.0, 0.0, 6.0, 0.5, 1.0),
+                                                 rectangle(0.0, 1.5, 6.0, 2.0, 1.0)),
+                     np.array([[0.56, 1.06, 0.0]]), np.array([[5.46, 1.06]]))
+    save_world(corridor, tmp_path / "c.json")
+    for extra, distance, chord in (([], 0.30, 0.65), (["--set", "robot.r0_m=0.2"], 0.25, 0.55)):
+        res = _run("world", "difficulty", str(tmp_path / "c.json"), *extra)
+        assert res.returncode == 0, res.stderr
+        (line,) = res.stdout.splitlines()
+        out = json.loads(line)
+        assert list(out) == ["robot", *MEASURES] and out["robot"] == 0
+        assert out["distance_to_closest_obstacle_m"] == pytest.approx(distance, abs=1e-6)
+        assert out["characteristic_dimension_m"] == pytest.approx(chord, abs=1e-6)
+        assert out["tortuosity"] == pytest.approx(1.0, abs=1e-6)
+    res = _run("world", "difficulty", str(world_file))
+    assert res.returncode == 0, res.stderr
+    rows = [json.loads(line) for line in res.stdout.splitlines()]
+    expected = map_difficulty(load_world(world_file), r0_m=0.15)
+    assert [r["robot"] for r in rows] == list(range(6))
+    for name in MEASURES:
+        np.testing.assert_allclose([r[name] for r in rows], expected[name], atol=1e-6)
+
+
 @pytest.mark.parametrize(("args", "message"), [
+    (["world", "difficulty", "{w}", "--set", "robot.r0_m=-1"], "robot.r0_m must be"),
+    (["world", "difficulty", "{w}", "--set", "r0"], "--set expects KEY=VALUE"),
+    (["world", "difficulty", "{d}/missing.json"], "No such file"),
+    (["world", "difficulty", "{w}", "--set", "robot.r0_m=2", "--set", "robot.r_m=3"],
+     "lies in an occupied cell"),
     (["world", "scan", "{w}", "--pose", "60", "7", "0"], "pose must lie in the world"),
     (["world", "scan", "{w}", "--pose", "6", "7", "0", "--beams", "1"], "beams must be an integer"),
     (["world", "grid", "{w}", "--resolution", "0", "--out", "{d}/g.npy"], "resolution_m must be"),
