@@ -49,11 +49,16 @@ class _Parser(argparse.ArgumentParser):
         raise SystemExit(EXIT_USAGE)
 
 
+#: What ``fftnav --help`` says the command is.
+DESCRIPTION = ("FFT-filtered swarm navigation: process lidar scans, generate worlds, run episodes "
+               "and experiments on the PyBullet swarm benchmark, and draw the figures.")
+
+
 def build_parser() -> argparse.ArgumentParser:
     """Build the full ``fftnav`` parser from the subcommand modules."""
     from fftnav import __version__
 
-    parser = _Parser(prog="fftnav", description=__doc__.splitlines()[0])
+    parser = _Parser(prog="fftnav", description=DESCRIPTION)
     parser.add_argument("--version", action="version", version=f"fftnav {__version__}")
     sub = parser.add_subparsers(dest="command", metavar="COMMAND", parser_class=_Parser)
     sub.required = True

@@ -25,7 +25,7 @@ from fftnav.files import read_toml
 from fftnav.limits import MAX_RAYS_PER_TICK, MAX_TASKS, check_limit
 from fftnav.navigation.resolve import Resolved, resolve
 from fftnav.validate import Checked, checked_field, integer_field
-from fftnav.world import load_preset, load_world, world_kinds, world_parameters
+from fftnav.world import WORLD_KINDS, load_preset, load_world, world_kinds, world_parameters
 
 __all__ = ["ExperimentConfig", "load_config", "parse_config"]
 
@@ -376,5 +376,5 @@ def _names(key: str, value: Any, known: tuple[str, ...] | None) -> tuple[str, ..
         raise ValueError(f"{key} must be a non-empty list of distinct strings, got {value!r}")
     for v in value if known is not None else ():
         if v not in known:
-            raise ValueError(f"{key}: unknown name {v!r}; expected some of {list(known)}")
+            raise ValueError(f"{key}: {WORLD_KINDS.unknown(v, also=known, forms='a world file')}")
     return tuple(value)

@@ -89,6 +89,18 @@ def test_finish_is_called_once_for_every_robot_arrived_collided_or_timed_out(dep
     assert sorted(Straight.finished) == [0, 1, 2]
 
 
+def test_finish_is_called_for_a_robot_timed_out_while_another_still_drives():
+    """Staggered departures: robot 0 runs out of time at 6 s while robot 1 (departed 2 s later)
+    still drives, so robot 0's time-out happens inside the tick loop, robot 1's at its end."""
+    Straight.finished = []
+    world = _world([], [[1, 1, UP], [4, 1, UP]], [[1, 14], [4, 14]])
+    cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=6.0, departure="staggered",
+                                            stagger_s=2.0))
+    rows = run_episode(world, f"{__name__}:Straight", seed=0, config=cfg).rows
+    assert [(r.arrived, r.collided) for r in rows] == [(False, False), (False, False)]
+    assert Straight.finished == [0, 1]
+
+
 @pytest.mark.slow
 @pytest.mark.parametrize("name", ["vfh", "ftg", "fft-go"])
 def test_each_baseline_passes_a_trunk_on_its_straight_line(name):

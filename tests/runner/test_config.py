@@ -51,7 +51,10 @@ def test_valid_config_maps_sections_to_episode_config():
     ("experiment.policies", ["fusion", "fusion"],
      r"experiment\.policies must be a non-empty list of distinct strings"),
     ("experiment.envs", [], r"experiment\.envs must be a non-empty list"),
-    ("experiment.envs", ["moon"], r"experiment\.envs: unknown name 'moon'"),
+    ("experiment.envs", ["moon"],
+     r"experiment\.envs: env must be a registered world kind \('forest', .*\) or a world file, "
+     r"got env='moon'$"),
+    ("experiment.envs", ["forst"], r"got env='forst'; did you mean 'forest'\?$"),
     ("experiment.name", "a b", r"experiment\.name must be a non-empty string"),
     ("experiment.out", "", r"experiment\.out must be a non-empty string, got experiment\.out=''"),
     ("experiment.colour", 1, r"unknown key experiment\.colour; expected one of"),
