@@ -451,6 +451,8 @@ class FailureFeatures:
         Diameter of the visited positions: the largest distance between two of them (m).
     path_m : float
         Path length driven in the window (m).
+    displacement_m : float
+        Distance between the window's first and last positions (m).
     progress_m : float
         How much closer to the goal the robot ended the window than it began it (m; negative
         if it got farther).
@@ -464,6 +466,7 @@ class FailureFeatures:
     window_s: float
     extent_m: float
     path_m: float
+    displacement_m: float
     progress_m: float
     near_share: float
 
@@ -507,9 +510,10 @@ def _cause(name: str, definition: str, thresholds: tuple[str, ...],
 _cause("collision", "it touched an obstacle (the episode's collided flag)", (),
        lambda f, t: f.collided)
 _cause("jam", "for at least jam_share of the window another robot's centre was within "
-       "jam_distance_m (in contact or within a robot width) while the robot came less than "
-       "progress_m closer to its goal", ("jam_share", "jam_distance_m", "progress_m"),
-       lambda f, t: f.near_share >= t["jam_share"] and f.progress_m < t["progress_m"])
+       "jam_distance_m (in contact or within a robot width) and the robot ended the window "
+       "less than progress_m from where it began it (blocked)",
+       ("jam_share", "jam_distance_m", "progress_m"),
+       lambda f, t: f.near_share >= t["jam_share"] and f.displacement_m < t["progress_m"])
 _cause("stuck", "it barely moved: every position of the window lies within still_m of every "
        "other (standing or turning on the spot)", ("still_m",),
        lambda f, t: f.extent_m <= t["still_m"])
@@ -588,7 +592,9 @@ def failure_features(
     near = (gaps <= jam_distance_m).any(axis=1)  # NaN (absent) is never near
     return FailureFeatures(arrived=ok, collided=bool(collided),
                            window_s=(len(win) - 1) * float(dt_s), extent_m=extent,
-                           path_m=path_length_m(win), progress_m=float(to_goal[0] - to_goal[1]),
+                           path_m=path_length_m(win),
+                           displacement_m=float(np.hypot(*(win[-1] - win[0]))),
+                           progress_m=float(to_goal[0] - to_goal[1]),
                            near_share=float(near.mean()))
 
 
@@ -634,7 +640,8 @@ def classify_failure(
         ``loop``: path length over that diameter (> 1; 2.5: a circle gives pi, a single
         back-and-forth 2, half a circle pi/2).
     progress_m : float
-        ``slow``: how much closer to the goal at the window's end (default a tenth of 10 m).
+        ``slow``: how much closer to the goal at the window's end (default a tenth of 10 m);
+        ``jam``: the most the robot may end the window from where it began it.
     jam_distance_m, jam_share : float
         ``jam``: centre distance to another robot (default 4 r0: the bodies at most a robot
         width apart) and the fraction of the window's samples it holds for (``(0, 1]``).

@@ -313,6 +313,15 @@ def test_jam_next_to_another_robot_for_most_of_the_window():
     assert _classify(circle, others=_neighbour(circle, (0.3, 0.0))) == "jam"
     line = _line((0, 0), (0, 6.0))
     assert _classify(line, others=_neighbour(line, (0.3, 0.0))) == "slow"
+    # blocked means it ended the window less than progress_m (1 m) from where it began it: a
+    # robot driving off with another beside it is not jammed, whatever its goal
+    window = 200
+    for shift, cause in ((0.99, "jam"), (1.0, "detour")):
+        xs = np.r_[np.zeros(TICKS - window), np.linspace(0.0, shift, window + 1)]
+        sideways = np.c_[xs, np.zeros(TICKS + 1)]
+        assert _classify(sideways, others=_neighbour(sideways, (0.0, 0.3))) == cause, shift
+    convoy = _line((0, 10), (0, -30))
+    assert _classify(convoy, others=_neighbour(convoy, (0.3, 0.0))) == "detour"
 
 
 def test_jam_share_and_distance_are_parameters():
