@@ -14,6 +14,10 @@ optimal (shortest-path) length from its start to its goal. Distances in metres, 
 ``pandas.DataFrame`` with the columns of :data:`fftnav.episode.record.EPISODE_COLUMNS`), in the
 manner of habitat-lab's measure registry: experiment summaries have one column per registered
 measure (and an interval for those with ``terms``), so a new measure is one registered function.
+
+:func:`classify_failure` names why a robot did not arrive: the first of the causes of
+:data:`FAILURE_CAUSES` (collision, jam, stuck, loop, slow, detour) whose test holds on the last
+``window_s`` seconds of its trajectory; each cause has a ``failures_<cause>`` measure.
 """
 
 from __future__ import annotations
@@ -30,13 +34,19 @@ from fftnav.registry import Registry, first_line
 from fftnav.validate import check_number
 
 __all__ = [
+    "FAILURE_CAUSES",
+    "FailureCause",
+    "FailureFeatures",
     "MEASURES",
     "Measure",
     "NEIGHBOUR_REASONS",
     "arrival_rate",
     "arrived",
     "average_path_length_m",
+    "classify_failure",
     "evaluate",
+    "failure_features",
+    "failure_thresholds",
     "register_measure",
     "path_length_m",
     "spl",
@@ -425,6 +435,261 @@ def _neighbour_share(reason: str) -> Callable[[Table], float]:
 
 for _reason in NEIGHBOUR_REASONS:
     register_measure(f"share_neighbours_{_reason}")(_neighbour_share(_reason))
+
+
+@dataclass(frozen=True)
+class FailureFeatures:
+    """What :func:`classify_failure` measures on the last ``window_s`` seconds of a trajectory.
+
+    Attributes
+    ----------
+    arrived, collided : bool
+        Success S_i (:func:`arrived`) and contact with an obstacle.
+    window_s : float
+        The seconds looked at: ``window_s``, or the whole trajectory if it is shorter.
+    extent_m : float
+        Diameter of the visited positions: the largest distance between two of them (m).
+    path_m : float
+        Path length driven in the window (m).
+    displacement_m : float
+        Distance between the window's first and last positions (m).
+    progress_m : float
+        How much closer to the goal the robot ended the window than it began it (m; negative
+        if it got farther).
+    near_share : float
+        Fraction of the window's samples at which another robot's centre was within
+        ``jam_distance_m`` of the robot's centre (0 without other robots).
+    """
+
+    arrived: bool
+    collided: bool
+    window_s: float
+    extent_m: float
+    path_m: float
+    displacement_m: float
+    progress_m: float
+    near_share: float
+
+
+#: Thresholds of the causes, by the name of their :func:`classify_failure` parameter.
+Thresholds = Mapping[str, float]
+
+
+@dataclass(frozen=True)
+class FailureCause:
+    """A reason why a robot did not arrive.
+
+    Attributes
+    ----------
+    name : str
+        The cause, as written in the ``failure`` column.
+    definition : str
+        One sentence: when this cause is given (the earlier causes' tests having failed).
+    thresholds : tuple of str
+        The :func:`classify_failure` parameters its test uses.
+    test : callable
+        ``test(features, thresholds) -> bool`` on :class:`FailureFeatures`.
+    """
+
+    name: str
+    definition: str
+    thresholds: tuple[str, ...]
+    test: Callable[[FailureFeatures, Thresholds], bool]
+
+
+#: Causes of failure in the order they are tested: a robot that did not arrive gets the first
+#: whose test holds. The last two tests are complements, so every such robot gets one.
+FAILURE_CAUSES: Registry[FailureCause] = Registry("failure cause", parameter="cause")
+
+
+def _cause(name: str, definition: str, thresholds: tuple[str, ...],
+           test: Callable[[FailureFeatures, Thresholds], bool]) -> None:
+    FAILURE_CAUSES.add(name, FailureCause(name, definition, thresholds, test))
+
+
+_cause("collision", "it touched an obstacle (the episode's collided flag)", (),
+       lambda f, t: f.collided)
+_cause("jam", "for at least jam_share of the window another robot's centre was within "
+       "jam_distance_m (in contact or within a robot width) and the robot ended the window "
+       "less than progress_m from where it began it (blocked)",
+       ("jam_share", "jam_distance_m", "progress_m"),
+       lambda f, t: f.near_share >= t["jam_share"] and f.displacement_m < t["progress_m"])
+_cause("stuck", "it barely moved: every position of the window lies within still_m of every "
+       "other (standing or turning on the spot)", ("still_m",),
+       lambda f, t: f.extent_m <= t["still_m"])
+_cause("loop", "it moved but circled: the window's path is at least loop_ratio times the "
+       "diameter of the region it covers (revisiting the same places)", ("loop_ratio",),
+       lambda f, t: f.path_m >= t["loop_ratio"] * f.extent_m)
+_cause("slow", "it was still getting closer to its goal: at least progress_m closer at the "
+       "end of the window than at its start", ("progress_m",),
+       lambda f, t: f.progress_m >= t["progress_m"])
+_cause("detour", "it moved without circling and without coming progress_m closer to its goal "
+       "(following a boundary or escaping away from it)", ("progress_m",),
+       lambda f, t: f.progress_m < t["progress_m"])
+
+
+def failure_thresholds(*, r0_m: float = 0.15, v_max_mps: float = 0.5,
+                       window_s: float = 20.0) -> dict[str, float]:
+    """The length thresholds of :func:`classify_failure` for a robot of radius ``r0_m`` and
+    top speed ``v_max_mps``: ``still_m`` = 2 r0 (its own width), ``jam_distance_m`` = 4 r0
+    (centres one robot width apart), ``progress_m`` = a tenth of what it drives in
+    ``window_s`` at top speed. The defaults give :func:`classify_failure`'s defaults.
+
+    >>> failure_thresholds()
+    {'window_s': 20.0, 'still_m': 0.3, 'jam_distance_m': 0.6, 'progress_m': 1.0}
+    """
+    r0 = check_number("r0_m", r0_m, low=0, low_open=True)
+    v = check_number("v_max_mps", v_max_mps, low=0, low_open=True)
+    w = check_number("window_s", window_s, low=0, low_open=True)
+    return {"window_s": w, "still_m": 2 * r0, "jam_distance_m": 4 * r0,
+            "progress_m": round(0.1 * v * w, 12)}
+
+
+def _others(others: ArrayLike | None, n: int) -> np.ndarray:
+    if others is None:
+        return np.zeros((n, 0, 2))
+    arr = np.asarray(others, dtype=float)
+    if arr.ndim != 3 or arr.shape[0] != n or arr.shape[2] != 2 or np.isinf(arr).any():
+        raise ValueError(f"others must be a ({n}, M, 2) array of the other robots' positions at "
+                         f"the trajectory's samples (NaN where absent, no inf), "
+                         f"got others.shape={arr.shape}")
+    return arr
+
+
+def failure_features(
+    trajectory: ArrayLike,
+    goal: ArrayLike,
+    *,
+    collided: bool = False,
+    others: ArrayLike | None = None,
+    dt_s: float = 0.1,
+    time_limit_s: float = 120.0,
+    success_radius_m: float = 0.3,
+    window_s: float = 20.0,
+    jam_distance_m: float = 0.6,
+) -> FailureFeatures:
+    """The measurements behind :func:`classify_failure` (same parameters)."""
+    pos = _positions(trajectory)
+    if pos.shape[1] == 3:
+        pos = pos[:, :2]  # x, y, yaw poses
+    goal_arr = np.asarray(goal, dtype=float)
+    if goal_arr.shape != (2,) or not np.isfinite(goal_arr).all():
+        raise ValueError(f"goal must be 2 finite coordinates, got goal={goal!r}")
+    if not isinstance(collided, (bool, np.bool_)):
+        raise ValueError(f"collided must be a bool, got collided={collided!r}")
+    check_number("dt_s", dt_s, low=0, low_open=True)
+    check_number("window_s", window_s, low=0, low_open=True)
+    check_number("jam_distance_m", jam_distance_m, low=0, low_open=True)
+    near_to = _others(others, len(pos))
+    ok = arrived(pos, goal_arr, success_radius_m=success_radius_m, time_limit_s=time_limit_s,
+                 dt_s=dt_s, collided=bool(collided))
+    start = max(0, len(pos) - 1 - max(1, round(window_s / dt_s)))
+    win = pos[start:]
+    extent = float(np.hypot(*(win[:, None, :] - win[None, :, :]).transpose(2, 0, 1)).max())
+    to_goal = np.hypot(*(win[[0, -1]] - goal_arr).T)
+    with np.errstate(invalid="ignore"):
+        gaps = np.hypot(*(near_to[start:] - win[:, None, :]).transpose(2, 0, 1))
+    near = (gaps <= jam_distance_m).any(axis=1)  # NaN (absent) is never near
+    return FailureFeatures(arrived=ok, collided=bool(collided),
+                           window_s=(len(win) - 1) * float(dt_s), extent_m=extent,
+                           path_m=path_length_m(win),
+                           displacement_m=float(np.hypot(*(win[-1] - win[0]))),
+                           progress_m=float(to_goal[0] - to_goal[1]),
+                           near_share=float(near.mean()))
+
+
+def classify_failure(
+    trajectory: ArrayLike,
+    goal: ArrayLike,
+    *,
+    collided: bool = False,
+    others: ArrayLike | None = None,
+    dt_s: float = 0.1,
+    time_limit_s: float = 120.0,
+    success_radius_m: float = 0.3,
+    window_s: float = 20.0,
+    still_m: float = 0.3,
+    loop_ratio: float = 2.5,
+    progress_m: float = 1.0,
+    jam_distance_m: float = 0.6,
+    jam_share: float = 0.5,
+) -> str:
+    """Why a robot did not arrive: ``""`` if it arrived, else the first cause of
+    :data:`FAILURE_CAUSES` whose test holds on the last ``window_s`` seconds.
+
+    Parameters
+    ----------
+    trajectory : array_like, shape (T, 2) or (T, 3)
+        Positions ``x, y`` (or poses ``x, y, yaw``; the yaw is ignored) at the control rate,
+        from the robot's departure to its last tick.
+    goal : array_like, shape (2,)
+        Its goal (m).
+    collided : bool
+        It touched an obstacle.
+    others : array_like, shape (T, M, 2), optional
+        The other robots' positions at the same ticks, NaN where a robot is not in the world
+        (parked after arriving or failing); default none.
+    dt_s, time_limit_s, success_radius_m : float
+        Control period, time limit and arrival radius (:func:`arrived`).
+    window_s : float
+        The seconds at the end of the trajectory that are looked at (the whole trajectory if
+        shorter): 20 s, 10 m at the paper's 0.5 m/s, a whole turn round a 1.5 m obstacle.
+    still_m : float
+        ``stuck``: largest distance between two positions of the window (default 2 r0).
+    loop_ratio : float
+        ``loop``: path length over that diameter (> 1; 2.5: a circle gives pi, a single
+        back-and-forth 2, half a circle pi/2).
+    progress_m : float
+        ``slow``: how much closer to the goal at the window's end (default a tenth of 10 m);
+        ``jam``: the most the robot may end the window from where it began it.
+    jam_distance_m, jam_share : float
+        ``jam``: centre distance to another robot (default 4 r0: the bodies at most a robot
+        width apart) and the fraction of the window's samples it holds for (``(0, 1]``).
+
+    Returns
+    -------
+    str
+        ``""``, or the name of a cause (``collision``, ``jam``, ``stuck``, ``loop``, ``slow``,
+        ``detour``).
+
+    Examples
+    --------
+    >>> spin = np.zeros((1201, 2))  # 120 s on the spot, 5 m short of its goal
+    >>> classify_failure(spin, [0.0, 5.0])
+    'stuck'
+    >>> classify_failure(spin, [0.0, 5.0], collided=True)
+    'collision'
+    """
+    thresholds = {
+        "still_m": check_number("still_m", still_m, low=0, low_open=True),
+        "loop_ratio": check_number("loop_ratio", loop_ratio, low=1, low_open=True),
+        "progress_m": check_number("progress_m", progress_m, low=0, low_open=True),
+        "jam_share": check_number("jam_share", jam_share, low=0, high=1, low_open=True),
+    }
+    f = failure_features(trajectory, goal, collided=collided, others=others, dt_s=dt_s,
+                         time_limit_s=time_limit_s, success_radius_m=success_radius_m,
+                         window_s=window_s, jam_distance_m=jam_distance_m)
+    if f.arrived:
+        return ""
+    for cause in FAILURE_CAUSES.values():
+        if cause.test(f, thresholds):
+            return cause.name
+    raise AssertionError(f"no failure cause matched {f}")  # the last two tests are complements
+
+
+def _failure_count(cause: str) -> Callable[[Table], float]:
+    def count(table: Table) -> float:
+        if "failure" not in table:
+            return float("nan")  # a table written before the failure column
+        return float(np.sum(np.asarray(table["failure"], dtype=object) == cause))
+
+    count.__doc__ = (f"Number of robots whose ``failure`` is ``{cause}``: "
+                     f"{FAILURE_CAUSES[cause].definition}; NaN for a table without the column.")
+    return count
+
+
+for _name in FAILURE_CAUSES:
+    register_measure(f"failures_{_name}")(_failure_count(_name))
 
 
 def evaluate(table: Table, names: Iterable[str] | None = None) -> dict[str, float]:

@@ -29,7 +29,7 @@ from fftnav.sim.swarm import Observation, SimConfig, SwarmSim
 from fftnav.validate import check_integer
 from fftnav.world.model import World
 
-__all__ = ["run_episode"]
+__all__ = ["positions_by_tick", "run_episode"]
 
 
 def _seeds(seed: int) -> tuple[int, np.random.Generator]:
@@ -228,14 +228,49 @@ def run_episode(
             robots.active[i] = False
             onboard.controller.finish(int(i))
     trajectories = [np.array(t) for t in robots.trajectories]
+    by_tick = positions_by_tick(trajectories, robots.departure)
     rows = [_row(i, method.name, trajectories[i], onboard, robots, float(optimal[i]),
-                 float(geodesic[i])) for i in range(len(trajectories))]
+                 float(geodesic[i]), by_tick) for i in range(len(trajectories))]
     return EpisodeResult(rows=rows, trajectories=trajectories)
 
 
+def positions_by_tick(trajectories: list[np.ndarray], departure: np.ndarray) -> np.ndarray:
+    """Every robot's position at every tick of the episode, ``(G, N, 2)``: robot j's
+    trajectory sample k is tick ``departure[j] + k``; before its departure it waits at its
+    start (in the world), after its last sample it is parked (out of the world): NaN.
+
+    >>> trajectories = [np.array([[0.0, 0, 0], [0, 1, 0]]), np.array([[5.0, 0, 0]])]
+    >>> positions_by_tick(trajectories, np.array([0, 1]))[:, 1]
+    array([[5., 0.],
+           [5., 0.]])
+    >>> positions_by_tick(trajectories, np.array([1, 0]))[:, 0]
+    array([[0., 0.],
+           [0., 0.],
+           [0., 1.]])
+    """
+    ends = [int(d) + len(t) for d, t in zip(departure, trajectories, strict=True)]
+    out = np.full((max(ends), len(trajectories), 2), np.nan)
+    for j, (d, t) in enumerate(zip(departure, trajectories, strict=True)):
+        out[:d, j] = t[0, :2]
+        out[d:d + len(t), j] = t[:, :2]
+    return out
+
+
+def _failure(i: int, trajectory: np.ndarray, collided: bool, config: SwarmConfig,
+             goal: np.ndarray, departure: int, by_tick: np.ndarray) -> str:
+    """Robot ``i``'s cause of failure (empty if it arrived), the other robots aligned by tick."""
+    others = np.delete(by_tick[departure:departure + len(trajectory)], i, axis=1)
+    ep = config.episode
+    return metrics.classify_failure(
+        trajectory, goal, collided=collided, others=others, dt_s=1.0 / ep.control_hz,
+        time_limit_s=ep.time_limit_s, success_radius_m=ep.success_radius_m,
+        **metrics.failure_thresholds(r0_m=config.robot.r0_m, v_max_mps=config.robot.v_max_mps))
+
+
 def _row(i: int, policy: str, trajectory: np.ndarray, onboard: _Onboard, robots: _Robots,
-         optimal_m: float, geodesic_m: float) -> EpisodeRow:
-    """Robot ``i``'s row: metrics of its trajectory and counts of the episode."""
+         optimal_m: float, geodesic_m: float, by_tick: np.ndarray) -> EpisodeRow:
+    """Robot ``i``'s row: metrics of its trajectory, counts of the episode and its cause of
+    failure (``by_tick``: :func:`positions_by_tick`)."""
     ep, goal = onboard.config.episode, onboard.goals[i]
     dt = 1.0 / ep.control_hz
     collided = bool(robots.collided[i])
@@ -258,4 +293,6 @@ def _row(i: int, policy: str, trajectory: np.ndarray, onboard: _Onboard, robots:
         messages_sent=int(onboard.channel.messages_sent[i]),
         **onboard.controller.counters(i),
         robot_contacts=int(robots.robot_contacts[i]),
+        failure=_failure(i, trajectory, collided, onboard.config, goal,
+                         int(robots.departure[i]), by_tick),
     )

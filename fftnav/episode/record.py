@@ -64,6 +64,10 @@ neighbours_no_message, neighbours_lost : int
         another robot in the world was fused, or why not (:data:`fftnav.metrics.
         NEIGHBOUR_REASONS`); they add up to the sum over its decisions of the number of other
         robots in the world.
+    failure : str
+        Why the robot did not arrive: a cause of :data:`fftnav.metrics.FAILURE_CAUSES`
+        (``collision``, ``jam``, ``stuck``, ``loop``, ``slow``, ``detour``;
+        :func:`fftnav.metrics.classify_failure`); empty for a robot that arrived.
     """
 
     robot: int
@@ -94,6 +98,7 @@ neighbours_no_message, neighbours_lost : int
     neighbours_behind: int = 0
     neighbours_no_message: int = 0
     neighbours_lost: int = 0
+    failure: str = ""
 
     def as_dict(self) -> dict[str, Any]:
         """Column name -> value."""
