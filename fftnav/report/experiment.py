@@ -255,6 +255,8 @@ def draw_failures(config: ExperimentConfig, results: str | Path, env: str, map_s
         table = pd.read_csv(results / "episodes" / f"{stem}.csv", header=None, names=columns)
     table = table[(table.env == env) & (table.map_seed == map_seed)
                   & (table.policy == policy)].sort_values("robot")
+    if "failure" in table:  # an empty cell (a robot that arrived) reads as NaN
+        table["failure"] = table["failure"].fillna("")
     rows = [EpisodeRow(**{c: r[c] for c in EPISODE_COLUMNS if c in r})
             for r in table.to_dict("records")]
     with np.load(npz) as z:
