@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import sys
+from collections import Counter
 from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -28,19 +29,24 @@ def _overrides(pairs: list[str]) -> dict[str, str]:
 
 def outcome_line(rows: Sequence[EpisodeRow]) -> str:
     """How an episode went, in one line: robots arrived, mean SPL, collided, timed out (neither
-    arrived nor collided).
+    arrived nor collided), and the failures by cause (``failure`` column).
 
     >>> from fftnav.episode.record import EpisodeRow
-    >>> def row(arrived, collided, spl):
-    ...     return EpisodeRow(0, "p", arrived, collided, 1, 1, 1, spl, 1, *[0] * 7)
-    >>> outcome_line([row(True, False, 0.9), row(False, True, 0), row(False, False, 0)])
-    '1/3 arrived, SPL 0.30, 1 collided, 1 timed out'
+    >>> def row(arrived, collided, spl, failure=""):
+    ...     return EpisodeRow(0, "p", arrived, collided, 1, 1, 1, spl, 1, *[0] * 7,
+    ...                       failure=failure)
+    >>> outcome_line([row(True, False, 0.9), row(False, True, 0, "collision"),
+    ...               row(False, False, 0, "stuck")])
+    '1/3 arrived, SPL 0.30, 1 collided, 1 timed out; failures: collision 1, stuck 1'
     """
     arrived = sum(bool(r.arrived) for r in rows)
     collided = sum(bool(r.collided) for r in rows)
     spl = sum(r.spl for r in rows) / len(rows) if rows else float("nan")
+    causes = Counter(r.failure for r in rows if r.failure)
+    why = ("; failures: " + ", ".join(f"{c} {n}" for c, n in sorted(causes.items()))
+           if causes else "")
     return (f"{arrived}/{len(rows)} arrived, SPL {spl:.2f}, {collided} collided, "
-            f"{len(rows) - arrived - collided} timed out")
+            f"{len(rows) - arrived - collided} timed out{why}")
 
 
 def cmd_episode(args: argparse.Namespace) -> int:
@@ -54,7 +60,12 @@ def cmd_episode(args: argparse.Namespace) -> int:
     resolve(args.policy)  # an unknown name or a plugin that does not load: refused first
     config = SwarmConfig().replace(_overrides(args.set or []))
     world = load_world(args.world)
-    result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui)
+    result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui,
+                         record=bool(args.record))
+    if args.record:
+        from fftnav.episode.recording import write_recording
+
+        write_recording(args.record, result.recording())
     text = episode_csv(result.rows)
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
@@ -82,6 +93,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--trajectories", metavar="T.npz",
                    help="trajectories, one (T, 3) array of x, y, yaw per robot: arr_0, arr_1, ...")
     p.add_argument("--plot", metavar="P.png", help="draw the trajectories over the map")
+    p.add_argument("--record", metavar="R.npz",
+                   help="write the episode's recording to exactly this path (what every robot "
+                   "saw, decided and sent per tick; view it with 'fftnav replay')")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a parameter, e.g. --set time_limit_s=60 or "
                    "--set comms.packet_loss=0.2 (repeatable; keys of docs/experiments.md)")

@@ -21,6 +21,7 @@ from fftnav import metrics
 from fftnav.config import SwarmConfig
 from fftnav.episode.comms import Channel
 from fftnav.episode.record import EpisodeResult, EpisodeRow
+from fftnav.episode.recording import STATUS, Tape
 from fftnav.navigation.bugcontrol import BugController
 from fftnav.navigation.controllers import Controller, ControllerSetup, Packet, SwarmStep
 from fftnav.navigation.resolve import Resolved, resolve
@@ -58,25 +59,38 @@ class _Robots:
     in_contact: np.ndarray
     departure: np.ndarray
     trajectories: list[list[np.ndarray]] = field(default_factory=list)
+    #: How each robot left (a code of :data:`fftnav.episode.recording.STATUS`; 0 while in it).
+    left: np.ndarray = field(default_factory=lambda: np.zeros(0, dtype=np.uint8))
 
     @classmethod
     def start(cls, obs: Observation, departure: list[int]) -> _Robots:
         n = len(obs.poses)
         return cls(np.ones(n, dtype=bool), np.zeros(n, dtype=bool), np.zeros(n, dtype=np.int64),
                    np.zeros(n, dtype=bool), np.asarray(departure, dtype=np.int64),
-                   [[obs.poses[i].copy()] for i in range(n)])
+                   [[obs.poses[i].copy()] for i in range(n)], np.zeros(n, dtype=np.uint8))
 
     def moving(self, tick: int) -> np.ndarray:
         """Active robots that have departed by ``tick``."""
         return self.active & (self.departure <= tick)
+
+    def leave(self, i: int, how: str) -> None:
+        """Robot ``i`` leaves the world: ``arrived``, ``collided`` or ``timed_out``."""
+        self.active[i] = False
+        self.left[i] = STATUS.index(how)
+
+    def status(self, tick: int) -> np.ndarray:
+        """Every robot's :data:`~fftnav.episode.recording.STATUS` code at ``tick``."""
+        waiting = self.active & (self.departure > tick)
+        return np.where(self.active, np.where(waiting, STATUS.index("waiting"),
+                                              STATUS.index("moving")), self.left)
 
 
 class _Onboard:
     """The robots' software: FFT pipeline, message channel and the controller."""
 
     def __init__(self, world: World, method: Resolved, config: SwarmConfig,
-                 rng: np.random.Generator) -> None:
-        self.config, self.rng = config, rng
+                 rng: np.random.Generator, tape: Tape | None = None) -> None:
+        self.config, self.rng, self.tape = config, rng, tape
         self.pipe = config.pipeline()
         n = len(world.starts)
         self.goals = np.asarray(world.goals, dtype=np.float64)
@@ -125,7 +139,23 @@ class _Onboard:
         for i in sorted(outgoing):
             self.channel.broadcast(int(i), outgoing[i], tick=tick, poses=obs.poses,
                                    active=active)
+        if self.tape is not None:
+            self._record(step, commands, outgoing)
         return commands
+
+    def _record(self, step: SwarmStep, commands: np.ndarray, outgoing: dict[int, bytes]
+                ) -> None:
+        """Put one tick on the tape: what the robots saw, decided, sent and received."""
+        assert self.tape is not None
+        status = self.robots.status(step.tick)
+        self.tape.tick(step.time_s, step.poses, status, commands=commands,
+                       ranges_m=step.ranges_m, safe=step.safe,
+                       state={int(i): self.controller.state(int(i)) for i in step.active})
+        for i in sorted(outgoing):
+            self.tape.message(step.tick, int(i), outgoing[i])
+        for i in np.flatnonzero(status <= STATUS.index("moving")):
+            for packet in self.channel.arrived(int(i)):
+                self.tape.delivery(step.tick, packet.sender, int(i), packet.tick)
 
     def advance(self, sim: SwarmSim, commands: np.ndarray, robots: _Robots,
                 tick: int) -> Observation:
@@ -135,6 +165,8 @@ class _Onboard:
         obs = sim.step(commands)
         robots.robot_contacts += obs.robot_contact & robots.active & ~robots.in_contact  # onsets
         robots.in_contact = obs.robot_contact & robots.active
+        if self.tape is not None:
+            self.tape.contacts(obs.obstacle_contact, obs.robot_contact)
         for i in idx:
             robots.trajectories[i].append(obs.poses[i].copy())
             hit = bool(obs.obstacle_contact[i])
@@ -142,7 +174,7 @@ class _Onboard:
                     <= self.config.episode.success_radius_m)
             if hit or home:
                 robots.collided[i] = hit
-                robots.active[i] = False
+                robots.leave(int(i), "collided" if hit else "arrived")
                 self.controller.finish(int(i))
                 sim.park(int(i))
         return obs
@@ -156,6 +188,7 @@ def run_episode(
     config: SwarmConfig | None = None,
     gui: bool = False,
     reference: tuple[np.ndarray, np.ndarray] | None = None,
+    record: bool = False,
 ) -> EpisodeResult:
     """Run every robot of ``world`` to its goal under decision ``policy``.
 
@@ -179,12 +212,16 @@ def run_episode(
         The robots' grid A* and geodesic lengths (m) if already known (an experiment computes
         them once per map); default: computed here
         (:func:`fftnav.optimal.reference.optimal_lengths`, cached per process).
+    record : bool
+        Keep the episode's recording (:mod:`fftnav.episode.recording`) in the result's
+        ``tape``; the rows do not change.
 
     Returns
     -------
     EpisodeResult
         One :class:`~fftnav.episode.record.EpisodeRow` per robot (``robot`` is the index in the
-        world's starts) and the trajectories sampled at the control rate.
+        world's starts), the trajectories sampled at the control rate and, with ``record``,
+        the tape (:meth:`EpisodeResult.recording` gives the file's bytes).
 
     Notes
     -----
@@ -204,12 +241,14 @@ def run_episode(
     cfg = config or SwarmConfig()
     method = resolve(policy)
     sim_seed, rng = _seeds(seed)
-    onboard = _Onboard(world, method, cfg, rng)
+    tape = Tape(world, cfg, method.name, seed, cfg.pipeline().angles_rad) if record else None
+    onboard = _Onboard(world, method, cfg, rng, tape)
     optimal, geodesic = (_reference_lengths(world.to_json(), cfg.robot.r0_m)  # unreachable: fail
                          if reference is None else reference)
     with SwarmSim(world, config=SimConfig.for_swarm(cfg), gui=gui) as sim:
         obs = sim.reset(seed=sim_seed)
-        robots = _Robots.start(obs, cfg.episode.departure_ticks(len(world.starts)))
+        robots = onboard.robots = _Robots.start(obs, cfg.episode.departure_ticks(
+            len(world.starts)))
         for i in np.flatnonzero(robots.departure > 0):
             onboard.controller.hold(int(i))
         for tick in range(cfg.episode.max_ticks + int(robots.departure.max())):
@@ -217,7 +256,7 @@ def run_episode(
                 onboard.controller.release(int(i))
             out_of_time = tick - robots.departure >= cfg.episode.max_ticks  # waves, staggered
             for i in np.flatnonzero(robots.active & out_of_time):
-                robots.active[i] = False
+                robots.leave(int(i), "timed_out")
                 onboard.controller.finish(int(i))
                 sim.park(int(i))
             if not robots.active.any():
@@ -225,13 +264,15 @@ def run_episode(
             commands = onboard.commands(tick, obs, robots.moving(tick), robots.active)
             obs = onboard.advance(sim, commands, robots, tick)
         for i in np.flatnonzero(robots.active):  # out of ticks: time is up for everyone left
-            robots.active[i] = False
+            robots.leave(int(i), "timed_out")
             onboard.controller.finish(int(i))
+        if tape is not None:
+            tape.end(obs.time_s, obs.poses, robots.status(tick + 1))
     trajectories = [np.array(t) for t in robots.trajectories]
     by_tick = positions_by_tick(trajectories, robots.departure)
     rows = [_row(i, method.name, trajectories[i], onboard, robots, float(optimal[i]),
                  float(geodesic[i]), by_tick) for i in range(len(trajectories))]
-    return EpisodeResult(rows=rows, trajectories=trajectories)
+    return EpisodeResult(rows=rows, trajectories=trajectories, tape=tape)
 
 
 def positions_by_tick(trajectories: list[np.ndarray], departure: np.ndarray) -> np.ndarray:

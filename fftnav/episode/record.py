@@ -9,9 +9,12 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Iterable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from fftnav.episode.recording import Tape
 
 __all__ = ["EPISODE_COLUMNS", "EpisodeResult", "EpisodeRow", "episode_csv"]
 
@@ -116,6 +119,21 @@ class EpisodeResult:
     rows: list[EpisodeRow]
     #: One (T_i, 3) array of x, y, yaw per robot, sampled at the control rate.
     trajectories: list[np.ndarray]
+    #: The episode's recording while it is made (``run_episode(record=True)``), else None.
+    tape: Tape | None = None
+
+    def recording(self) -> bytes:
+        """The recording file's bytes (:mod:`fftnav.episode.recording`); needs
+        ``run_episode(record=True)``."""
+        if self.tape is None:
+            raise ValueError("record must be True in run_episode to get a recording, "
+                             "got record=False")
+        return self.tape.to_bytes([row.as_dict() for row in self.rows])
+
+    @property
+    def failed(self) -> bool:
+        """Whether a robot did not arrive."""
+        return not all(row.arrived for row in self.rows)
 
 
 def _cell(value: Any) -> str:

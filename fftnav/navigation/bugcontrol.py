@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from fftnav import metrics
-from fftnav.navigation.bug import BugPlanner
+from fftnav.navigation.bug import BugPlanner, Mode
 from fftnav.navigation.controllers import Controller, ControllerSetup, SwarmStep
 from fftnav.navigation.decider import Decider
 from fftnav.navigation.policies import DecisionContext, Policy
@@ -63,16 +63,22 @@ class BugController(Controller):
         self.heard = np.zeros(n, dtype=np.int64)  # messages read (the message kind counts)
         self._seen = np.zeros(n, dtype=np.int64)  # messages read at the last (re)decision
         self.poses = np.zeros((n, 3))
+        #: Per robot: the last P_s and fused P its policy asked for (NaN: not asked yet).
+        self.last_p = np.full((n, 2), np.nan)
         self.goals = np.zeros((n, 2))
         self.planner = BugPlanner.for_swarm(
             n, setup.config, self._decide, self._reconsider if policy.reconsiders else None,
             area_m=area_m)
 
     def _decide(self, i: int) -> int:
-        ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
-                              lambda: self.decider.fused_probability(i), self.rng,
-                              lambda: self._shared_side(i))
+        ctx = DecisionContext(i, lambda: self._note(i, 0, self.decider.own_probability(i)),
+                              lambda: self._note(i, 1, self.decider.fused_probability(i)),
+                              self.rng, lambda: self._shared_side(i))
         return self.policy.decide(ctx)
+
+    def _note(self, i: int, k: int, p: float) -> float:
+        self.last_p[i, k] = p
+        return p
 
     def _shared_side(self, i: int) -> int | None:
         """The side (+1 left, -1 right of the goal) whose way to the goal through robot ``i``'s
@@ -115,6 +121,17 @@ class BugController(Controller):
 
     def release(self, robot: int) -> None:
         self.planner.release(robot)
+
+    def state(self, robot: int) -> dict[str, float]:
+        """``mode`` (0 go to goal, 1 follow, 2 escape, 3 done, 4 waiting), ``side`` (+1 left,
+        -1 right, 0 none), ``decisions`` taken, and the last ``p_own`` (P_s) and ``p_fused``
+        (fused P) the policy asked for (NaN before)."""
+        mem = self.planner.memory[robot]
+        mode = {Mode.GO_TO_GOAL: 0, Mode.FOLLOW: 1, Mode.DONE: 3, Mode.WAIT: 4}[mem.mode]
+        return {"mode": 2.0 if mem.escape and mode <= 1 else float(mode),
+                "side": float(mem.side) if mode == 1 or mem.escape else 0.0,
+                "decisions": float(self.planner.decisions[robot].sum()),
+                "p_own": float(self.last_p[robot, 0]), "p_fused": float(self.last_p[robot, 1])}
 
     def counters(self, robot: int) -> dict[str, int | float]:
         planner, dt = self.planner, 1.0 / self.config.episode.control_hz

@@ -304,6 +304,14 @@ class Controller:
         """The decision counters of ``robot``'s row (all zero unless the controller has them)."""
         return dict.fromkeys(COUNTERS, 0)
 
+    def state(self, robot: int) -> Mapping[str, float]:
+        """A few named scalars describing ``robot``'s state at this tick (none by default).
+
+        Recordings keep them per tick (``fftnav episode --record``) and replays plot them;
+        use stable names and plain numbers (a mode as an integer code, a flag as 0 or 1).
+        """
+        return {}
+
 
 @dataclass(frozen=True)
 class ControllerSpec:

@@ -24,13 +24,15 @@ from fftnav.config import SwarmConfig
 from fftnav.files import read_toml
 from fftnav.limits import MAX_RAYS_PER_TICK, MAX_TASKS, check_limit
 from fftnav.navigation.resolve import Resolved, resolve
-from fftnav.validate import Checked, checked_field, integer_field
+from fftnav.validate import Checked, check_choice, checked_field, choice_field, integer_field
 from fftnav.world import WORLD_KINDS, load_preset, load_world, world_kinds, world_parameters
 
 __all__ = ["ExperimentConfig", "load_config", "parse_config"]
 
 _EXPERIMENT_KEYS = ("name", "envs", "maps", "map_seed", "robots", "policies", "trajectory_maps",
                     "out")
+#: ``[record] episodes``: which episodes keep their recording.
+RECORD_CHOICES = ("none", "failures", "all")
 _REQUIRED_KEYS = ("name", "envs", "maps", "map_seed", "robots", "policies")
 _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 
@@ -85,6 +87,10 @@ class ExperimentConfig(Checked):
         that world; the maps differ by their episode seed (sensor noise, packet loss).
     swarm : SwarmConfig
         Robot, sensor, communication and episode parameters.
+    record : str
+        ``[record] episodes``: which episodes keep their recording in ``OUT/records/``
+        (:mod:`fftnav.episode.recording`): ``"none"``, ``"failures"`` (those in which a robot
+        did not arrive; the default) or ``"all"``. Recording changes no result.
     source : str
         The TOML text the config was parsed from (copied into the output folder).
     """
@@ -101,6 +107,7 @@ class ExperimentConfig(Checked):
     world_by_env: dict[str, dict[str, Any]] = field(default_factory=dict)
     world_files: dict[str, str] = field(default_factory=dict)
     swarm: SwarmConfig = field(default_factory=SwarmConfig)
+    record: str = choice_field("failures", RECORD_CHOICES)
     source: str = field(default="", repr=False, compare=False)
     #: ``[sweep]``: the cells of a one-factor-at-a-time sweep, ``(name, config)``, the first
     #: ``base`` (this config without the sweep); empty without ``[sweep]``.
@@ -181,7 +188,7 @@ def parse_config(data: dict[str, Any], *, source: str = "",
     ValueError
         Unknown section or key, missing or invalid value; the message names the key.
     """
-    allowed = ("experiment", "world", "world_files", "sweep", *SwarmConfig.SECTIONS)
+    allowed = ("experiment", "world", "world_files", "sweep", "record", *SwarmConfig.SECTIONS)
     for name in data:
         if name not in allowed:
             raise ValueError(f"unknown section [{name}]; expected one of {list(allowed)}")
@@ -207,9 +214,13 @@ def parse_config(data: dict[str, Any], *, source: str = "",
                 hint="lower sensor.beams")
     common, by_env = _world_tables(_table(data, "world"), envs, world_files, scalars["robots"],
                                    swarm)
+    record = _table(data, "record")
+    _check_keys("record", record, ("episodes",))
+    recorded = check_choice("record.episodes", record.get("episodes", "failures"),
+                            RECORD_CHOICES)
     return ExperimentConfig.from_table(
         "experiment", scalars, envs=envs, policies=policies, world=common, world_by_env=by_env,
-        world_files=world_files, swarm=swarm, source=source)
+        world_files=world_files, swarm=swarm, source=source, record=recorded)
 
 
 def _experiment_scalars(exp: dict[str, Any]) -> dict[str, Any]:

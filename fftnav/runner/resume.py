@@ -31,7 +31,8 @@ __all__ = ["FolderLock", "InvocationClock", "canonical_config", "check_same_expe
 LOCK_NAME = ".lock"
 #: Folders and files ``fftnav run`` writes into a results folder (what :func:`remove_results`
 #: deletes).
-RESULT_FOLDERS: tuple[str, ...] = ("episodes", "trajectories", "reference", "figures")
+RESULT_FOLDERS: tuple[str, ...] = ("episodes", "trajectories", "records", "reference",
+                                   "figures")
 RESULT_FILES: tuple[str, ...] = ("episodes.csv", "summary.csv", "paired_tests.csv",
                                  "errors.csv", "report.md", "run_info.json", "config.toml",
                                  "config.json")
@@ -172,8 +173,9 @@ def canonical_config(config: ExperimentConfig, columns: tuple[str, ...]) -> str:
     (:func:`fftnav.plugins.plugin_sources`: the plugin files named by path and the modules
     beside them they import) and world file. A config without plugin or world files has no key
     for them (nor ``world_files``): the ``config.json`` of results folders that hold no such
-    key stays valid."""
-    fields = {k: v for k, v in asdict(config).items() if not (k == "world_files" and not v)}
+    key stays valid. ``record`` is left out: recordings change no result."""
+    fields = {k: v for k, v in asdict(config).items()
+              if not (k == "world_files" and not v) and k != "record"}
     plugins = {str(source): file_sha256(source) for found in config.resolved.values()
                if found.file for source in plugin_sources(found.file)}
     worlds = {path: file_sha256(Path(path)) for path in config.world_files.values()}

@@ -5,6 +5,9 @@ Layout of the output folder ``DIR``:
 - ``episodes/<env>-<map_seed>-<policy>.csv``: one file per finished task (a rerun skips a task
   whose file passes :func:`fftnav.runner.resume.task_file_problem`, and reruns it otherwise),
   ``trajectories/<same>.npz`` for the figure maps;
+- ``records/<same>.npz``: the episodes' recordings that ``[record] episodes`` keeps (by default
+  those in which a robot did not arrive; :mod:`fftnav.episode.recording`); a resume reruns a
+  finished task whose wanted recording is missing;
 - ``episodes.csv``: all finished tasks, rebuilt atomically now and then during the run, on
   interruption and at the end, sorted by (env, map_seed, policy, robot), so it is
   byte-identical whatever the completion order, the worker count or the executor;
@@ -161,7 +164,7 @@ def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, exec
     """Run the unfinished tasks (enumerated lazily, O(1) bookkeeping per finished episode);
     ``episodes.csv`` is rebuilt now and then (at most ~5 % of the time) and at the end, even
     on interruption."""
-    for sub in ("episodes", "trajectories"):
+    for sub in ("episodes", "trajectories", "records"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     write_atomic(out / "config.toml", config.source)
     real = task_fn is run_task  # real episodes: each map's reference lengths computed once
@@ -174,7 +177,7 @@ def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, exec
 
     def todo() -> Iterator[Task]:
         for task in iter_tasks(config):
-            if not fresh and _trusted(out, config, task):
+            if not fresh and _trusted(out, config, task, records=real):
                 outcome.skipped += 1
                 bar.update()
             else:
@@ -222,16 +225,17 @@ class _EpisodesRebuild:
         self.cost = self.last - begin
 
 
-def _trusted(out: Path, config: ExperimentConfig, task: Task) -> bool:
-    """Whether a finished task's files pass the check; a file that fails is reported once (one
-    line on stderr) and the task rerun."""
+def _trusted(out: Path, config: ExperimentConfig, task: Task, *, records: bool) -> bool:
+    """Whether a finished task's files pass the check and, with ``records`` (real episodes),
+    the recording it should keep is there; a file that fails is reported once (one line on
+    stderr) and the task rerun."""
     path = _task_csv(out, task)
     if not path.exists():
         return False
     npz = out / "trajectories" / f"{task.task_id}.npz" if task.keep_trajectories else None
     problem = task_file_problem(path, npz, task, robots=config.robots, columns=CSV_COLUMNS)
     if problem is None:
-        return True
+        return not (records and _recording_missing(out, config, task, path))
     sys.stderr.write(f"fftnav run: rerunning {task.task_id}: {path} cannot be trusted "
                      f"({problem})\n")
     return False
@@ -358,8 +362,27 @@ def _task_csv(out: Path, task: Task) -> Path:
     return out / "episodes" / f"{task.task_id}.csv"
 
 
+def record_path(out: Path, task: Task) -> Path:
+    """Where a task's recording is kept: ``OUT/records/<task id>.npz``."""
+    return out / "records" / f"{task.task_id}.npz"
+
+
+def _recording_missing(out: Path, config: ExperimentConfig, task: Task, csv: Path) -> bool:
+    """Whether ``[record] episodes`` wants a recording of this finished task that the folder
+    does not hold (the task is then rerun: its rows come out the same)."""
+    if config.record == "none" or record_path(out, task).exists():
+        return False
+    if config.record == "all":
+        return True
+    arrived = CSV_COLUMNS.index("arrived")
+    return any(line.split(",")[arrived] != "true" for line in csv.read_text().splitlines())
+
+
 def _save_task(out: Path, task: Task, result: TaskResult) -> TaskResult:
-    """Write the trajectories (if kept), then the task's CSV, which marks the task done."""
+    """Write the trajectories and the recording (if kept), then the task's CSV, which marks
+    the task done."""
+    if result.recording is not None:
+        write_atomic(record_path(out, task), result.recording)
     if result.trajectories is not None:
         buffer = io.BytesIO()
         np.savez_compressed(buffer, *result.trajectories)

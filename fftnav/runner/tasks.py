@@ -53,10 +53,12 @@ def task_id(env: str, map_seed: int, policy: str) -> str:
 
 @dataclass
 class TaskResult:
-    """Per-robot rows and, if kept, trajectories ``(T_i, 3)``."""
+    """Per-robot rows, if kept, trajectories ``(T_i, 3)``, and the recording's bytes if the
+    config keeps it (``[record] episodes``)."""
 
     rows: list[EpisodeRow]
     trajectories: list[np.ndarray] | None
+    recording: bytes | None = None
 
 
 def episode_seed(env: str, map_seed: int) -> int:
@@ -95,7 +97,8 @@ def make_tasks(config: ExperimentConfig) -> list[Task]:
 
 
 def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
-    """Generate the task's world (cached per process) and run its episode.
+    """Generate the task's world (cached per process) and run its episode, recorded as
+    ``[record] episodes`` says (the recording's bytes are made in the worker).
 
     Parameters
     ----------
@@ -110,8 +113,10 @@ def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
     policy = config.resolved[task.policy].reference
     lengths = None if task.reference is None else tuple(np.array(r) for r in task.reference)
     result = run_episode(world, policy, seed=task.episode_seed, config=config.swarm,
-                         reference=lengths)
-    return TaskResult(result.rows, result.trajectories if task.keep_trajectories else None)
+                         reference=lengths, record=config.record != "none")
+    kept = config.record == "all" or (config.record == "failures" and result.failed)
+    return TaskResult(result.rows, result.trajectories if task.keep_trajectories else None,
+                      result.recording() if kept else None)
 
 
 def map_reference(config: ExperimentConfig, task: Task) -> np.ndarray:

@@ -148,6 +148,9 @@ def test_episode_runs_a_plugin_importing_its_neighbour_and_says_how_it_went(newc
     rows = pd.read_csv(newcomer / "e.csv")
     assert list(rows.policy) == ["mine"] * 3
     arrived, collided = int(rows.arrived.sum()), int(rows.collided.sum())
+    causes = rows.failure.dropna().value_counts().sort_index()
+    why = ("; failures: " + ", ".join(f"{c} {n}" for c, n in causes.items())
+           if len(causes) else "")
     assert proc.stderr.splitlines()[-1] == (
         f"{arrived}/3 arrived, SPL {rows.spl.mean():.2f}, {collided} collided, "
-        f"{3 - arrived - collided} timed out")
+        f"{3 - arrived - collided} timed out{why}")

@@ -1,0 +1,313 @@
+"""Episode recordings: everything one episode's robots saw, decided, sent and touched, per tick.
+
+A recording is one file per episode that replays with nothing else: the world, the swarm
+configuration, the policy's name and the seed, and per control tick and robot the pose, the
+command, the controller's state (:meth:`fftnav.navigation.controllers.Controller.state`), the
+lidar scan (quantised), the FFT pipeline's safe mask (bit-packed), the contacts, and the
+messages sent and delivered. ``fftnav replay`` draws it (docs/analysis.md).
+
+Format: a NumPy ``.npz`` archive (a zip of ``.npy`` arrays, deflate-compressed), one array per
+column. It needs nothing beyond NumPy to read, each column loads on its own, and the deflate
+pass shrinks the scans (mostly "no return") several times. The ``meta`` entry is UTF-8 JSON
+with ``format`` (:data:`FORMAT`) and ``version`` (:data:`VERSION`); the reader refuses other
+formats and newer versions. The columns, with G ticks, N robots and M beams:
+
+========================= ================ ==================================================
+column                    dtype, shape     meaning
+========================= ================ ==================================================
+``time_s``                float64 (G,)     episode time at the start of the tick (s)
+``pose``                  float32 (G,N,3)  x (m), y (m), yaw (rad) the tick's scan was taken at
+``command``               float32 (G,N,2)  the command of the tick: v (m/s), w (rad/s)
+``status``                uint8 (G,N)      :data:`STATUS` index: waiting, moving, arrived,
+                                           collided, timed_out (at the start of the tick)
+``scan``                  uint8/16 (G,N,M) range in steps of ``meta["scan_step_m"]`` (0.02 m:
+                                           at most 1 cm error); 0 for robots not moving
+``safe_bits``             uint8 (G,N,M/8)  the safe mask, ``numpy.packbits`` along beams
+``contact_obstacle``      bool (G,N)       Bullet contact with an obstacle during the tick
+``contact_robot``         bool (G,N)       ... with another robot
+``state/<name>``          float32 (G,N)    the controller's state values, NaN when absent
+``sent_tick``             int32 (S,)       messages broadcast: tick, sender
+``sent_robot``            int16 (S,)
+``sent_offset``           int64 (S+1,)     ``sent_bytes[sent_offset[k]:sent_offset[k+1]]``
+``sent_bytes``            uint8 (B,)       the payloads, concatenated
+``delivered``             int32 (D,4)      packets delivered: tick, sender, receiver, sent tick
+========================= ================ ==================================================
+
+The last tick (``G - 1``) is the end of the episode: poses and statuses only.
+
+>>> import numpy as np
+>>> bits = np.packbits(np.array([[True, False, True]]), axis=-1)
+>>> np.unpackbits(bits, axis=-1, count=3).astype(bool)
+array([[ True, False,  True]])
+"""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import os
+import tempfile
+import zipfile
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fftnav.config import SwarmConfig
+from fftnav.world.model import World
+
+__all__ = ["FORMAT", "SCAN_STEP_M", "STATUS", "VERSION", "Recording", "RecordingError",
+           "Tape", "read_recording", "write_recording"]
+
+#: The ``format`` of a recording's ``meta``.
+FORMAT = "fftnav-recording"
+#: Schema version written; the reader reads this version and earlier ones.
+VERSION = 1
+#: Quantisation step of the recorded scans (m): the error is at most half of it.
+SCAN_STEP_M = 0.02
+#: Robot statuses, by their code in ``status``.
+STATUS = ("waiting", "moving", "arrived", "collided", "timed_out")
+
+
+class RecordingError(ValueError):
+    """A file that is not a readable recording."""
+
+
+@dataclass(frozen=True)
+class Recording:
+    """One recorded episode (:func:`read_recording`); arrays as in the module's table, with the
+    scans in metres and the safe masks unpacked.
+
+    Attributes
+    ----------
+    world : World
+    config : SwarmConfig
+    policy : str
+    seed : int
+    rows : list of dict
+        The episode's rows (``episodes.csv`` columns), one per robot.
+    angles_rad : ndarray, (M,)
+        Beam angles, CCW from the heading.
+    """
+
+    world: World
+    config: SwarmConfig
+    policy: str
+    seed: int
+    rows: list[dict[str, Any]]
+    angles_rad: np.ndarray
+    time_s: np.ndarray
+    pose: np.ndarray
+    command: np.ndarray
+    status: np.ndarray
+    scan_m: np.ndarray
+    safe: np.ndarray
+    contact_obstacle: np.ndarray
+    contact_robot: np.ndarray
+    state: dict[str, np.ndarray]
+    sent_tick: np.ndarray
+    sent_robot: np.ndarray
+    sent_payloads: list[bytes]
+    delivered: np.ndarray
+    meta: dict[str, Any] = field(default_factory=dict)
+
+    @property
+    def n_ticks(self) -> int:
+        return len(self.time_s)
+
+    @property
+    def n_robots(self) -> int:
+        return self.pose.shape[1]
+
+    def tick_at(self, time_s: float) -> int:
+        """The last tick at or before ``time_s`` (clamped to the recording)."""
+        return int(np.clip(np.searchsorted(self.time_s, time_s, side="right") - 1,
+                           0, self.n_ticks - 1))
+
+
+class Tape:
+    """Collects an episode tick by tick (:mod:`fftnav.episode.loop` calls it) and packs it
+    into a recording's columns (:meth:`to_bytes`)."""
+
+    def __init__(self, world: World, config: SwarmConfig, policy: str, seed: int,
+                 angles_rad: np.ndarray) -> None:
+        self.world, self.config, self.policy, self.seed = world, config, policy, seed
+        self.angles_rad = np.asarray(angles_rad, dtype=np.float64)
+        n = len(world.starts)
+        self.n = n
+        self.pose = np.zeros((n, 3))  # last pose of each robot while in the world
+        self.ticks: list[dict[str, Any]] = []
+        self.sent: list[tuple[int, int, bytes]] = []
+        self.delivered: list[tuple[int, int, int, int]] = []
+        self.state_names: dict[str, None] = {}
+        steps = math.ceil(config.sensor.range_m / SCAN_STEP_M)
+        self.scan_dtype = np.uint8 if steps <= np.iinfo(np.uint8).max else np.uint16
+
+    def tick(self, time_s: float, poses: np.ndarray, status: np.ndarray, *,
+             commands: np.ndarray, ranges_m: np.ndarray, safe: np.ndarray | None,
+             state: Mapping[int, Mapping[str, float]]) -> None:
+        """One control tick: poses at the scan, statuses (codes of :data:`STATUS`), commands,
+        ranges (m) and safe masks of every robot (zeros for robots not moving), the controller's
+        state of the moving robots."""
+        in_world = status <= STATUS.index("moving")
+        self.pose[in_world] = poses[in_world]
+        for values in state.values():
+            self.state_names.update(dict.fromkeys(values))
+        beams = len(self.angles_rad)
+        self.ticks.append({
+            "time_s": float(time_s), "pose": self.pose.astype(np.float32),
+            "status": status.astype(np.uint8), "command": commands.astype(np.float32),
+            "scan": np.rint(np.nan_to_num(ranges_m) / SCAN_STEP_M).astype(self.scan_dtype),
+            "safe_bits": np.packbits(np.zeros((self.n, beams), bool) if safe is None else safe,
+                                     axis=-1),
+            "state": {i: dict(v) for i, v in state.items()},
+            "contact_obstacle": np.zeros(self.n, bool), "contact_robot": np.zeros(self.n, bool),
+        })
+
+    def contacts(self, obstacle: np.ndarray, robot: np.ndarray) -> None:
+        """The contacts Bullet reported while the last tick's commands ran."""
+        self.ticks[-1]["contact_obstacle"] = np.asarray(obstacle, bool).copy()
+        self.ticks[-1]["contact_robot"] = np.asarray(robot, bool).copy()
+
+    def message(self, tick: int, sender: int, payload: bytes) -> None:
+        self.sent.append((tick, sender, bytes(payload)))
+
+    def delivery(self, tick: int, sender: int, receiver: int, sent_tick: int) -> None:
+        self.delivered.append((tick, sender, receiver, sent_tick))
+
+    def end(self, time_s: float, poses: np.ndarray, status: np.ndarray) -> None:
+        """The end of the episode: a last tick with poses and statuses only."""
+        zeros = np.zeros((self.n, len(self.angles_rad)))
+        self.tick(time_s, poses, status, commands=np.zeros((self.n, 2)), ranges_m=zeros,
+                  safe=None, state={})
+
+    def columns(self, rows: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
+        """The recording's columns (the ``meta`` column carries ``rows``)."""
+        cols = {key: np.stack([t[key] for t in self.ticks])
+                for key in ("pose", "status", "command", "scan", "safe_bits",
+                            "contact_obstacle", "contact_robot")}
+        cols["time_s"] = np.array([t["time_s"] for t in self.ticks])
+        for name in self.state_names:
+            col = np.full((len(self.ticks), self.n), np.nan, dtype=np.float32)
+            for g, t in enumerate(self.ticks):
+                for i, values in t["state"].items():
+                    col[g, i] = values.get(name, np.nan)
+            cols[f"state/{name}"] = col
+        payloads = [p for _, _, p in self.sent]
+        cols["sent_tick"] = np.array([t for t, _, _ in self.sent], dtype=np.int32)
+        cols["sent_robot"] = np.array([r for _, r, _ in self.sent], dtype=np.int16)
+        cols["sent_offset"] = np.concatenate([[0], np.cumsum([len(p) for p in payloads])]
+                                             ).astype(np.int64)
+        cols["sent_bytes"] = np.frombuffer(b"".join(payloads), dtype=np.uint8)
+        cols["delivered"] = np.array(self.delivered, dtype=np.int32).reshape(-1, 4)
+        cols["meta"] = np.frombuffer(json.dumps(self._meta(rows)).encode(), dtype=np.uint8)
+        return cols
+
+    def _meta(self, rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
+        return {"format": FORMAT, "version": VERSION, "policy": self.policy, "seed": self.seed,
+                "scan_step_m": SCAN_STEP_M, "beams": len(self.angles_rad),
+                "angles_rad": self.angles_rad.tolist(), "status": list(STATUS),
+                "world": json.loads(self.world.to_json()),
+                "config": self.config.to_sections(),
+                "rows": [_jsonable(row) for row in rows]}
+
+    def to_bytes(self, rows: Sequence[Mapping[str, Any]]) -> bytes:
+        """The recording file's bytes (a compressed ``.npz``)."""
+        buffer = io.BytesIO()
+        np.savez_compressed(buffer, allow_pickle=False, **self.columns(rows))
+        return buffer.getvalue()
+
+
+def _jsonable(row: Mapping[str, Any]) -> dict[str, Any]:
+    out = {}
+    for key, value in row.items():
+        if isinstance(value, (np.generic,)):
+            value = value.item()
+        if isinstance(value, float) and not math.isfinite(value):
+            value = None
+        out[key] = value
+    return out
+
+
+def write_recording(path: str | os.PathLike[str], data: bytes) -> Path:
+    """Write a recording's bytes to ``path`` atomically (a temporary file in the same folder,
+    then renamed), creating the folder."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "wb") as handle:
+            handle.write(data)
+        os.replace(tmp, path)
+    except BaseException:
+        Path(tmp).unlink(missing_ok=True)
+        raise
+    return path
+
+
+def read_recording(path: str | os.PathLike[str]) -> Recording:
+    """Read a recording written by an episode (``fftnav episode --record``, or an experiment's
+    ``records/``).
+
+    Raises
+    ------
+    RecordingError
+        ``path`` is not a recording (not an ``.npz``, no ``meta``, another format or a newer
+        version, missing columns).
+    """
+    try:
+        with np.load(path, allow_pickle=False) as npz:
+            cols = {key: npz[key] for key in npz.files}
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+        raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "
+                             f"({exc})") from None
+    meta = _read_meta(path, cols)
+    try:
+        return _decode(cols, meta)
+    except KeyError as exc:
+        raise RecordingError(f"path must be a complete fftnav recording, got path={str(path)!r}"
+                             f" (no column {exc})") from None
+
+
+def _read_meta(path: Any, cols: Mapping[str, np.ndarray]) -> dict[str, Any]:
+    try:
+        meta = json.loads(cols["meta"].tobytes().decode())
+    except (KeyError, ValueError) as exc:
+        raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "
+                             f"(no readable meta: {exc})") from None
+    if not isinstance(meta, dict) or meta.get("format") != FORMAT:
+        raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "
+                             f"(format {meta.get('format') if isinstance(meta, dict) else meta!r})")
+    if not isinstance(meta.get("version"), int) or meta["version"] > VERSION:
+        raise RecordingError(f"path must be a recording of version <= {VERSION}, got "
+                             f"path={str(path)!r} (version {meta.get('version')!r}); "
+                             "upgrade fftnav to read it")
+    return meta
+
+
+def _decode(cols: Mapping[str, np.ndarray], meta: dict[str, Any]) -> Recording:
+    beams = int(meta["beams"])
+    offsets = cols["sent_offset"]
+    data = cols["sent_bytes"].tobytes()
+    return Recording(
+        world=World.from_json(json.dumps(meta["world"])),
+        config=SwarmConfig.from_sections(meta["config"]),
+        policy=str(meta["policy"]), seed=int(meta["seed"]), rows=list(meta["rows"]),
+        angles_rad=np.asarray(meta["angles_rad"], dtype=np.float64),
+        time_s=cols["time_s"].astype(np.float64),
+        pose=cols["pose"].astype(np.float64), command=cols["command"].astype(np.float64),
+        status=cols["status"],
+        scan_m=cols["scan"].astype(np.float64) * float(meta["scan_step_m"]),
+        safe=np.unpackbits(cols["safe_bits"], axis=-1, count=beams).astype(bool),
+        contact_obstacle=cols["contact_obstacle"], contact_robot=cols["contact_robot"],
+        state={key.split("/", 1)[1]: col.astype(np.float64)
+               for key, col in cols.items() if key.startswith("state/")},
+        sent_tick=cols["sent_tick"].astype(np.int64), sent_robot=cols["sent_robot"].astype(
+            np.int64),
+        sent_payloads=[data[a:b] for a, b in zip(offsets[:-1], offsets[1:], strict=True)],
+        delivered=cols["delivered"].astype(np.int64),
+        meta={k: v for k, v in meta.items() if k not in ("world", "config", "rows")},
+    )
