@@ -25,7 +25,8 @@ column                    dtype, shape     meaning
 ``safe_bits``             uint8 (G,N,M/8)  the safe mask, ``numpy.packbits`` along beams
 ``contact_obstacle``      bool (G,N)       Bullet contact with an obstacle during the tick
 ``contact_robot``         bool (G,N)       ... with another robot
-``state/<name>``          float32 (G,N)    the controller's state values, NaN when absent
+``state/<name>``          float32 (G,N)    the controller's state after the tick's step, NaN
+                                           when absent
 ``sent_tick``             int32 (S,)       messages broadcast: tick, sender
 ``sent_robot``            int16 (S,)
 ``sent_offset``           int64 (S+1,)     ``sent_bytes[sent_offset[k]:sent_offset[k+1]]``
@@ -138,7 +139,7 @@ class Tape:
         self.angles_rad = np.asarray(angles_rad, dtype=np.float64)
         n = len(world.starts)
         self.n = n
-        self.pose = np.zeros((n, 3))  # last pose of each robot while in the world
+        self.pose = np.zeros((n, 3))
         self.ticks: list[dict[str, Any]] = []
         self.sent: list[tuple[int, int, bytes]] = []
         self.delivered: list[tuple[int, int, int, int]] = []
@@ -152,8 +153,7 @@ class Tape:
         """One control tick: poses at the scan, statuses (codes of :data:`STATUS`), commands,
         ranges (m) and safe masks of every robot (zeros for robots not moving), the controller's
         state of the moving robots."""
-        in_world = status <= STATUS.index("moving")
-        self.pose[in_world] = poses[in_world]
+        self.pose = np.asarray(poses, dtype=np.float64)  # parked robots keep their last pose
         for values in state.values():
             self.state_names.update(dict.fromkeys(values))
         beams = len(self.angles_rad)

@@ -1,0 +1,195 @@
+"""Episode recordings: what the robots saw, decided and sent, read back against what the
+controller was given and returned; the format's refusals; the runner's ``[record]``."""
+
+from __future__ import annotations
+
+import io
+import json
+import math
+import subprocess
+import sys
+import zipfile
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fftnav.config import EpisodeConfig, SwarmConfig
+from fftnav.episode import episode_csv, read_recording, run_episode
+from fftnav.episode.recording import SCAN_STEP_M, STATUS, VERSION, RecordingError, write_recording
+from fftnav.navigation.controllers import Action, Controller
+from fftnav.world import Circle, World, generate_world
+
+CFG = SwarmConfig(episode=EpisodeConfig(time_limit_s=12.0))
+
+
+def _world():
+    """Two robots, a trunk in front of robot 0; robot 1 has an open way."""
+    return World("test", 0, (8.0, 8.0), (Circle((2.0, 4.0), 0.5, 1.0),),
+                 np.array([[2.0, 1.0, math.pi / 2], [6.0, 1.0, math.pi / 2]]), np.array([[2.0, 7.0], [6.0, 7.0]]))
+
+
+class Spy(Controller):
+    """Drives toward the goal, sends a message naming the tick every other tick, and remembers
+    everything it was given and returned (the oracle of the recording)."""
+
+    seen: list = []
+
+    def __init__(self, setup):
+        super().__init__(setup)
+        Spy.seen = []
+        self.count = {}
+
+    def act(self, obs):
+        v = self.v_max_mps * (0.5 + 0.5 * math.cos(obs.goal_bearing_rad))
+        w = float(np.clip(2.0 * obs.goal_bearing_rad, -self.w_max_radps, self.w_max_radps))
+        msg = f"{obs.robot}@{obs.tick}".encode() if obs.tick % 2 == 0 else None
+        self.count[obs.robot] = self.count.get(obs.robot, 0) + 1
+        Spy.seen.append((obs.tick, obs.robot, obs.ranges_m.copy(), obs.safe_mask.copy(),
+                         (v, w), msg, [(p.sender, p.tick) for p in obs.inbox]))
+        return Action(v, w, msg)
+
+    def state(self, robot):
+        return {"acts": float(self.count.get(robot, 0)), "half": 0.5}
+
+
+@pytest.fixture(scope="module")
+def spied():
+    result = run_episode(_world(), "tests.episode.test_recording:Spy", seed=3, config=CFG,
+                         record=True)
+    return result, read_recording(io.BytesIO(result.recording())), list(Spy.seen)
+
+
+def test_recording_changes_no_row():
+    world = generate_world("forest", 11, robots=4, size_m=(8.0, 8.0), goal_y_m=7.0)
+    plain = run_episode(world, "fusion", seed=2, config=CFG)
+    recorded = run_episode(world, "fusion", seed=2, config=CFG, record=True)
+    assert episode_csv(recorded.rows) == episode_csv(plain.rows)
+    for a, b in zip(plain.trajectories, recorded.trajectories, strict=True):
+        np.testing.assert_array_equal(a, b)
+
+
+def test_scans_masks_commands_and_messages_are_those_the_controller_had(spied):
+    _, rec, seen = spied
+    assert len(seen) > 50
+    for tick, robot, ranges, safe, (v, w), msg, _ in seen:
+        assert np.abs(rec.scan_m[tick, robot] - ranges).max() <= SCAN_STEP_M / 2 + 1e-9
+        np.testing.assert_array_equal(rec.safe[tick, robot], safe)
+        np.testing.assert_allclose(rec.command[tick, robot], (v, w), rtol=1e-6, atol=1e-6)
+        assert rec.status[tick, robot] == STATUS.index("moving")
+    sent = {(t, r): p for t, r, p in zip(rec.sent_tick, rec.sent_robot, rec.sent_payloads,
+                                         strict=True)}
+    assert sent == {(t, r): m for t, r, _, _, _, m, _ in seen if m is not None}
+
+
+def test_every_packet_in_an_inbox_was_delivered_by_then(spied):
+    _, rec, seen = spied
+    delivered = {(int(s), int(r), int(st)): int(t) for t, s, r, st in rec.delivered}
+    assert delivered
+    for tick, robot, *_, inbox in seen:
+        for sender, sent_tick in inbox:
+            assert delivered[(sender, robot, sent_tick)] <= tick
+    for t, s, _, st in rec.delivered:
+        assert t >= st and s in rec.sent_robot[rec.sent_tick == st]
+
+
+def test_poses_state_and_final_status_follow_the_episode(spied):
+    result, rec, seen = spied
+    assert rec.n_ticks == max(t for t, *_ in seen) + 2  # the ticks, then the end
+    for i, traj in enumerate(result.trajectories):
+        np.testing.assert_allclose(rec.pose[:len(traj), i], traj, atol=1e-4)
+        ticks = [t for t, r, *_ in seen if r == i]
+        # the state after the tick's act
+        np.testing.assert_array_equal(rec.state["acts"][ticks, i], np.arange(1, len(ticks) + 1))
+        end = {"arrived": result.rows[i].arrived, "collided": result.rows[i].collided}
+        how = next((k for k, v in end.items() if v), "timed_out")
+        assert STATUS[rec.status[-1, i]] == how
+    assert set(rec.state) == {"acts", "half"}
+    assert rec.policy == "Spy" and rec.seed == 3
+    assert rec.world.to_json() == _world().to_json()
+    assert rec.config == CFG
+    assert [r["robot"] for r in rec.rows] == [0, 1]
+    np.testing.assert_allclose(rec.time_s[:3], [0.0, 0.1, 0.2])
+
+
+def test_bug_controller_state_names_its_mode_and_side():
+    world = generate_world("rocky", 1003, robots=4, size_m=(10.0, 10.0), goal_y_m=9.0)
+    rec = read_recording(io.BytesIO(run_episode(world, "fusion", seed=1, config=CFG,
+                                                record=True).recording()))
+    assert set(rec.state) == {"mode", "side", "decisions", "p_own", "p_fused"}
+    moving = rec.status == STATUS.index("moving")
+    modes = rec.state["mode"][moving]
+    assert set(np.unique(modes)) <= {0.0, 1.0, 2.0}
+    following = moving & (rec.state["mode"] == 1)
+    assert following.any() and set(np.unique(rec.state["side"][following])) <= {-1.0, 1.0}
+    assert (rec.state["side"][moving & (rec.state["mode"] == 0)] == 0).all()
+    asked = ~np.isnan(rec.state["p_fused"][moving])
+    assert asked.any() and ((rec.state["p_fused"][moving][asked] >= 0)
+                            & (rec.state["p_fused"][moving][asked] <= 1)).all()
+
+
+class Circle15(Controller):
+    """Every robot drives a circle for the whole episode: 15 robots scanning for 120 s."""
+
+    def act(self, obs):
+        return 0.5 * self.v_max_mps, 0.3 * self.w_max_radps
+
+
+@pytest.mark.slow
+def test_a_15_robot_120_s_episode_with_noisy_scans_takes_at_most_3_mb():
+    world = generate_world("rocky", 1003, robots=15)
+    cfg = SwarmConfig().replace({"sensor.noise_std_m": 0.01})
+    result = run_episode(world, f"{__file__}:Circle15", seed=1, config=cfg,
+                         record=True)
+    data = result.recording()
+    rec = read_recording(io.BytesIO(data))
+    assert rec.n_ticks == 1201 and (rec.status[:-1] == STATUS.index("moving")).all()
+    assert len(data) <= 3_000_000
+
+
+def _npz(**columns):
+    buffer = io.BytesIO()
+    np.savez(buffer, **columns)
+    buffer.seek(0)
+    return buffer
+
+
+def _meta(**fields):
+    return np.frombuffer(json.dumps(fields).encode(), dtype=np.uint8)
+
+
+@pytest.mark.parametrize(("source", "match"), [
+    (io.BytesIO(b"not a zip"), r"path must be an fftnav recording, got path="),
+    (_npz(x=np.zeros(3)), r"no readable meta"),
+    (_npz(meta=_meta(format="other", version=1)), r"\(format 'other'\)"),
+    (_npz(meta=_meta(format="fftnav-recording", version=VERSION + 1)),
+     rf"path must be a recording of version <= {VERSION}, .*upgrade fftnav"),
+    (_npz(meta=_meta(format="fftnav-recording", version=VERSION, beams=3)),
+     r"path must be a complete fftnav recording, .*\(no column "),
+])
+def test_what_is_not_a_recording_is_refused_by_name(source, match):
+    with pytest.raises(RecordingError, match=match):
+        read_recording(source)
+
+
+def test_a_recording_is_written_atomically_into_a_new_folder(tmp_path, spied):
+    result, _, _ = spied
+    path = write_recording(tmp_path / "a" / "b" / "r.npz", result.recording())
+    assert [p.name for p in path.parent.iterdir()] == ["r.npz"]
+    with zipfile.ZipFile(path) as z:
+        assert all(i.compress_type == zipfile.ZIP_DEFLATED for i in z.infolist())
+    assert read_recording(path).n_robots == 2
+
+
+def test_cli_episode_record_writes_exactly_the_path(tmp_path):
+    (tmp_path / "w.json").write_text(_world().to_json())
+    proc = subprocess.run([sys.executable, "-m", "fftnav", "episode", "--world", "w.json",
+                           "--policy", "fusion", "--set", "time_limit_s=5", "--out", "e.csv",
+                           "--record", "rec/one.rec"], cwd=tmp_path, capture_output=True,
+                          text=True, timeout=300)
+    assert proc.returncode == 0, proc.stderr
+    rec = read_recording(tmp_path / "rec" / "one.rec")
+    rows = pd.read_csv(tmp_path / "e.csv")
+    assert [r["path_length_m"] for r in rec.rows] == pytest.approx(list(rows.path_length_m),
+                                                                    abs=1e-6)
+    assert rec.policy == "fusion" and rec.config.episode.time_limit_s == 5

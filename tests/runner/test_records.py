@@ -1,0 +1,83 @@
+"""``[record] episodes``: which episodes of an experiment keep their recording, resume, and
+that recording changes no result."""
+
+from __future__ import annotations
+
+import shutil
+
+import pandas as pd
+import pytest
+
+from fftnav.episode import read_recording
+from fftnav.runner import parse_config, run_experiment
+
+BASE = {
+    "experiment": {"name": "rec", "envs": ["forest"], "maps": 2, "map_seed": 7, "robots": 3,
+                   "policies": ["bug-left", "fusion"]},
+    "world": {"size_m": [8.0, 8.0], "goal_y_m": 7.0},
+    "episode": {"time_limit_s": 14.0},  # map 7 has robots out of time, map 8 has none
+}
+CSVS = ("episodes.csv", "summary.csv", "paired_tests.csv")
+
+
+def _config(mode=None):
+    return parse_config({**BASE, **({"record": {"episodes": mode}} if mode else {})})
+
+
+@pytest.fixture(scope="module")
+def failures_run(tmp_path_factory):
+    out = tmp_path_factory.mktemp("failures")
+    run_experiment(_config(), out, workers=1, progress=False)
+    return out
+
+
+def _failed_tasks(out):
+    episodes = pd.read_csv(out / "episodes.csv")
+    failed = episodes[~episodes.arrived].groupby(["env", "map_seed", "policy"]).size()
+    return {f"{env}-{seed}-{policy}" for env, seed, policy in failed.index}
+
+
+def test_by_default_exactly_the_episodes_with_a_failure_are_recorded(failures_run):
+    failed = _failed_tasks(failures_run)
+    assert failed and len(failed) < 4
+    assert {p.stem for p in (failures_run / "records").iterdir()} == failed
+    episodes = pd.read_csv(failures_run / "episodes.csv", keep_default_na=False)
+    for name in failed:
+        rec = read_recording(failures_run / "records" / f"{name}.npz")
+        env, seed, policy = name.split("-", 2)
+        rows = episodes[(episodes.map_seed == int(seed)) & (episodes.policy == policy)]
+        assert [r["failure"] for r in rec.rows] == list(rows.failure)
+        assert rec.policy == policy and rec.seed == int(rows.episode_seed.iloc[0])
+
+
+@pytest.mark.parametrize(("mode", "count"), [("all", 4), ("none", 0)])
+def test_all_and_none_record_every_or_no_episode_with_the_same_csvs(failures_run, tmp_path,
+                                                                    mode, count):
+    run_experiment(_config(mode), tmp_path, workers=1, progress=False)
+    assert len(list((tmp_path / "records").iterdir())) == count
+    for name in CSVS:
+        assert (tmp_path / name).read_bytes() == (failures_run / name).read_bytes()
+
+
+def test_a_resume_reruns_only_the_task_whose_wanted_recording_is_missing(failures_run, tmp_path):
+    out = tmp_path / "resumed"
+    shutil.copytree(failures_run, out)
+    missing = sorted((out / "records").iterdir())[0]
+    missing.unlink()
+    outcome = run_experiment(_config(), out, workers=1, progress=False)
+    assert (outcome.completed, outcome.skipped) == (1, 3)
+    assert missing.exists()
+    for name in CSVS:
+        assert (out / name).read_bytes() == (failures_run / name).read_bytes()
+    # switching the record mode is not a different experiment: nothing is refused or rerun
+    outcome = run_experiment(_config("none"), out, workers=1, progress=False)
+    assert (outcome.completed, outcome.skipped) == (0, 4)
+
+
+def test_an_unknown_record_mode_or_key_is_refused_by_name():
+    with pytest.raises(ValueError, match=r"record.episodes must be one of \['none', "
+                                         r"'failures', 'all'\], got record.episodes='some'"):
+        _config("some")
+    with pytest.raises(ValueError, match=r"unknown key record.keep; expected one of "
+                                         r"\['episodes'\]"):
+        parse_config({**BASE, "record": {"keep": "all"}})
