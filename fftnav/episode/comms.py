@@ -126,6 +126,13 @@ class Channel:
         sender), in sender order."""
         return [p for _, p in sorted(self._arrived[receiver].items())]
 
+    def delivered(self) -> list[tuple[int, int, int]]:
+        """Every packet the latest :meth:`deliver` brought: ``(sender, receiver, sent tick)``,
+        by receiver then sender (what :meth:`arrived` returns, for all receivers at once)."""
+        return [(sender, receiver, packet.tick)
+                for receiver, packets in enumerate(self._arrived)
+                for sender, packet in sorted(packets.items())]
+
     def unheard(self, receiver: int, *, tick: int, max_age_ticks: int,
                 present: np.ndarray) -> dict[int, str]:
         """Why ``receiver`` has no packet of each other robot of ``present`` (a mask) in its

@@ -153,9 +153,8 @@ class _Onboard:
                        state={int(i): self.controller.state(int(i)) for i in step.active})
         for i in sorted(outgoing):
             self.tape.message(step.tick, int(i), outgoing[i])
-        for i in np.flatnonzero(status <= STATUS.index("moving")):
-            for packet in self.channel.arrived(int(i)):
-                self.tape.delivery(step.tick, packet.sender, int(i), packet.tick)
+        for sender, receiver, sent_tick in self.channel.delivered():
+            self.tape.delivery(step.tick, sender, receiver, sent_tick)
 
     def advance(self, sim: SwarmSim, commands: np.ndarray, robots: _Robots,
                 tick: int) -> Observation:

@@ -151,21 +151,16 @@ class Tape:
              commands: np.ndarray, ranges_m: np.ndarray, safe: np.ndarray | None,
              state: Mapping[int, Mapping[str, float]]) -> None:
         """One control tick: poses at the scan, statuses (codes of :data:`STATUS`), commands,
-        ranges (m) and safe masks of every robot (zeros for robots not moving), the controller's
-        state of the moving robots."""
-        self.pose = np.asarray(poses, dtype=np.float64)  # parked robots keep their last pose
+        ranges (m, finite, >= 0) and safe masks of every robot (zeros for robots not moving;
+        arrays the episode does not modify afterwards), the controller's state of the moving
+        robots. The scans are quantised now, the rest packed by :meth:`columns`."""
         for values in state.values():
             self.state_names.update(dict.fromkeys(values))
-        beams = len(self.angles_rad)
-        self.ticks.append({
-            "time_s": float(time_s), "pose": self.pose.astype(np.float32),
-            "status": status.astype(np.uint8), "command": commands.astype(np.float32),
-            "scan": np.rint(np.nan_to_num(ranges_m) / SCAN_STEP_M).astype(self.scan_dtype),
-            "safe_bits": np.packbits(np.zeros((self.n, beams), bool) if safe is None else safe,
-                                     axis=-1),
-            "state": {i: dict(v) for i, v in state.items()},
-            "contact_obstacle": np.zeros(self.n, bool), "contact_robot": np.zeros(self.n, bool),
-        })
+        scan = ranges_m * (1.0 / SCAN_STEP_M) + 0.5  # rounded by the cast (ranges >= 0)
+        self.ticks.append({"time_s": time_s, "pose": poses.copy(), "status": status,
+                           "command": commands.copy(), "scan": scan.astype(self.scan_dtype),
+                           "safe": safe,
+                           "state": state, "contact_obstacle": None, "contact_robot": None})
 
     def contacts(self, obstacle: np.ndarray, robot: np.ndarray) -> None:
         """The contacts Bullet reported while the last tick's commands ran."""
@@ -186,25 +181,39 @@ class Tape:
 
     def columns(self, rows: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
         """The recording's columns (the ``meta`` column carries ``rows``)."""
-        cols = {key: np.stack([t[key] for t in self.ticks])
-                for key in ("pose", "status", "command", "scan", "safe_bits",
-                            "contact_obstacle", "contact_robot")}
-        cols["time_s"] = np.array([t["time_s"] for t in self.ticks])
+        g, shape = len(self.ticks), (self.n, len(self.angles_rad))
+        no_contact = np.zeros(self.n, bool)
+        cols: dict[str, np.ndarray] = {
+            "time_s": np.array([t["time_s"] for t in self.ticks], dtype=np.float64),
+            "pose": np.stack([t["pose"] for t in self.ticks]).astype(np.float32),
+            "command": np.stack([t["command"] for t in self.ticks]).astype(np.float32),
+            "status": np.stack([t["status"] for t in self.ticks]).astype(np.uint8),
+            "scan": np.stack([t["scan"] for t in self.ticks]),
+            "safe_bits": np.packbits(np.stack([np.zeros(shape, bool) if t["safe"] is None
+                                               else t["safe"] for t in self.ticks]), axis=-1),
+        }
+        for key in ("contact_obstacle", "contact_robot"):
+            cols[key] = np.stack([no_contact if t[key] is None else t[key] for t in self.ticks])
         for name in self.state_names:
-            col = np.full((len(self.ticks), self.n), np.nan, dtype=np.float32)
-            for g, t in enumerate(self.ticks):
+            col = np.full((g, self.n), np.nan, dtype=np.float32)
+            for k, t in enumerate(self.ticks):
                 for i, values in t["state"].items():
-                    col[g, i] = values.get(name, np.nan)
+                    col[k, i] = values.get(name, np.nan)
             cols[f"state/{name}"] = col
-        payloads = [p for _, _, p in self.sent]
-        cols["sent_tick"] = np.array([t for t, _, _ in self.sent], dtype=np.int32)
-        cols["sent_robot"] = np.array([r for _, r, _ in self.sent], dtype=np.int16)
-        cols["sent_offset"] = np.concatenate([[0], np.cumsum([len(p) for p in payloads])]
-                                             ).astype(np.int64)
-        cols["sent_bytes"] = np.frombuffer(b"".join(payloads), dtype=np.uint8)
-        cols["delivered"] = np.array(self.delivered, dtype=np.int32).reshape(-1, 4)
+        cols.update(self._messages())
         cols["meta"] = np.frombuffer(json.dumps(self._meta(rows)).encode(), dtype=np.uint8)
         return cols
+
+    def _messages(self) -> dict[str, np.ndarray]:
+        payloads = [p for _, _, p in self.sent]
+        return {
+            "sent_tick": np.array([t for t, _, _ in self.sent], dtype=np.int32),
+            "sent_robot": np.array([r for _, r, _ in self.sent], dtype=np.int16),
+            "sent_offset": np.concatenate([[0], np.cumsum([len(p) for p in payloads])]
+                                          ).astype(np.int64),
+            "sent_bytes": np.frombuffer(b"".join(payloads), dtype=np.uint8),
+            "delivered": np.array(self.delivered, dtype=np.int32).reshape(-1, 4),
+        }
 
     def _meta(self, rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         return {"format": FORMAT, "version": VERSION, "policy": self.policy, "seed": self.seed,

@@ -35,6 +35,10 @@ UNKNOWN_COST = 3.0
 SIDE_RADIUS_M = 1.0
 
 
+#: ``state()["mode"]`` of each planner mode (escape, a flag of a follow, is 2).
+_MODE_CODES = {Mode.GO_TO_GOAL: 0, Mode.FOLLOW: 1, Mode.DONE: 3, Mode.WAIT: 4}
+
+
 class BugController(Controller):
     """The Bug planner (docs/planner.md) deciding sides with ``policy``.
 
@@ -127,11 +131,14 @@ class BugController(Controller):
         -1 right, 0 none), ``decisions`` taken, and the last ``p_own`` (P_s) and ``p_fused``
         (fused P) the policy asked for (NaN before)."""
         mem = self.planner.memory[robot]
-        mode = {Mode.GO_TO_GOAL: 0, Mode.FOLLOW: 1, Mode.DONE: 3, Mode.WAIT: 4}[mem.mode]
-        return {"mode": 2.0 if mem.escape and mode <= 1 else float(mode),
-                "side": float(mem.side) if mode == 1 or mem.escape else 0.0,
-                "decisions": float(self.planner.decisions[robot].sum()),
-                "p_own": float(self.last_p[robot, 0]), "p_fused": float(self.last_p[robot, 1])}
+        mode = _MODE_CODES[mem.mode]
+        if mem.escape and mode <= 1:
+            mode = 2
+        decisions = self.planner.decisions
+        p_own, p_fused = self.last_p[robot].tolist()
+        return {"mode": mode, "side": mem.side if mode in (1, 2) else 0,
+                "decisions": int(decisions[robot, 0] + decisions[robot, 1]),
+                "p_own": p_own, "p_fused": p_fused}
 
     def counters(self, robot: int) -> dict[str, int | float]:
         planner, dt = self.planner, 1.0 / self.config.episode.control_hz

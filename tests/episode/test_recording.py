@@ -72,7 +72,7 @@ def test_recording_changes_no_row():
 def test_scans_masks_commands_and_messages_are_those_the_controller_had(spied):
     _, rec, seen = spied
     assert len(seen) > 50
-    for tick, robot, ranges, safe, (v, w), msg, _ in seen:
+    for tick, robot, ranges, safe, (v, w), _, _ in seen:
         assert np.abs(rec.scan_m[tick, robot] - ranges).max() <= SCAN_STEP_M / 2 + 1e-9
         np.testing.assert_array_equal(rec.safe[tick, robot], safe)
         np.testing.assert_allclose(rec.command[tick, robot], (v, w), rtol=1e-6, atol=1e-6)
