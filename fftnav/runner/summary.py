@@ -5,6 +5,8 @@ APL = mean path length of the robots that arrived (metres), SPL = mean over all 
 ``S_i l_i / max(p_i, l_i)`` (the episode's ``spl`` column). Rates are fractions, not percent.
 Intervals: 95% percentile bootstrap over *maps* (a map's robots share obstacles, so they are
 not independent): maps are resampled with replacement and the pooled statistic recomputed.
+The p-values of a sweep report are Holm-Bonferroni adjusted over all its comparisons, one
+family (:func:`holm`, :func:`sweep_table`).
 """
 
 from __future__ import annotations
