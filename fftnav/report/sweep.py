@@ -3,15 +3,17 @@
 For every cell of a ``[sweep]`` config (:attr:`fftnav.runner.config.ExperimentConfig.cells`; one
 cell ``base`` for a plain config), env and policy: AR and SPL with 95% bootstrap intervals over
 maps, bytes per robot, and the gain against ``own-only`` (per-map SPL of the policy minus that
-of own-only: mean, 95% bootstrap interval, paired Wilcoxon signed-rank p); plus ``collab``
-against ``fusion``. One figure per sweep axis: the gain of ``collab`` and ``fusion`` against
-the axis's values, one panel per env. Cells that have not run (no ``episodes.csv``) are listed
-as such.
+of own-only: mean, 95% bootstrap interval, paired Wilcoxon signed-rank p and that p
+Holm-adjusted over every comparison of the report, one family); plus ``collab`` against
+``fusion``. The verdicts use the adjusted p. One figure per sweep axis: the gain of ``collab``
+and ``fusion`` against the axis's values, one panel per env. Cells that have not run (no
+``episodes.csv``) are listed as such.
 """
 
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import pandas as pd
@@ -19,7 +21,7 @@ from matplotlib.figure import Figure
 
 from fftnav.files import write_atomic
 from fftnav.runner.config import ExperimentConfig
-from fftnav.runner.summary import SWEEP_COLUMNS, gain_table
+from fftnav.runner.summary import gain_table, sweep_table
 
 __all__ = ["ALPHA", "figure_envs", "verdict", "verdict_lines", "write_sweep_report"]
 
@@ -69,7 +71,7 @@ def _gain_figure(table: pd.DataFrame, axis: str, path: Path) -> Path:
 def verdict(gain: float, low: float, high: float, p: float, *, alpha: float = ALPHA) -> str:
     """``"pays"`` when the gain's 95% interval lies above 0 and the paired p is below
     ``alpha``, ``"costs"`` when it lies below 0 with p below ``alpha``, else ``"no clear
-    difference"`` (also without a gain).
+    difference"`` (also without a gain). The reports pass the Holm-adjusted p (``p_holm``).
 
     >>> verdict(0.04, 0.01, 0.07, 0.003), verdict(-0.02, -0.03, -0.01, 0.01)
     ('pays', 'costs')
@@ -85,24 +87,39 @@ def verdict(gain: float, low: float, high: float, p: float, *, alpha: float = AL
     return "no clear difference"
 
 
+def _pair(r: Any) -> str:
+    return (f"{r.cell} / {r.env} ({100 * r.gain:+.1f}, p = {r.p_value:.2g}, "
+            f"Holm p = {r.p_holm:.2g})")
+
+
 def verdict_lines(table: pd.DataFrame) -> list[str]:
-    """Plain sentences from a sweep table (:data:`SWEEP_COLUMNS`): for ``collab`` and
-    ``fusion`` against ``own-only``, and ``collab`` against ``fusion``, the (cell, env) pairs
-    where the policy pays, where it costs, and how many show no clear difference."""
+    """Plain sentences from a sweep table (:data:`fftnav.runner.summary.SWEEP_COLUMNS`): for
+    ``collab`` and ``fusion`` against ``own-only``, and ``collab`` against ``fusion``, the
+    (cell, env) pairs where the policy pays, where it costs (:func:`verdict` with the
+    Holm-adjusted p), how many show no clear difference, and which of those would pay or cost
+    by their raw p alone."""
     lines: list[str] = []
     for policy, ref in (("collab", "own-only"), ("fusion", "own-only"), ("collab", "fusion")):
         rows = table[(table["policy"] == policy) & (table["reference"] == ref)]
         if not len(rows):
             continue
         found: dict[str, list[str]] = {"pays": [], "costs": [], "no clear difference": []}
+        raw_only: dict[str, list[str]] = {"pays": [], "costs": [], "no clear difference": []}
         for r in rows.itertuples(index=False):
-            word = verdict(r.gain, r.gain_ci_low, r.gain_ci_high, r.p_value)
-            found[word].append(f"{r.cell} / {r.env} ({100 * r.gain:+.1f}, p = {r.p_value:.2g})")
+            word = verdict(r.gain, r.gain_ci_low, r.gain_ci_high, r.p_holm)
+            found[word].append(_pair(r))
+            raw = verdict(r.gain, r.gain_ci_low, r.gain_ci_high, r.p_value)
+            if raw != word:  # the adjusted p is never below the raw p
+                raw_only[raw].append(_pair(r))
         lines.append(f"- `{policy}` against `{ref}`, {len(rows)} (cell, env) pairs:")
         for word in ("pays", "costs"):
             lines.append(f"  - {word} in {len(found[word])}"
                          + (": " + "; ".join(found[word]) if found[word] else "") + ".")
         lines.append(f"  - no clear difference in {len(found['no clear difference'])}.")
+        for word in ("pays", "costs"):
+            if raw_only[word]:
+                lines.append(f"    - would {word[:-1]} by the raw p alone in "
+                             f"{len(raw_only[word])}: " + "; ".join(raw_only[word]) + ".")
     return lines
 
 
@@ -125,10 +142,26 @@ def _view(table: pd.DataFrame) -> pd.DataFrame:
                               in zip(table["gain"], table["gain_ci_low"],
                                      table["gain_ci_high"], table["reference"], strict=True)],
         "p (Wilcoxon)": ["" if pd.isna(p) else f"{p:.2g}" for p in table["p_value"]],
+        "p (Holm)": ["" if pd.isna(p) else f"{p:.2g}" for p in table["p_holm"]],
         "verdict": [verdict(g, lo, hi, p) if r else "" for g, lo, hi, p, r
                     in zip(table["gain"], table["gain_ci_low"], table["gain_ci_high"],
-                           table["p_value"], table["reference"], strict=True)],
+                           table["p_holm"], table["reference"], strict=True)],
     })
+
+
+def _family_lines(table: pd.DataFrame) -> list[str]:
+    """What the report's Holm family holds."""
+    compared = table[table["reference"].fillna("") != ""]
+    tested = int(compared["p_value"].notna().sum())
+    untested = len(compared) - tested
+    return [
+        f"The p-values are Holm-Bonferroni adjusted over one family: all {tested} paired "
+        "comparisons of this report with a p (every policy against `own-only` and `collab` "
+        "against `fusion`, in every cell and env"
+        + (f"; {untested} more have no p, every per-map difference being 0" if untested else "")
+        + f"), so the chance of any false *pays* or *costs* in the report is at most {ALPHA}, "
+        "whatever the dependence between the tests (`fftnav.runner.summary.holm`)."
+    ]
 
 
 def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
@@ -144,8 +177,7 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
                                      envs=cell.envs, policies=cell.policy_names))
         else:
             missing.append(name)
-    table = (pd.concat(tables, ignore_index=True) if tables
-             else pd.DataFrame(columns=list(SWEEP_COLUMNS)))
+    table = sweep_table(tables)
     write_atomic(root / "sweep_summary.csv", table.to_csv(index=False, float_format="%.6f"))
     axes = sorted({_axis_of(c) for c in table["cell"]} - {""})
     figures = [_gain_figure(table, axis, root / "figures" / f"gain_{axis or 'cells'}.png")
@@ -162,9 +194,12 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
         *([f"Cells not run (no episodes.csv): {', '.join(missing)}.", ""] if missing else []),
         "## Where collaboration pays",
         "",
-        f"A policy *pays* where its SPL gain's 95% interval lies above 0 and the paired p is "
-        f"below {ALPHA}; it *costs* where the interval lies below 0 with p below {ALPHA}; "
-        "elsewhere there is no clear difference (gain, in SPL points, and p in brackets).",
+        f"A policy *pays* where its SPL gain's 95% interval lies above 0 and the Holm-adjusted "
+        f"p is below {ALPHA}; it *costs* where the interval lies below 0 with the adjusted p "
+        f"below {ALPHA}; elsewhere there is no clear difference (gain in SPL points, raw and "
+        "adjusted p in brackets).",
+        "",
+        *_family_lines(table),
         "",
         *verdict_lines(table),
         "",

@@ -5,6 +5,8 @@ APL = mean path length of the robots that arrived (metres), SPL = mean over all 
 ``S_i l_i / max(p_i, l_i)`` (the episode's ``spl`` column). Rates are fractions, not percent.
 Intervals: 95% percentile bootstrap over *maps* (a map's robots share obstacles, so they are
 not independent): maps are resampled with replacement and the pooled statistic recomputed.
+The p-values of a sweep report are Holm-Bonferroni adjusted over all its comparisons, one
+family (:func:`holm`, :func:`sweep_table`).
 """
 
 from __future__ import annotations
@@ -20,8 +22,8 @@ from scipy import stats
 from fftnav.metrics import MEASURES
 from fftnav.validate import check_integer, check_number
 
-__all__ = ["PAIRED_COLUMNS", "SWEEP_COLUMNS", "bootstrap_ratio_ci", "gain_table", "in_order",
-           "paired_tests", "summarize", "summary_columns"]
+__all__ = ["PAIRED_COLUMNS", "SWEEP_COLUMNS", "bootstrap_ratio_ci", "gain_table", "holm",
+           "in_order", "paired_tests", "summarize", "summary_columns", "sweep_table"]
 
 #: Columns of a summary before the measures: the group and its size.
 _KEYS: tuple[str, ...] = ("env", "policy", "episodes", "robots")
@@ -193,8 +195,59 @@ def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion",
 SWEEP_COLUMNS: tuple[str, ...] = (
     "cell", "env", "policy", "maps", "ar", "ar_ci_low", "ar_ci_high", "spl", "spl_ci_low",
     "spl_ci_high", "bytes_per_robot", "reference", "gain", "gain_ci_low", "gain_ci_high",
-    "p_value",
+    "p_value", "p_holm",
 )
+
+
+def holm(p_values: Sequence[float] | np.ndarray) -> np.ndarray:
+    """Holm-Bonferroni adjusted p-values of one family of tests (Holm 1979).
+
+    With the family's m p-values sorted, ``p_(1) <= ... <= p_(m)``, the k-th is adjusted to
+    ``max(min(1, (m - j + 1) p_(j)) for j <= k)``. Rejecting the tests whose adjusted p is below
+    ``alpha`` keeps the probability of any false rejection in the family at most ``alpha``,
+    whatever the dependence between the tests; it rejects every test that Bonferroni (``m p``)
+    rejects, and often more.
+
+    Parameters
+    ----------
+    p_values : (n,) array_like
+        Raw p-values in [0, 1]. NaN (no test made, e.g. every paired difference 0) is left out
+        of the family, so m counts the others, and stays NaN.
+
+    Returns
+    -------
+    (n,) ndarray of float
+        The adjusted p-values in the order given: each at least its raw p, in the same rank
+        order as the raw p, the smallest equal to Bonferroni's ``min(1, m p_(1))``.
+
+    Examples
+    --------
+    >>> holm([0.01, 0.04, 0.03, 0.005, float("nan")]).round(6).tolist()
+    [0.03, 0.06, 0.06, 0.02, nan]
+    """
+    p = np.asarray(p_values, dtype=float)
+    if p.ndim != 1:
+        raise ValueError(f"p_values must be 1-D, got p_values of shape {p.shape}")
+    bad = np.flatnonzero(~np.isnan(p) & ~((p >= 0) & (p <= 1)))
+    if bad.size:
+        raise ValueError(f"p_values must be in [0, 1] or NaN, got p_values[{bad[0]}]={p[bad[0]]}")
+    tested = np.flatnonzero(~np.isnan(p))
+    order = tested[np.argsort(p[tested], kind="stable")]
+    factors = np.arange(order.size, 0, -1)  # m, m - 1, ..., 1
+    adjusted = np.full(p.shape, np.nan)
+    adjusted[order] = np.minimum(1.0, np.maximum.accumulate(factors * p[order]))
+    return adjusted
+
+
+def sweep_table(tables: Iterable[pd.DataFrame]) -> pd.DataFrame:
+    """The tables of :func:`gain_table` of the cells of one report as one table
+    (:data:`SWEEP_COLUMNS`), its ``p_holm`` recomputed over all their rows: every comparison
+    of one report is one family (:func:`holm`)."""
+    parts = [t for t in tables if len(t)]
+    if not parts:
+        return pd.DataFrame(columns=list(SWEEP_COLUMNS))
+    table = pd.concat(parts, ignore_index=True)
+    return table.assign(p_holm=holm(table["p_value"].to_numpy(dtype=float)))
 
 
 def _mean_ci(diff: np.ndarray) -> tuple[float, float]:
@@ -218,8 +271,10 @@ def gain_table(episodes: pd.DataFrame, cell: str, *, envs: Sequence[str] | None 
     """Rows :data:`SWEEP_COLUMNS` of one sweep cell's ``episodes.csv``: each (env, policy)
     with AR and SPL and their 95% bootstrap intervals over maps, bytes per robot, and its gain
     against ``own-only`` (per-map SPL difference: mean, 95% bootstrap interval of the mean,
-    two-sided Wilcoxon signed-rank p); ``collab`` gets a second row against ``fusion``. Rows in
-    the order of ``envs`` and ``policies`` (:func:`in_order`; default alphabetical)."""
+    two-sided Wilcoxon signed-rank p, and that p Holm-adjusted over the rows of this table as
+    one family, :func:`holm`; :func:`sweep_table` readjusts over several cells); ``collab``
+    gets a second row against ``fusion``. Rows in the order of ``envs`` and ``policies``
+    (:func:`in_order`; default alphabetical)."""
     per_map = episodes.pivot_table(index=["env", "map_seed"], columns="policy", values="spl",
                                    aggfunc="mean")
     rows: list[tuple[Any, ...]] = []
@@ -241,5 +296,5 @@ def gain_table(episodes: pd.DataFrame, cell: str, *, envs: Sequence[str] | None 
                 lo, hi = _mean_ci(diff)
                 p = _wilcoxon(diff)
             rows.append((cell, env, policy, g["map_seed"].nunique(), ar, *ar_ci, spl, *spl_ci,
-                         g["bytes_sent"].mean(), ref, gain, lo, hi, p))
-    return pd.DataFrame(rows, columns=list(SWEEP_COLUMNS))
+                         g["bytes_sent"].mean(), ref, gain, lo, hi, p, np.nan))
+    return sweep_table([pd.DataFrame(rows, columns=list(SWEEP_COLUMNS))])

@@ -7,7 +7,7 @@ import pandas as pd
 import pytest
 
 from fftnav.runner import bootstrap_ratio_ci, paired_tests, summarize
-from fftnav.runner.summary import in_order
+from fftnav.runner.summary import holm, in_order
 
 
 def test_bootstrap_two_maps_hand_computed():
@@ -129,3 +129,55 @@ def test_rows_keep_the_given_env_and_policy_order_and_their_values():
 def test_names_missing_from_the_order_come_last_sorted():
     assert in_order(["b", "z", "a", "c"], ["c", "x", "a"]) == ["c", "a", "b", "z"]
     assert in_order(["b", "a", "b"], None) == ["a", "b"]
+
+
+def test_holm_hand_worked():
+    # sorted: 0.005 x 4 = 0.02, 0.01 x 3 = 0.03, 0.03 x 2 = 0.06, 0.04 x 1 = 0.04 -> 0.06 (the
+    # step-down never lowers an adjusted p below that of a smaller raw p)
+    assert holm([0.01, 0.04, 0.03, 0.005]) == pytest.approx([0.03, 0.06, 0.06, 0.02])
+    assert holm([0.5, 0.6]).tolist() == [1.0, 1.0]  # 2 x 0.5 = 1, capped at 1
+    assert holm([0.02, 0.02]).tolist() == [0.04, 0.04]  # ties share the larger adjustment
+    assert holm([0.3]).tolist() == [0.3]  # a family of one is not adjusted
+
+
+def test_holm_leaves_nan_out_of_the_family():
+    # two tests, not four: 0.01 x 2 = 0.02, 0.02 x 1 -> 0.02
+    adjusted = holm([np.nan, 0.01, np.nan, 0.02])
+    assert np.isnan(adjusted[[0, 2]]).all() and adjusted[[1, 3]].tolist() == [0.02, 0.02]
+    assert np.isnan(holm([np.nan, np.nan])).all() and holm([]).shape == (0,)
+
+
+def _step_down_rejections(p, alpha):
+    """Holm's procedure as he stated it: walk up the sorted p while p_(k) <= alpha / (m - k + 1)."""
+    rejected, m = set(), len(p)
+    for k, i in enumerate(np.argsort(p)):
+        if p[i] > alpha / (m - k):
+            break
+        rejected.add(int(i))
+    return rejected
+
+
+def test_holm_matches_the_step_down_procedure_and_bounds():
+    rng = np.random.default_rng(7)
+    for size in (1, 2, 5, 30):
+        p = np.concatenate([rng.uniform(0, 0.02, size), rng.uniform(0, 1, size)])
+        p[-1] = p[0]  # a tie
+        adjusted = holm(p)
+        m = p.size
+        for alpha in (0.001, 0.01, 0.05, 0.2):
+            assert set(np.flatnonzero(adjusted <= alpha)) == _step_down_rejections(p, alpha)
+        assert (adjusted >= p).all()
+        assert (adjusted <= np.minimum(1, m * p) + 1e-15).all()  # never above Bonferroni
+        order = np.argsort(p, kind="stable")
+        assert (np.diff(adjusted[order]) >= 0).all()  # same rank order as the raw p
+        assert adjusted.min() == pytest.approx(min(1.0, m * p.min()))  # Bonferroni at the top
+
+
+@pytest.mark.parametrize(("p", "message"), [
+    ([0.1, 1.5], r"p_values must be in \[0, 1\] or NaN, got p_values\[1\]=1.5"),
+    ([-0.1], r"p_values must be in \[0, 1\] or NaN, got p_values\[0\]=-0.1"),
+    ([[0.1, 0.2]], r"p_values must be 1-D, got p_values of shape \(1, 2\)"),
+])
+def test_holm_refuses_what_is_not_a_list_of_p_values(p, message):
+    with pytest.raises(ValueError, match=message):
+        holm(p)

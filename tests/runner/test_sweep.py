@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import copy
+import re
 import subprocess
 import sys
 from pathlib import Path
@@ -13,7 +14,7 @@ import pytest
 from scipy import stats
 
 from fftnav.runner import load_config, parse_config
-from fftnav.runner.summary import gain_table
+from fftnav.runner.summary import gain_table, holm
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -95,6 +96,9 @@ def test_gain_table_against_own_only_and_fusion_by_hand():
     assert own.reference == "" and np.isnan(own.gain) and own.spl == pytest.approx(0.54)
     assert own.ar == pytest.approx(0.8) and own.maps == 5
     assert table[table.policy == "fusion"].reference.tolist() == ["own-only"]
+    tested = table.reference != ""
+    assert table.p_holm[tested].tolist() == pytest.approx(holm(table.p_value[tested]).tolist())
+    assert table.p_holm[~tested].isna().all()
 
 
 def test_figure_sweep_cli_writes_the_report_of_a_results_folder(tmp_path):
@@ -134,20 +138,75 @@ def test_verdict_lines_list_each_comparison_where_it_pays_and_costs():
     base = dict.fromkeys(SWEEP_COLUMNS, 0.0)
     rows = [
         {**base, "cell": "base", "env": "walls", "policy": "collab", "reference": "own-only",
-         "gain": 0.08, "gain_ci_low": 0.03, "gain_ci_high": 0.12, "p_value": 0.002},
+         "gain": 0.08, "gain_ci_low": 0.03, "gain_ci_high": 0.12, "p_value": 0.002,
+         "p_holm": 0.006},
         {**base, "cell": "range_m=6", "env": "walls", "policy": "collab",
          "reference": "own-only", "gain": -0.02, "gain_ci_low": -0.04, "gain_ci_high": -0.01,
-         "p_value": 0.03},
+         "p_value": 0.01, "p_holm": 0.02},
+        {**base, "cell": "range_m=6", "env": "traps", "policy": "collab",
+         "reference": "own-only", "gain": 0.03, "gain_ci_low": 0.01, "gain_ci_high": 0.05,
+         "p_value": 0.03, "p_holm": 0.03 * 2},
         {**base, "cell": "base", "env": "walls", "policy": "collab", "reference": "fusion",
-         "gain": 0.01, "gain_ci_low": -0.02, "gain_ci_high": 0.04, "p_value": 0.6},
+         "gain": 0.01, "gain_ci_low": -0.02, "gain_ci_high": 0.04, "p_value": 0.6,
+         "p_holm": 1.0},
     ]
     text = "\n".join(verdict_lines(pd.DataFrame(rows, columns=list(SWEEP_COLUMNS))))
-    assert "- `collab` against `own-only`, 2 (cell, env) pairs:" in text
-    assert "  - pays in 1: base / walls (+8.0, p = 0.002)." in text
-    assert "  - costs in 1: range_m=6 / walls (-2.0, p = 0.03)." in text
+    assert "- `collab` against `own-only`, 3 (cell, env) pairs:" in text
+    assert "  - pays in 1: base / walls (+8.0, p = 0.002, Holm p = 0.006)." in text
+    assert "  - costs in 1: range_m=6 / walls (-2.0, p = 0.01, Holm p = 0.02)." in text
+    assert ("  - no clear difference in 1.\n    - would pay by the raw p alone in 1: "
+            "range_m=6 / traps (+3.0, p = 0.03, Holm p = 0.06).") in text
     assert "- `collab` against `fusion`, 1 (cell, env) pairs:" in text
-    assert "  - pays in 0." in text and "  - no clear difference in 1." in text
-    assert "`fusion` against" not in text  # no such rows
+    assert "  - pays in 0." in text and text.endswith("  - no clear difference in 1.")
+    assert "would cost" not in text and "`fusion` against" not in text  # no such rows
+
+
+def _episodes(spl: dict[str, list[float]]) -> pd.DataFrame:
+    """One robot per map with the given SPL per policy, all arrived."""
+    rows = [("walls", m, policy, 0, True, v, 10) for policy, values in spl.items()
+            for m, v in enumerate(values)]
+    return pd.DataFrame(rows, columns=["env", "map_seed", "policy", "robot", "arrived", "spl",
+                                       "bytes_sent"])
+
+
+def test_report_verdicts_use_the_holm_p_over_the_tests_of_the_report(tmp_path):
+    from fftnav.report.sweep import write_sweep_report
+
+    own = [0.5, 0.6, 0.7, 0.4, 0.5, 0.6]
+    # collab better on all 6 maps, distinct differences: exact two-sided p = 2 / 2**6
+    spl = {"own-only": own, "bug-left": own,  # bug-left equal to own-only: no p
+           "collab": [v + 0.1 + 0.01 * m for m, v in enumerate(own)]}
+    config = parse_config({"experiment": {"name": "h", "envs": ["walls"], "maps": 6,
+                                          "map_seed": 0, "robots": 1,
+                                          "policies": list(spl)}})
+    _episodes(spl).to_csv(tmp_path / "episodes.csv", index=False)
+    text = write_sweep_report(config, tmp_path).read_text()
+    table = pd.read_csv(tmp_path / "sweep_summary.csv").set_index("policy")
+    assert table.loc["collab", "p_value"] == pytest.approx(2 / 2**6, abs=1e-6)
+    # the test without a p is not counted: a family of one, not adjusted, so collab pays
+    assert np.isnan(table.loc["bug-left", "p_holm"])
+    assert table.loc["collab", "p_holm"] == table.loc["collab", "p_value"]
+    assert "all 1 paired comparisons of this report with a p" in text
+    assert "1 more have no p" in text and "  - pays in 1: base / walls (+12.5," in text
+    assert re.search(r"\| own-only \| 12\.5 \[[^]]*\] \| 0\.031 \| 0\.031 \| pays \|", text)
+
+    # fusion adds two tests: collab's raw p still passes, its Holm p >= 2 x 2 / 2**6 does not
+    spl["fusion"] = [v + (0.02 if m % 2 else -0.01) for m, v in enumerate(own)]
+    config = parse_config({"experiment": {"name": "h", "envs": ["walls"], "maps": 6,
+                                          "map_seed": 0, "robots": 1,
+                                          "policies": list(spl)}})
+    _episodes(spl).to_csv(tmp_path / "episodes.csv", index=False)
+    text = write_sweep_report(config, tmp_path).read_text()
+    table = pd.read_csv(tmp_path / "sweep_summary.csv")
+    collab = table[(table.policy == "collab") & (table.reference == "own-only")].iloc[0]
+    assert collab.p_value == pytest.approx(2 / 2**6, abs=1e-6) and collab.p_holm >= 0.0625
+    assert collab.gain_ci_low > 0  # the interval alone would still say "pays"
+    assert "all 3 paired comparisons of this report with a p" in text
+    assert "- `collab` against `own-only`, 1 (cell, env) pairs:\n  - pays in 0." in text
+    assert "    - would pay by the raw p alone in 1: base / walls (+12.5, p = 0.031" in text
+    # the smallest of the three p: 3 x 2 / 2**6 = 0.094
+    assert re.search(r"\| own-only \| 12\.5 \[[^]]*\] \| 0\.031 \| 0\.094 \| no clear "
+                     r"difference \|", text)
 
 
 def test_an_axis_of_one_envs_world_draws_that_env_only():
