@@ -119,7 +119,9 @@ def difficulty_lines(episodes: pd.DataFrame, maps: pd.DataFrame | None, figures:
         "room (distance, visibility, characteristic dimension) should go with a higher SPL "
         "(rho > 0), more clutter or detour (dispersion, tortuosity) with a lower one "
         "(rho < 0). The pooled rows mix envs whose SPL and measures both differ; the per-env "
-        "rows compare maps of one kind. `-`: SPL or the measure is the same on every map.",
+        "rows compare maps of one kind. Each row tests 5 measures: at p < 0.05 about one "
+        "bold cell in 20 is expected by chance alone. `-`: SPL or the measure is the same "
+        "on every map.",
         "",
         *markdown_table(table),
         "",
