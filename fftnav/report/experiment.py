@@ -33,10 +33,13 @@ from fftnav.report.markdown import markdown_table
 from fftnav.report.trajectories import draw_trajectories as draw_paths
 from fftnav.report.trajectories import plot_failures
 from fftnav.runner.config import ExperimentConfig
+from fftnav.runner.maps import maps_current, write_maps_csv
+from fftnav.runner.resume import FolderLock, canonical_config, config_changes
+from fftnav.runner.run import CSV_COLUMNS
 from fftnav.runner.summary import in_order
 from fftnav.runner.tasks import task_world
 
-__all__ = ["PAPER_TABLE1", "PAPER_NAMES", "write_report"]
+__all__ = ["PAPER_TABLE1", "PAPER_NAMES", "report_folder", "write_report"]
 
 #: The paper's Table I (Gazebo): (env, policy) -> (AR %, APL m, SPL %).
 PAPER_TABLE1: dict[tuple[str, str], tuple[float, float, float]] = {
@@ -89,6 +92,46 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
     write_atomic(path, "\n".join(_report_lines(config, info, summary, paired, pictures,
                                                sections)))
     return path
+
+
+def report_folder(config: ExperimentConfig, out_dir: str | Path, *,
+                  workers: int | None = 1) -> Path:
+    """Bring a finished results folder's ``maps.csv`` and report up to date, running no episode.
+
+    ``maps.csv`` is written if missing or not of the config's maps
+    (:func:`fftnav.runner.maps.maps_current`), then ``report.md`` and its figures
+    (:func:`write_report`); nothing else in the folder changes (its CSVs, ``run_info.json``).
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+        The experiment the folder holds: its ``config.json`` must be this config's.
+    out_dir : str or Path
+        A folder written by :func:`fftnav.runner.run_experiment` (``episodes.csv`` and the
+        other CSVs, ``run_info.json``).
+    workers : int, optional
+        Processes computing ``maps.csv`` (1: in this process; None: all cores).
+
+    Raises
+    ------
+    ValueError
+        If the folder has no ``episodes.csv`` or holds another experiment, naming what differs.
+    """
+    out = Path(out_dir)
+    if not (out / "episodes.csv").is_file():
+        raise ValueError(f"--out must be a results folder with an episodes.csv, got "
+                         f"--out={str(out)!r}")
+    canonical = canonical_config(config, CSV_COLUMNS)
+    stored = (out / "config.json").read_text() if (out / "config.json").is_file() else "{}"
+    if stored != canonical:
+        changes = config_changes(json.loads(stored), json.loads(canonical))
+        raise ValueError(f"--out must hold results of {config.name!r} as configured, got "
+                         f"--out={str(out)!r} whose config.json differs: "
+                         f"{', '.join(changes) or 'the layout of config.json'}")
+    with FolderLock(out):
+        if not maps_current(out, config):
+            write_maps_csv(out, config, workers=workers)
+        return write_report(config, out)
 
 
 def _report_lines(config: ExperimentConfig, info: dict[str, Any], summary: pd.DataFrame,

@@ -24,7 +24,7 @@ from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import task_id, task_world
 
 __all__ = ["POSITION_COLUMNS", "draw_failure_positions", "failure_lines", "failure_positions",
-           "failure_table", "record_path"]
+           "failure_table", "last_positions", "record_path"]
 
 #: Columns of :func:`failure_positions`.
 POSITION_COLUMNS: tuple[str, ...] = ("env", "map_seed", "policy", "robot", "cause", "x", "y")
@@ -89,8 +89,7 @@ def failure_positions(out: str | Path, episodes: pd.DataFrame | None = None) -> 
     Parameters
     ----------
     out : str or Path
-        The results folder: its ``trajectories/<task_id>.npz`` (arrays ``arr_<robot>``, rows
-        ``x, y, yaw``) give each failed robot's last position.
+        The results folder (:func:`last_positions` reads the episodes' files in it).
     episodes : pandas.DataFrame, optional
         ``episodes.csv`` (read from ``out`` by default).
 
@@ -98,7 +97,7 @@ def failure_positions(out: str | Path, episodes: pd.DataFrame | None = None) -> 
     -------
     pandas.DataFrame
         Columns :data:`POSITION_COLUMNS` (``x``, ``y`` in metres, world frame), one row per
-        failed robot whose episode has trajectories, in the order of ``episodes.csv``.
+        failed robot whose episode has a source of positions, in the order of ``episodes.csv``.
     """
     out = Path(out)
     if episodes is None:
@@ -106,15 +105,28 @@ def failure_positions(out: str | Path, episodes: pd.DataFrame | None = None) -> 
     rows = []
     for (env, map_seed, policy), fails in _failed(episodes).groupby(
             ["env", "map_seed", "policy"], sort=False):
-        path = out / "trajectories" / f"{task_id(env, map_seed, policy)}.npz"
-        if not path.is_file():
+        robots = [int(r) for r in fails["robot"]]
+        found = last_positions(out, env, int(map_seed), policy, robots)
+        if found is None:
             continue
-        with np.load(path) as paths:
-            for r in fails.itertuples(index=False):
-                x, y = paths[f"arr_{r.robot}"][-1, :2]
-                rows.append((env, int(map_seed), policy, int(r.robot), r.failure, float(x),
-                             float(y)))
+        for robot, cause, (x, y) in zip(robots, fails["failure"], found, strict=True):
+            rows.append((env, int(map_seed), policy, robot, cause, float(x), float(y)))
     return pd.DataFrame(rows, columns=list(POSITION_COLUMNS))
+
+
+def last_positions(out: Path, env: str, map_seed: int, policy: str,
+                   robots: Sequence[int]) -> np.ndarray | None:
+    """The last ``(x, y)`` (m) of the given robots of one episode, ``(len(robots), 2)``, or None
+    when the folder has no path of that episode.
+
+    The source: ``trajectories/<task_id>.npz`` (arrays ``arr_<robot>``, rows ``x, y, yaw``),
+    kept for the first ``trajectory_maps`` maps of each env.
+    """
+    path = out / "trajectories" / f"{task_id(env, map_seed, policy)}.npz"
+    if not path.is_file():
+        return None
+    with np.load(path) as paths:
+        return np.array([paths[f"arr_{robot}"][-1, :2] for robot in robots], dtype=float)
 
 
 def draw_failure_positions(config: ExperimentConfig, positions: pd.DataFrame, path: Path, *,
