@@ -120,9 +120,8 @@ def maps_current(out: str | Path, config: ExperimentConfig) -> bool:
     if tuple(table.columns) != MAPS_COLUMNS:
         return False
     counts = table.groupby(["env", "map_seed"]).size()
-    keys = set(_map_keys(config))
-    return {(str(e), int(s)) for e, s in counts.index} == keys and len(counts) == len(keys) \
-        and bool((counts == config.robots).all())
+    found = {(str(env), int(seed)) for env, seed in counts.index}
+    return found == set(_map_keys(config)) and bool((counts == config.robots).all())
 
 
 def map_spl(episodes: pd.DataFrame, maps: pd.DataFrame) -> pd.DataFrame:
