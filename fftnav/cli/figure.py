@@ -1,9 +1,12 @@
-"""``fftnav figure {filters,depth3d} --out DIR``: draw the paper's figures."""
+"""``fftnav figure {filters,depth3d,sweep,report,failures}``: draw the paper's figures and the
+reports of results folders."""
 
 from __future__ import annotations
 
 import argparse
 from pathlib import Path
+
+from fftnav.cli.run import _workers
 
 
 def cmd_figure_filters(args: argparse.Namespace) -> int:
@@ -36,6 +39,17 @@ def cmd_figure_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_figure_report(args: argparse.Namespace) -> int:
+    """``maps.csv`` (if missing or stale) and the report of a finished results folder, running
+    no episode."""
+    from fftnav.report.experiment import report_folder
+    from fftnav.runner import load_config
+
+    config = load_config(args.config)
+    print(report_folder(config, args.out or config.out, workers=args.workers))
+    return 0
+
+
 def cmd_figure_failures(args: argparse.Namespace) -> int:
     """The robots of one episode of a results folder that did not arrive (docs/planner.md)."""
     from fftnav.report.experiment import draw_failures
@@ -62,6 +76,13 @@ def register(sub: argparse._SubParsersAction) -> None:
     w.add_argument("config", help="experiment TOML (with or without [sweep])")
     w.add_argument("--out", metavar="DIR", help="results folder (default: experiment.out)")
     w.set_defaults(func=cmd_figure_sweep)
+    r = figs.add_parser("report", help="maps.csv and report.md of a finished results folder "
+                        "(no episode run, its CSVs and run_info.json untouched)")
+    r.add_argument("config", help="experiment TOML of the results folder")
+    r.add_argument("--out", metavar="DIR", help="results folder (default: experiment.out)")
+    r.add_argument("--workers", type=_workers, default=1, metavar="N",
+                   help="processes computing maps.csv (default 1)")
+    r.set_defaults(func=cmd_figure_report)
     x = figs.add_parser("failures", help="paths of the robots of one episode that failed")
     x.add_argument("config", help="experiment TOML of the results folder")
     x.add_argument("--results", metavar="DIR", help="results folder (default: experiment.out)")

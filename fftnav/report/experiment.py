@@ -1,13 +1,17 @@
 """Report of an experiment folder: ``report.md`` beside the paper's Table I, and its figures.
 
 Reads what :func:`fftnav.runner.run_experiment` wrote (``episodes.csv``, ``summary.csv``,
-``paired_tests.csv``, ``run_info.json``, ``config.toml``, ``trajectories/``) and writes
-``report.md`` and ``figures/*.png`` into the same folder:
+``paired_tests.csv``, ``run_info.json``, ``config.toml``, ``maps.csv``, ``trajectories/``,
+``records/``) and writes ``report.md`` and ``figures/*.png`` into the same folder:
 
 - ``trajectories_<env>.png``: all robots of the first map, one panel per policy (paper Fig. 7);
 - ``spl_apl.png``: SPL and APL per env and policy with 95% bootstrap intervals over maps, the
   paper's Table I values as crosses;
-- ``path_lengths.png``: distributions of the path lengths of the robots that arrived.
+- ``path_lengths.png``: distributions of the path lengths of the robots that arrived;
+- ``spl_vs_difficulty.png`` (with ``maps.csv``): per-map SPL against each difficulty measure,
+  beside a table of Spearman's rho (:mod:`fftnav.report.difficulty`);
+- ``failure_positions.png``: where the robots that failed ended, by cause, beside the failure
+  counts per env and policy with links to the recordings (:mod:`fftnav.report.failures`).
 """
 
 from __future__ import annotations
@@ -23,13 +27,19 @@ from matplotlib.figure import Figure
 
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow
 from fftnav.files import write_atomic
+from fftnav.report.difficulty import difficulty_lines
+from fftnav.report.failures import failure_lines
+from fftnav.report.markdown import markdown_table
 from fftnav.report.trajectories import draw_trajectories as draw_paths
 from fftnav.report.trajectories import plot_failures
 from fftnav.runner.config import ExperimentConfig
+from fftnav.runner.maps import maps_current, write_maps_csv
+from fftnav.runner.resume import FolderLock, canonical_config, config_changes
+from fftnav.runner.run import CSV_COLUMNS
 from fftnav.runner.summary import in_order
 from fftnav.runner.tasks import task_world
 
-__all__ = ["PAPER_TABLE1", "PAPER_NAMES", "write_report"]
+__all__ = ["PAPER_TABLE1", "PAPER_NAMES", "report_folder", "write_report"]
 
 #: The paper's Table I (Gazebo): (env, policy) -> (AR %, APL m, SPL %).
 PAPER_TABLE1: dict[tuple[str, str], tuple[float, float, float]] = {
@@ -72,15 +82,62 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
         pictures += [draw_metric_bars(summary, figures / "spl_apl.png"),
                      draw_path_lengths(episodes, figures / "path_lengths.png",
                                        envs=config.envs, policies=config.policy_names)]
+    sections = []
+    if len(episodes):
+        maps = pd.read_csv(out / "maps.csv") if (out / "maps.csv").is_file() else None
+        sections = [*difficulty_lines(episodes, maps, figures, envs=config.envs,
+                                      policies=config.policy_names),
+                    *failure_lines(config, out, episodes, figures)]
     path = out / "report.md"
-    write_atomic(path, "\n".join(_report_lines(config, info, summary, paired, pictures)))
+    write_atomic(path, "\n".join(_report_lines(config, info, summary, paired, pictures,
+                                               sections)))
     return path
 
 
+def report_folder(config: ExperimentConfig, out_dir: str | Path, *,
+                  workers: int | None = 1) -> Path:
+    """Bring a finished results folder's ``maps.csv`` and report up to date, running no episode.
+
+    ``maps.csv`` is written if missing or not of the config's maps
+    (:func:`fftnav.runner.maps.maps_current`), then ``report.md`` and its figures
+    (:func:`write_report`); nothing else in the folder changes (its CSVs, ``run_info.json``).
+
+    Parameters
+    ----------
+    config : ExperimentConfig
+        The experiment the folder holds: its ``config.json`` must be this config's.
+    out_dir : str or Path
+        A folder written by :func:`fftnav.runner.run_experiment` (``episodes.csv`` and the
+        other CSVs, ``run_info.json``).
+    workers : int, optional
+        Processes computing ``maps.csv`` (1: in this process; None: all cores).
+
+    Raises
+    ------
+    ValueError
+        If the folder has no ``episodes.csv`` or holds another experiment, naming what differs.
+    """
+    out = Path(out_dir)
+    if not (out / "episodes.csv").is_file():
+        raise ValueError(f"--out must be a results folder with an episodes.csv, got "
+                         f"--out={str(out)!r}")
+    canonical = canonical_config(config, CSV_COLUMNS)
+    stored = (out / "config.json").read_text() if (out / "config.json").is_file() else "{}"
+    if stored != canonical:
+        changes = config_changes(json.loads(stored), json.loads(canonical))
+        raise ValueError(f"--out must hold results of {config.name!r} as configured, got "
+                         f"--out={str(out)!r} whose config.json differs: "
+                         f"{', '.join(changes) or 'the layout of config.json'}")
+    with FolderLock(out):
+        if not maps_current(out, config):
+            write_maps_csv(out, config, workers=workers)
+        return write_report(config, out)
+
+
 def _report_lines(config: ExperimentConfig, info: dict[str, Any], summary: pd.DataFrame,
-                  paired: pd.DataFrame, pictures: list[Path]) -> list[str]:
+                  paired: pd.DataFrame, pictures: list[Path], sections: list[str]) -> list[str]:
     """The lines of ``report.md``: the run, the results beside the paper's Table I, the paired
-    tests, the figures and the config."""
+    tests, the ``sections`` (map difficulty, failures), the figures and the config."""
     return [
         f"# Experiment `{config.name}`",
         "",
@@ -105,13 +162,15 @@ def _report_lines(config: ExperimentConfig, info: dict[str, Any], summary: pd.Da
         "paths shorter than an 8-connected detour score 1. Paper: Table I (Gazebo, 20 maps, "
         "15 robots).",
         "",
-        *_markdown(results_table(summary)),
+        *markdown_table(results_table(summary)),
         "",
         "## Paired tests (per-map SPL, Wilcoxon signed-rank, two-sided)",
         "",
-        *(_markdown(paired.round(4).assign(p_value=paired["p_value"].map(lambda v: f"{v:.2g}")))
+        *(markdown_table(paired.round(4).assign(
+            p_value=paired["p_value"].map(lambda v: f"{v:.2g}")))
           if len(paired) else ["(no `fusion` rows to compare)"]),
         "",
+        *sections,
         "## Figures",
         "",
         *(f"![{p.stem}](figures/{p.name})" for p in pictures),
@@ -228,13 +287,6 @@ def _ci(value: float, low: float, high: float, digits: int) -> str:
     """``value [low, high]``; the interval is left out when undefined (NaN)."""
     interval = "" if np.isnan(low) else f" [{low:.{digits}f}, {high:.{digits}f}]"
     return _fmt(value, digits) + interval
-
-
-def _markdown(table: pd.DataFrame) -> list[str]:
-    """A DataFrame as Markdown table lines (no extra dependency)."""
-    cells = [[str(c) for c in table.columns]] + [[str(v) for v in r] for r in table.to_numpy()]
-    return ["| " + " | ".join(r) + " |" for r in cells[:1]] + [
-        "|" + "---|" * len(table.columns)] + ["| " + " | ".join(r) + " |" for r in cells[1:]]
 
 
 def draw_failures(config: ExperimentConfig, results: str | Path, env: str, map_seed: int,

@@ -35,7 +35,7 @@ RESULT_FOLDERS: tuple[str, ...] = ("episodes", "trajectories", "records", "refer
                                    "figures")
 RESULT_FILES: tuple[str, ...] = ("episodes.csv", "summary.csv", "paired_tests.csv",
                                  "errors.csv", "report.md", "run_info.json", "config.toml",
-                                 "config.json")
+                                 "config.json", "maps.csv")
 #: Fields of :class:`ExperimentConfig` that come from the ``[experiment]`` table.
 _EXPERIMENT_FIELDS = ("name", "envs", "maps", "map_seed", "robots", "policies",
                       "trajectory_maps")

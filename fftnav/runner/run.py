@@ -14,6 +14,9 @@ Layout of the output folder ``DIR``:
 - ``.lock`` (one run at a time), ``.invocation-PID.json`` (the wall time of a killed run);
 - ``reference/<env>-<map_seed>.npy``: the map's reference lengths (grid A*, geodesic), computed
   once per map before its episodes and shared by its policies;
+- ``maps.csv``: every map's difficulty measures per robot (:mod:`fftnav.runner.maps`), written
+  when missing or not of the config's maps (a resume keeps it; real episodes only, not with
+  an injected ``task_fn``);
 - ``errors.csv`` (only if some tasks failed in this run), ``summary.csv``, ``paired_tests.csv``,
   ``config.toml`` (verbatim copy), ``config.json`` (canonical form: a rerun into the folder
   must have the same), ``run_info.json`` (versions, git revision, workers, wall time).
@@ -43,6 +46,7 @@ from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
 from fftnav.files import atomic_writer, write_atomic
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
+from fftnav.runner.maps import maps_current, write_maps_csv
 from fftnav.runner.resume import (
     FolderLock,
     InvocationClock,
@@ -139,6 +143,8 @@ def run_experiment(
             index=False, float_format=FLOAT_FORMAT))
         write_atomic(out / "paired_tests.csv", paired_tests(episodes, **order).to_csv(
             index=False, float_format="%.6g"))  # p-values can be far below 1e-6
+        if task_fn is run_task and (fresh or not maps_current(out, config)):
+            write_maps_csv(out, config, executor=executor, workers=workers, scheduler=scheduler)
         outcome.wall_time_s = time.perf_counter() - start
         info = run_info(outcome, workers=workers, executor=executor, scheduler=scheduler)
         earlier = 0.0 if fresh else _earlier_wall_time(out) + earlier_killed

@@ -1,0 +1,201 @@
+"""The report's section "Why robots failed": failure causes per env and policy, where they happened.
+
+Reads the ``failure`` column of ``episodes.csv`` (one cause of
+:data:`fftnav.metrics.FAILURE_CAUSES` per robot that did not arrive, docs/metrics.md) and the
+results folder's files: ``records/<task_id>.npz`` (an episode's recording, linked from the
+table when it exists) and ``trajectories/<task_id>.npz`` (the robots' paths of the first
+``trajectory_maps`` maps), from which :func:`failure_positions` takes where each failed robot
+ended. ``figures/failure_positions.png`` draws those positions per env in the map frame.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+from matplotlib.figure import Figure
+from matplotlib.patches import Rectangle
+
+from fftnav.metrics import FAILURE_CAUSES
+from fftnav.report.markdown import markdown_table
+from fftnav.runner.config import ExperimentConfig
+from fftnav.runner.tasks import task_id, task_world
+
+__all__ = ["POSITION_COLUMNS", "draw_failure_positions", "failure_lines", "failure_positions",
+           "failure_table", "last_positions", "record_path"]
+
+#: Columns of :func:`failure_positions`.
+POSITION_COLUMNS: tuple[str, ...] = ("env", "map_seed", "policy", "robot", "cause", "x", "y")
+_MARKERS = ("X", "o", "s", "^", "D", "v", "P", "*")
+
+
+def record_path(out: str | Path, env: str, map_seed: int, policy: str) -> Path:
+    """Where a results folder keeps an episode's recording: ``OUT/records/<task_id>.npz``."""
+    return Path(out) / "records" / f"{task_id(env, map_seed, policy)}.npz"
+
+
+def _failed(episodes: pd.DataFrame) -> pd.DataFrame:
+    """The rows of the robots that did not arrive, ``failure`` as text ('' if unclassified)."""
+    failed = episodes[~episodes["arrived"].astype(bool)].copy()
+    failed["failure"] = failed["failure"].fillna("").astype(str)
+    return failed
+
+
+def failure_table(episodes: pd.DataFrame, out: str | Path, *, envs: Sequence[str],
+                  policies: Sequence[str]) -> pd.DataFrame:
+    """Failure counts by cause per env and policy, with links to the failures' recordings.
+
+    Parameters
+    ----------
+    episodes : pandas.DataFrame
+        ``episodes.csv``, with its ``failure`` column.
+    out : str or Path
+        The results folder (where ``report.md`` is): recordings are looked for in it.
+    envs, policies : sequence of str
+        The rows, in this order (pairs without episodes are left out).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns env, policy, robots, failed, one column per registered cause of
+        :data:`fftnav.metrics.FAILURE_CAUSES` (in its order), then ``recordings``: the map
+        seeds with a failure whose recording exists, each a Markdown link relative to the
+        folder (``[1003](records/rocky-1003-bug-left.npz)``), or ``-``.
+    """
+    failed = _failed(episodes)
+    rows = []
+    for env in envs:
+        for policy in policies:
+            mine = episodes[(episodes["env"] == env) & (episodes["policy"] == policy)]
+            if mine.empty:
+                continue
+            fails = failed[(failed["env"] == env) & (failed["policy"] == policy)]
+            row = {"env": env, "policy": policy, "robots": len(mine), "failed": len(fails)}
+            row |= {cause: int((fails["failure"] == cause).sum()) for cause in FAILURE_CAUSES}
+            links = [f"[{seed}](records/{record_path(out, env, seed, policy).name})"
+                     for seed in sorted(set(fails["map_seed"]))
+                     if record_path(out, env, seed, policy).is_file()]
+            row["recordings"] = ", ".join(links) or "-"
+            rows.append(row)
+    columns = ["env", "policy", "robots", "failed", *FAILURE_CAUSES, "recordings"]
+    return pd.DataFrame(rows, columns=columns)
+
+
+def failure_positions(out: str | Path, episodes: pd.DataFrame | None = None) -> pd.DataFrame:
+    """Where each robot that did not arrive ended, for the episodes whose paths the folder keeps.
+
+    Parameters
+    ----------
+    out : str or Path
+        The results folder (:func:`last_positions` reads the episodes' files in it).
+    episodes : pandas.DataFrame, optional
+        ``episodes.csv`` (read from ``out`` by default).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Columns :data:`POSITION_COLUMNS` (``x``, ``y`` in metres, world frame), one row per
+        failed robot whose episode has a source of positions, in the order of ``episodes.csv``.
+    """
+    out = Path(out)
+    if episodes is None:
+        episodes = pd.read_csv(out / "episodes.csv")
+    rows = []
+    for (env, map_seed, policy), fails in _failed(episodes).groupby(
+            ["env", "map_seed", "policy"], sort=False):
+        robots = [int(r) for r in fails["robot"]]
+        found = last_positions(out, env, int(map_seed), policy, robots)
+        if found is None:
+            continue
+        for robot, cause, (x, y) in zip(robots, fails["failure"], found, strict=True):
+            rows.append((env, int(map_seed), policy, robot, cause, float(x), float(y)))
+    return pd.DataFrame(rows, columns=list(POSITION_COLUMNS))
+
+
+def last_positions(out: Path, env: str, map_seed: int, policy: str,
+                   robots: Sequence[int]) -> np.ndarray | None:
+    """The last ``(x, y)`` (m) of the given robots of one episode, ``(len(robots), 2)``, or None
+    when the folder has no path of that episode.
+
+    The source: ``trajectories/<task_id>.npz`` (arrays ``arr_<robot>``, rows ``x, y, yaw``),
+    kept for the first ``trajectory_maps`` maps of each env.
+    """
+    path = out / "trajectories" / f"{task_id(env, map_seed, policy)}.npz"
+    if not path.is_file():
+        return None
+    with np.load(path) as paths:
+        return np.array([paths[f"arr_{robot}"][-1, :2] for robot in robots], dtype=float)
+
+
+def draw_failure_positions(config: ExperimentConfig, positions: pd.DataFrame, path: Path, *,
+                           envs: Sequence[str]) -> Path:
+    """One panel per env, in the map frame (m): every located failure's last position, a
+    marker and colour per cause, and a grey line to the robot's goal; the maps of an env are
+    overlaid (their obstacles differ and are not drawn), the frame is that of the env's first
+    map."""
+    causes = list(FAILURE_CAUSES)
+    fig = Figure(figsize=(4.8 * len(envs), 5.0), layout="constrained")
+    for ax, env in zip(fig.subplots(1, len(envs), squeeze=False)[0], envs, strict=True):
+        width, height = task_world(config, env, config.map_seed).size_m
+        ax.add_patch(Rectangle((0, 0), width, height, fill=False, edgecolor="k", lw=1))
+        mine = positions[positions["env"] == env]
+        for r in mine.itertuples(index=False):
+            gx, gy = task_world(config, env, r.map_seed).goals[r.robot]
+            ax.plot([r.x, gx], [r.y, gy], color="0.75", lw=0.7, zorder=1)
+            ax.plot(gx, gy, ".", color="0.5", ms=4, zorder=1)
+        for i, cause in enumerate(causes):
+            at = mine[mine["cause"] == cause]
+            ax.scatter(at["x"], at["y"], s=40, color=f"C{i}", marker=_MARKERS[i % len(_MARKERS)],
+                       label=f"{cause} ({len(at)})", zorder=2)
+        ax.set_aspect("equal")
+        ax.set_xlim(-0.5, width + 0.5)
+        ax.set_ylim(-0.5, height + 0.5)
+        ax.set_xlabel("x (m)")
+        ax.set_ylabel("y (m)")
+        ax.set_title(f"{env}: {len(mine)} failures located, "
+                     f"{mine['map_seed'].nunique()} map(s)")
+        ax.legend(fontsize=7, loc="lower right", title="cause (grey: line to goal)",
+                  title_fontsize=7)
+    fig.savefig(path, dpi=100)
+    return path
+
+
+def failure_lines(config: ExperimentConfig, out: Path, episodes: pd.DataFrame,
+                  figures: Path) -> list[str]:
+    """The report's section "Why robots failed" (its figure written into ``figures``)."""
+    head = ["## Why robots failed", ""]
+    if "failure" not in episodes:
+        return [*head, "(`episodes.csv` has no `failure` column: rerun the experiment to "
+                "classify its failures)", ""]
+    envs, policies = config.envs, config.policy_names
+    table = failure_table(episodes, out, envs=envs, policies=policies)
+    lines = [
+        *head,
+        "Robots that did not arrive, by cause (the `failure` column of `episodes.csv`; each "
+        "cause's definition and thresholds: docs/metrics.md, \"Why robots failed\"). "
+        "`recordings`: the maps whose failed episode has a recording in `records/` (replay "
+        "one with `fftnav replay`).",
+        "",
+        *markdown_table(table),
+        "",
+    ]
+    positions = failure_positions(out, episodes)
+    total = int(table["failed"].sum())
+    if positions.empty:
+        return [*lines, f"No position for the {total} failures: the folder keeps the paths "
+                f"(`trajectories/`) of the first {config.trajectory_maps} map(s) of each env "
+                "only, and none of their robots failed.", ""]
+    picture = draw_failure_positions(config, positions, figures / "failure_positions.png",
+                                     envs=envs)
+    return [
+        *lines,
+        f"Where they ended: {len(positions)} of the {total} failures, those of the maps that "
+        f"keep their trajectories (the first {config.trajectory_maps} per env), each robot's "
+        "last position in the map frame with a grey line to its goal; the maps of an env "
+        "overlaid.",
+        "",
+        f"![{picture.stem}](figures/{picture.name})",
+        "",
+    ]
