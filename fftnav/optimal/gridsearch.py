@@ -24,6 +24,7 @@ import numpy as np
 
 from fftnav.observe.kernels import AVAILABLE, njit
 from fftnav.optimal.gridgraph import (
+    GridPath,
     UnreachableGoalError,
     _allowed,
     check_grid,
@@ -31,7 +32,7 @@ from fftnav.optimal.gridgraph import (
     move_table,
 )
 
-__all__ = ["AVAILABLE", "HEAP_SIZE", "astar_lengths"]
+__all__ = ["AVAILABLE", "HEAP_SIZE", "astar_lengths", "astar_paths"]
 
 
 def astar_lengths(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, *,
@@ -68,6 +69,31 @@ def astar_lengths(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, *
     >>> round(float(lengths[0]), 6)  # no corner cutting: 4 straight and 2 diagonal moves
     6.828427
     """
+    return _run(occupied, starts, goals, connectivity, False)[0]
+
+
+def astar_paths(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, *,
+                connectivity: int = 8) -> list[GridPath]:
+    """Shortest collision-free paths of many start/goal pairs on one grid: the compiled
+    twin of :func:`fftnav.optimal.gridgraph.shortest_paths` (same arguments and errors), the
+    lengths of :func:`astar_lengths`. Where several paths are equally short, it may return
+    another one than Dijkstra's.
+
+    >>> free = np.zeros((5, 5), dtype=bool)
+    >>> free[1:4, 2] = True
+    >>> path = astar_paths(free, [[2, 0]], [[2, 4]])[0]
+    >>> path.cells[0].tolist(), path.cells[-1].tolist(), round(path.length_cells, 6)
+    ([2, 0], [2, 4], 6.828427)
+    """
+    lengths, cells, offsets = _run(occupied, starts, goals, connectivity, True)
+    return [GridPath(cells[a:b], float(n))
+            for a, b, n in zip(offsets[:-1], offsets[1:], lengths, strict=True)]
+
+
+def _run(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, connectivity: int,
+         paths: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Check the input, search every pair; lengths, and with ``paths`` the cells of all paths
+    one after the other and each path's offsets."""
     if not AVAILABLE:
         raise ValueError("astar_lengths needs numba (pip install fftnav[fast]), "
                          "got numba=None")
@@ -78,12 +104,12 @@ def astar_lengths(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, *
     allowed = np.stack([_allowed(occupied, move) for move in moves])
     steps = np.array([move.step for move in moves], dtype=np.int64)
     costs = np.array([move.cost for move in moves])
-    lengths = _search(allowed, steps, costs, pairs, HEAP_SIZE)
+    lengths, cells, offsets = _search(allowed, steps, costs, pairs, HEAP_SIZE, paths)
     unreachable = np.flatnonzero(~np.isfinite(lengths))
     if unreachable.size:
         row = pairs[unreachable[0]]
         raise UnreachableGoalError((int(row[0]), int(row[1])), (int(row[2]), int(row[3])))
-    return lengths
+    return lengths, cells, offsets
 
 
 #: Initial capacity of the open list (it doubles when full; tests start it at 1).
@@ -125,11 +151,15 @@ def _pop(keys: np.ndarray, nodes: np.ndarray, size: int) -> int:
 
 
 @njit(cache=True, nogil=True)
-def _search(allowed: np.ndarray, steps: np.ndarray, costs: np.ndarray,
-            pairs: np.ndarray, heap_size: int) -> np.ndarray:
-    """A* of every pair ``(start row, start col, goal row, goal col)``; inf if unreachable."""
+def _search(allowed: np.ndarray, steps: np.ndarray, costs: np.ndarray, pairs: np.ndarray,
+            heap_size: int, paths: bool) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """A* of every pair ``(start row, start col, goal row, goal col)``: lengths (inf if
+    unreachable) and, with ``paths``, the cells of the found paths (start first) one after the
+    other, path ``p`` at ``offsets[p]:offsets[p + 1]``."""
     rows, cols = allowed.shape[1], allowed.shape[2]
     cost = np.empty(rows * cols)
+    parent = np.empty(rows * cols, np.int64)
+    cells, offsets = np.empty((1024, 2), np.int64), np.zeros(pairs.shape[0] + 1, np.int64)
     seen = np.zeros(rows * cols, np.int64)  # pair number + 1 where ``cost`` is this pair's
     done = np.zeros(rows * cols, np.int64)  # pair number + 1 where the cell is closed
     keys, nodes = np.empty(heap_size), np.empty(heap_size, np.int64)
@@ -149,6 +179,8 @@ def _search(allowed: np.ndarray, steps: np.ndarray, costs: np.ndarray,
             done[u] = tag
             if u == goal:
                 lengths[p] = cost[u]
+                if paths:
+                    cells = _append_path(cells, offsets, p, parent, start, goal, cols)
                 break
             ur, uc = u // cols, u % cols
             for k in range(steps.shape[0]):
@@ -161,9 +193,31 @@ def _search(allowed: np.ndarray, steps: np.ndarray, costs: np.ndarray,
                 new = cost[u] + costs[k]
                 if seen[v] == tag and new >= cost[v]:
                     continue
-                cost[v], seen[v] = new, tag
+                cost[v], seen[v], parent[v] = new, tag, u
                 if size == keys.shape[0]:  # grow the heap
                     keys, nodes = np.concatenate((keys, keys)), np.concatenate((nodes, nodes))
                 _push(keys, nodes, size, new + np.hypot(vr - gr, vc - gc), v)
                 size += 1
-    return lengths
+        if not paths or not np.isfinite(lengths[p]):
+            offsets[p + 1] = offsets[p]
+    return lengths, cells, offsets
+
+
+@njit(cache=True, nogil=True)
+def _append_path(cells: np.ndarray, offsets: np.ndarray, p: int, parent: np.ndarray,
+                 start: int, goal: int, cols: int) -> np.ndarray:
+    """Walk ``parent`` back from ``goal`` to ``start``; write the path (start first) after
+    ``offsets[p]`` in ``cells`` (grown as needed) and set ``offsets[p + 1]``."""
+    n, u = 1, goal
+    while u != start:
+        u, n = parent[u], n + 1
+    begin = offsets[p]
+    while cells.shape[0] < begin + n:
+        cells = np.concatenate((cells, cells))
+    u = goal
+    for k in range(n - 1, -1, -1):
+        cells[begin + k, 0], cells[begin + k, 1] = u // cols, u % cols
+        if k:
+            u = parent[u]
+    offsets[p + 1] = begin + n
+    return cells

@@ -122,3 +122,30 @@ def test_the_open_list_grows_from_one_entry(case, connectivity):
     finally:
         gridsearch.HEAP_SIZE = size
     np.testing.assert_allclose(got, expected, rtol=1e-12, atol=0)
+
+
+@settings(max_examples=100, deadline=None)
+@given(grids_with_pairs(), st.sampled_from([8, 16, 32]))
+def test_paths_are_allowed_move_chains_as_short_as_dijkstra(case, connectivity):
+    """Each path runs from its start to its goal by allowed moves (footprints free), and its
+    moves add up to Dijkstra's length."""
+    from fftnav.optimal.gridgraph import _allowed, move_table
+
+    occupied, starts, goals = case
+    try:
+        expected = dijkstra_lengths(occupied, starts, goals, connectivity)
+    except UnreachableGoalError:
+        with pytest.raises(UnreachableGoalError, match="is unreachable from start cell"):
+            gridsearch.astar_paths(occupied, starts, goals, connectivity=connectivity)
+        return
+    moves = {tuple(m.step): (m, _allowed(occupied, m)) for m in move_table(connectivity)}
+    paths = gridsearch.astar_paths(occupied, starts, goals, connectivity=connectivity)
+    for path, start, goal, length in zip(paths, starts, goals, expected, strict=True):
+        assert path.cells[0].tolist() == list(start) and path.cells[-1].tolist() == list(goal)
+        total = 0.0
+        for a, b in zip(path.cells[:-1], path.cells[1:], strict=True):
+            move, allowed = moves[tuple((b - a).tolist())]
+            assert allowed[a[0], a[1]]
+            total += move.cost
+        assert total == pytest.approx(length, rel=1e-12)
+        assert path.length_cells == pytest.approx(length, rel=1e-12)
