@@ -5,7 +5,8 @@ Reads the ``failure`` column of ``episodes.csv`` (one cause of
 results folder's files: ``records/<task_id>.npz`` (an episode's recording, linked from the
 table when it exists) and ``trajectories/<task_id>.npz`` (the robots' paths of the first
 ``trajectory_maps`` maps), from which :func:`failure_positions` takes where each failed robot
-ended. ``figures/failure_positions.png`` draws those positions per env in the map frame.
+ended (the recording first). ``figures/failure_positions.png`` draws those positions per env
+in the map frame.
 """
 
 from __future__ import annotations
@@ -18,6 +19,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 from matplotlib.patches import Rectangle
 
+from fftnav.episode.recording import RecordingError, read_recording
 from fftnav.metrics import FAILURE_CAUSES
 from fftnav.report.markdown import markdown_table
 from fftnav.runner.config import ExperimentConfig
@@ -119,9 +121,18 @@ def last_positions(out: Path, env: str, map_seed: int, policy: str,
     """The last ``(x, y)`` (m) of the given robots of one episode, ``(len(robots), 2)``, or None
     when the folder has no path of that episode.
 
-    The source: ``trajectories/<task_id>.npz`` (arrays ``arr_<robot>``, rows ``x, y, yaw``),
-    kept for the first ``trajectory_maps`` maps of each env.
+    The sources, in order: the episode's recording (``records/<task_id>.npz``, kept for the
+    episodes ``[record] episodes`` asks for, by default those with a failure: its last tick's
+    poses; a damaged one is passed over), then ``trajectories/<task_id>.npz`` (arrays
+    ``arr_<robot>``, rows ``x, y, yaw``, kept for the first ``trajectory_maps`` maps of each
+    env).
     """
+    recorded = record_path(out, env, map_seed, policy)
+    if recorded.is_file():
+        try:
+            return read_recording(recorded).pose[-1, list(robots), :2]
+        except RecordingError:  # a damaged file: the next source
+            pass
     path = out / "trajectories" / f"{task_id(env, map_seed, policy)}.npz"
     if not path.is_file():
         return None
@@ -184,17 +195,17 @@ def failure_lines(config: ExperimentConfig, out: Path, episodes: pd.DataFrame,
     positions = failure_positions(out, episodes)
     total = int(table["failed"].sum())
     if positions.empty:
-        return [*lines, f"No position for the {total} failures: the folder keeps the paths "
-                f"(`trajectories/`) of the first {config.trajectory_maps} map(s) of each env "
-                "only, and none of their robots failed.", ""]
+        return [*lines, f"No position for the {total} failures: the folder has no recording "
+                "of them (`records/`, `[record] episodes`) and none of the robots of the maps "
+                f"that keep their paths (`trajectories/`, the first {config.trajectory_maps} "
+                "per env) failed.", ""]
     picture = draw_failure_positions(config, positions, figures / "failure_positions.png",
                                      envs=envs)
     return [
         *lines,
-        f"Where they ended: {len(positions)} of the {total} failures, those of the maps that "
-        f"keep their trajectories (the first {config.trajectory_maps} per env), each robot's "
-        "last position in the map frame with a grey line to its goal; the maps of an env "
-        "overlaid.",
+        f"Where they ended: {len(positions)} of the {total} failures (those with a recording "
+        "in `records/` or a path in `trajectories/`), each robot's last position in the map "
+        "frame with a grey line to its goal; the maps of an env overlaid.",
         "",
         f"![{picture.stem}](figures/{picture.name})",
         "",

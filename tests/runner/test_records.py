@@ -5,6 +5,7 @@ from __future__ import annotations
 
 import shutil
 
+import numpy as np
 import pandas as pd
 import pytest
 
@@ -81,3 +82,19 @@ def test_an_unknown_record_mode_or_key_is_refused_by_name():
     with pytest.raises(ValueError, match=r"unknown key record.keep; expected one of "
                                          r"\['episodes'\]"):
         parse_config({**BASE, "record": {"keep": "all"}})
+
+
+def test_the_report_places_each_failure_where_its_recording_ends(failures_run):
+    from fftnav.report.failures import failure_positions
+
+    positions = failure_positions(failures_run)
+    episodes = pd.read_csv(failures_run / "episodes.csv")
+    assert len(positions) == int((~episodes.arrived).sum()) > 0
+    for r in positions.itertuples(index=False):
+        rec = read_recording(failures_run / "records" / f"{r.env}-{r.map_seed}-{r.policy}.npz")
+        assert (r.x, r.y) == tuple(rec.pose[-1, r.robot, :2])
+        trajectory = failures_run / "trajectories" / f"{r.env}-{r.map_seed}-{r.policy}.npz"
+        if trajectory.exists():  # the other source agrees (the recording keeps float32)
+            with np.load(trajectory) as paths:
+                assert (r.x, r.y) == pytest.approx(tuple(paths[f"arr_{r.robot}"][-1, :2]),
+                                                   abs=1e-5)
