@@ -8,7 +8,8 @@ as a short dark tick out of the disc, its trail, a dashed line to its goal while
 cross where it failed (with the cause, when known), the picked robot's scan (returns as dots)
 and safe sectors (green fans out to the sensor range), a line for each message delivered in the
 tick (sender to receiver) and the clock. :class:`FramePainter` draws the map once and updates
-the robots' artists frame by frame (the videos); :func:`draw_frame` draws one frame.
+the robots' artists frame by frame (the videos); :func:`draw_frame` draws one frame and
+:class:`RasterRenderer` returns frames as pixels.
 
 >>> KINDS[:3]
 ('waiting', 'moving', 'following')
@@ -33,7 +34,7 @@ from fftnav.report.world_plot import draw_world
 from fftnav.world.model import World
 
 __all__ = ["KINDS", "KIND_COLOURS", "MESSAGE_COLOUR", "SAFE_COLOUR", "FramePainter",
-           "ScanView", "SwarmFrame", "draw_frame", "kind_rgb", "runs_of"]
+           "RasterRenderer", "ScanView", "SwarmFrame", "draw_frame", "kind_rgb", "runs_of"]
 
 #: A robot's state as drawn, by its code in :attr:`SwarmFrame.kinds`.
 KINDS = ("waiting", "moving", "following", "escaping", "arrived", "failed")
@@ -232,3 +233,39 @@ def draw_frame(ax: Any, world: World, frame: SwarmFrame, r0_m: float, *,
     painter = FramePainter(ax, world, r0_m, scale_bar=scale_bar)
     painter.update(frame)
     return painter
+
+
+class RasterRenderer:
+    """Frames of one world as RGB arrays at ``resolution_m`` metres per pixel, the first row the
+    top of the world (:meth:`fftnav.envs.SwarmNavEnv.render`): pixel ``(row, col)`` covers
+    ``x = col * res .. (col + 1) * res``, ``y = h - (row + 1) * res .. h - row * res``.
+
+    >>> from fftnav.world.model import World
+    >>> world = World("forest", 0, (2.0, 1.0), (), np.array([[1.0, 0.5, 0.0]]),
+    ...               np.array([[1.5, 0.5]]))
+    >>> frame = SwarmFrame(poses=world.starts, kinds=np.array([KINDS.index("moving")]))
+    >>> rgb = RasterRenderer(world, r0_m=0.15, resolution_m=0.05)(frame)
+    >>> rgb.shape, tuple(rgb[10, 20]) == kind_rgb("moving")
+    ((20, 40, 3), True)
+    """
+
+    def __init__(self, world: World, *, r0_m: float, resolution_m: float) -> None:
+        from matplotlib.backends.backend_agg import FigureCanvasAgg
+        from matplotlib.figure import Figure
+
+        self.world, self.r0_m = world, float(r0_m)
+        w, h = world.size_m
+        self.shape = (round(h / resolution_m), round(w / resolution_m))
+        self.figure = Figure(figsize=(self.shape[1] / 100, self.shape[0] / 100), dpi=100)
+        FigureCanvasAgg(self.figure)
+        ax = self.figure.add_axes((0, 0, 1, 1))
+        self.painter = FramePainter(ax, world, r0_m, scale_bar=False)
+        ax.set_xlim(0, w)
+        ax.set_ylim(0, h)
+        ax.set_axis_off()
+
+    def __call__(self, frame: SwarmFrame) -> np.ndarray:
+        """The frame as an ``(H, W, 3)`` uint8 array."""
+        self.painter.update(frame)
+        self.figure.canvas.draw()
+        return np.asarray(self.figure.canvas.buffer_rgba())[..., :3].copy()
