@@ -163,8 +163,9 @@ class FramePainter:
         ax.add_collection(self.robots)
         self.headings = LineCollection([], colors="0.1", linewidths=1.4, zorder=6)
         ax.add_collection(self.headings)
-        (self.crosses,) = ax.plot([], [], "x", color=KIND_COLOURS["failed"], ms=9, mew=2.2,
-                                  zorder=7)
+        self.crosses = LineCollection([], colors=KIND_COLOURS["failed"], linewidths=2.2,
+                                      zorder=7)
+        ax.add_collection(self.crosses)
         self.ring = Circle((0, 0), 2.2 * self.r0_m, fill=False, ec="k", lw=1.0, zorder=7,
                            visible=False)
         ax.add_patch(self.ring)
@@ -196,7 +197,10 @@ class FramePainter:
         pairs = np.asarray(frame.messages, dtype=np.int64).reshape(-1, 2)
         self.messages.set_segments([poses[[a, b], :2] for a, b in pairs])
         failed = kinds == KINDS.index("failed")
-        self.crosses.set_data(poses[failed, 0], poses[failed, 1])
+        d = 1.8 * self.r0_m  # the cross's half-width, beyond the disc
+        self.crosses.set_segments([seg for x, y in poses[failed, :2]
+                                   for seg in (np.array([[x - d, y - d], [x + d, y + d]]),
+                                               np.array([[x - d, y + d], [x + d, y - d]]))])
         self._draw_labels(poses, failed, frame.causes)
         self._draw_scan(poses, frame)
         self.clock.set_text("" if frame.time_s is None else f"t = {frame.time_s:5.1f} s")
@@ -205,7 +209,7 @@ class FramePainter:
     def _draw_labels(self, poses: np.ndarray, failed: np.ndarray, causes: Sequence[str]) -> None:
         for label in self.labels:
             label.remove()
-        self.labels = [self.ax.annotate(causes[i], poses[i, :2], xytext=(6, 4),
+        self.labels = [self.ax.annotate(causes[i], poses[i, :2], xytext=(10, 6),
                                         textcoords="offset points", fontsize=7, zorder=8,
                                         color=KIND_COLOURS["failed"])
                        for i in np.flatnonzero(failed) if i < len(causes) and causes[i]]

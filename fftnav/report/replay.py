@@ -48,7 +48,9 @@ def robot_kinds(rec: Recording) -> np.ndarray:
     :data:`fftnav.report.frames.KINDS` (module docstring)."""
     kinds = np.full(rec.status.shape, KINDS.index("moving"), dtype=np.uint8)
     mode = rec.state.get("mode")
-    if mode is not None:
+    if mode is not None:  # the end tick has no state: each robot keeps its last mode
+        last = np.where(np.isnan(mode), 0, np.arange(len(mode))[:, None])
+        mode = mode[np.maximum.accumulate(last, axis=0), np.arange(mode.shape[1])]
         for code, kind in ((1, "following"), (2, "escaping")):
             kinds[mode == code] = KINDS.index(kind)
     kinds[rec.status == STATUS.index("waiting")] = KINDS.index("waiting")
