@@ -33,7 +33,8 @@ from matplotlib.patches import Circle
 from fftnav.report.world_plot import draw_world
 from fftnav.world.model import World
 
-__all__ = ["KINDS", "KIND_COLOURS", "MESSAGE_COLOUR", "SAFE_COLOUR", "FramePainter",
+__all__ = ["KINDS", "KIND_COLOURS", "MESSAGE_ALPHA", "MESSAGE_COLOUR", "SAFE_ALPHA",
+           "SAFE_COLOUR", "TRAIL_ALPHA", "FramePainter",
            "RasterRenderer", "ScanView", "SwarmFrame", "draw_frame", "kind_rgb", "runs_of"]
 
 #: A robot's state as drawn, by its code in :attr:`SwarmFrame.kinds`.
@@ -45,6 +46,8 @@ KIND_COLOURS = {"waiting": "#9e9e9e", "moving": "#1f77b4", "following": "#ff7f0e
 MESSAGE_COLOUR = "#17becf"
 SAFE_COLOUR = "#2ca02c"
 SCAN_COLOUR = "#000000"
+#: Opacity of the trails, the safe sectors and the message lines.
+TRAIL_ALPHA, SAFE_ALPHA, MESSAGE_ALPHA = 0.7, 0.22, 0.8
 
 
 def kind_rgb(kind: str) -> tuple[int, int, int]:
@@ -146,13 +149,13 @@ class FramePainter:
     def __init__(self, ax: Any, world: World, r0_m: float, *, scale_bar: bool = True) -> None:
         self.ax, self.world, self.r0_m = ax, world, float(r0_m)
         draw_world(world, ax, starts=False, scale_bar=scale_bar)
-        self.safe = PolyCollection([], facecolors=SAFE_COLOUR, alpha=0.22, edgecolors="none",
+        self.safe = PolyCollection([], facecolors=SAFE_COLOUR, alpha=SAFE_ALPHA, edgecolors="none",
                                    zorder=2)
-        self.trails = LineCollection([], linewidths=1.1, alpha=0.7, zorder=3)
+        self.trails = LineCollection([], linewidths=1.1, alpha=TRAIL_ALPHA, zorder=3)
         self.goal_lines = LineCollection([], colors="0.55", linewidths=0.6,
                                          linestyles=(0, (3, 3)), zorder=3)
-        self.messages = LineCollection([], colors=MESSAGE_COLOUR, linewidths=0.8, alpha=0.8,
-                                       zorder=4)
+        self.messages = LineCollection([], colors=MESSAGE_COLOUR, linewidths=0.8,
+                                       alpha=MESSAGE_ALPHA, zorder=4)
         for artist in (self.safe, self.trails, self.goal_lines, self.messages):
             ax.add_collection(artist)
         (self.returns,) = ax.plot([], [], ".", color=SCAN_COLOUR, ms=2.0, zorder=5)

@@ -10,7 +10,6 @@ for a robot that collided or timed out.
 
 from __future__ import annotations
 
-import io
 from pathlib import Path
 from typing import Any
 
@@ -20,9 +19,13 @@ from matplotlib.colors import to_rgb
 
 from fftnav.episode.recording import STATUS, Recording
 from fftnav.report.frames import (
+    KIND_COLOURS,
     KINDS,
+    MESSAGE_ALPHA,
     MESSAGE_COLOUR,
+    SAFE_ALPHA,
     SAFE_COLOUR,
+    TRAIL_ALPHA,
     FramePainter,
     ScanView,
     SwarmFrame,
@@ -190,35 +193,52 @@ def _draw(painter: FramePainter, fig: Any, rec: Recording, tick: int, picked: in
 
 
 def _gif_palette() -> Any:
-    """A fixed GIF palette: the state, message and scan colours exactly, 24 greys and the
-    6 x 6 x 6 colour cube, so that every frame maps the same colours the same way."""
+    """A fixed GIF palette: the state, message and safe colours exactly and as drawn over white
+    (trails, message lines, safe sectors), 24 greys and the 6 x 6 x 6 colour cube, so that every
+    frame maps the same colours the same way."""
     from PIL import Image
 
-    exact = [kind_rgb(k) for k in KINDS] + [_rgb(c) for c in (MESSAGE_COLOUR, SAFE_COLOUR)]
-    greys = [(v, v, v) for v in np.linspace(0, 255, 24).round().astype(int).tolist()]
-    cube = [(r, g, b) for r in range(0, 256, 51) for g in range(0, 256, 51)
-            for b in range(0, 256, 51)]
-    colours = (exact + greys + cube)[:256]
+    colours = [kind_rgb(k) for k in KINDS] + [_rgb(c) for c in (MESSAGE_COLOUR, SAFE_COLOUR)]
+    colours += [_rgb(KIND_COLOURS[k], TRAIL_ALPHA) for k in KINDS]
+    colours += [_rgb(MESSAGE_COLOUR, MESSAGE_ALPHA), _rgb(SAFE_COLOUR, SAFE_ALPHA)]
+    colours += [(v, v, v) for v in np.linspace(0, 255, 24).round().astype(int).tolist()]
+    colours += [(r, g, b) for r in range(0, 256, 51) for g in range(0, 256, 51)
+                for b in range(0, 256, 51)]
     palette = Image.new("P", (1, 1))
-    palette.putpalette([v for c in colours for v in c] + [0] * 3 * (256 - len(colours)))
+    palette.putpalette([v for c in colours[:256] for v in c])
     return palette
 
 
-def _rgb(colour: str) -> tuple[int, int, int]:
-    return tuple(round(255 * c) for c in to_rgb(colour))  # type: ignore[return-value]
+def _rgb(colour: str, alpha: float = 1.0) -> tuple[int, int, int]:
+    """``colour`` drawn with opacity ``alpha`` over white, 8-bit RGB."""
+    return tuple(round(255 * (alpha * c + 1 - alpha)) for c in to_rgb(colour))  # type: ignore
 
 
 def _write_gif(path: Path, frames: Any, fps: float) -> None:
-    """Frames as a looping GIF on :func:`_gif_palette`."""
-    from PIL import Image
+    """Frames as a looping GIF on :func:`_gif_palette`, written as they come: each frame after
+    the first only as the rectangle that changed (Pillow's GIF encoder per frame)."""
+    from PIL import GifImagePlugin, Image
 
-    palette = _gif_palette()
-    images = [Image.fromarray(rgb).quantize(palette=palette, dither=Image.Dither.NONE)
-              for rgb in frames]
-    buffer = io.BytesIO()
-    images[0].save(buffer, format="GIF", save_all=True, append_images=images[1:],
-                   duration=round(1000 / fps), loop=0, optimize=False)
-    path.write_bytes(buffer.getvalue())
+    palette, duration = _gif_palette(), round(1000 / fps)
+    previous = None
+    with open(path, "wb") as fp:
+        for rgb in frames:
+            image = Image.fromarray(rgb).quantize(palette=palette, dither=Image.Dither.NONE)
+            index = np.asarray(image)
+            if previous is None:
+                header, _ = GifImagePlugin.getheader(image, info={"loop": 0,
+                                                                  "duration": duration})
+                fp.write(b"".join(header))
+                box = (0, 0, image.width, image.height)
+            else:
+                changed = np.argwhere(index != previous)
+                (y0, x0), (y1, x1) = ((changed.min(0), changed.max(0) + 1) if len(changed)
+                                      else ((0, 0), (1, 1)))
+                box = (int(x0), int(y0), int(x1), int(y1))
+            fp.write(b"".join(GifImagePlugin.getdata(image.crop(box), offset=box[:2],
+                                                     duration=duration)))
+            previous = index
+        fp.write(b";")
 
 
 def _write_mp4(imageio_ffmpeg: Any, path: Path, frames: Any, fps: float, fig: Any) -> None:

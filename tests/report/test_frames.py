@@ -31,6 +31,7 @@ from fftnav.report.replay import (
     recording_frame,
     robot_kinds,
     write_image,
+    write_video,
 )
 from fftnav.report.trajectories import episode_frame, plot_episode
 from fftnav.world import World
@@ -179,3 +180,18 @@ def test_episode_plot_is_the_last_frame_of_the_same_drawing(tmp_path):
         "arrived")
     out = plot_episode(WORLD, paths, [_row(0, True), _row(1, False, "stuck")], tmp_path / "e.png")
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_gif_frames_are_the_png_frames_on_the_gif_palette(recording, tmp_path):
+    gif = write_video(recording, tmp_path / "r.gif", robot=1, from_s=2.0, to_s=4.0, speed=10)
+    with Image.open(gif) as frames:
+        assert frames.n_frames == 3  # 2, 3, 4 s
+        frames.seek(2)
+        last = np.asarray(frames.convert("RGB")).astype(int)
+    png = np.asarray(Image.open(write_image(recording, tmp_path / "r.png", at_s=4.0, robot=1))
+                     .convert("RGB")).astype(int)
+    assert last.shape == png.shape
+    assert (np.abs(last - png).max(axis=-1) > 40).mean() < 0.002
+    for kind in ("moving", "following", "escaping", "failed"):  # exact on the palette
+        where = (png == kind_rgb(kind)).all(-1)
+        assert where.sum() > 20 and (last[where] == kind_rgb(kind)).all()
