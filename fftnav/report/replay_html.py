@@ -3,9 +3,10 @@ PATH --out X.html``).
 
 The page is the template ``replay_player.html`` (package data of :mod:`fftnav.report`) with two
 things put in: a JSON header (the world's obstacle outlines, goals, robot radius, the beam
-angles, the colours of :mod:`fftnav.report.frames`, the state names, each robot's outcome, and
-where each array lies in the data) and the data, one zlib-deflated block of little-endian arrays,
-base64-encoded, which the page inflates with the browser's own ``DecompressionStream``:
+angles, the colours and opacities of :mod:`fftnav.report.frames`, the state names, each robot's
+outcome, and where each array lies in the data) and the data, one zlib-deflated block of
+little-endian arrays, base64-encoded, which the page inflates with the browser's own
+``DecompressionStream``:
 
 =============== ========= ==========================================================
 array           type      shape
@@ -37,7 +38,15 @@ from typing import Any
 import numpy as np
 
 from fftnav.episode.recording import Recording
-from fftnav.report.frames import KIND_COLOURS, KINDS, MESSAGE_COLOUR, SAFE_COLOUR
+from fftnav.report.frames import (
+    KIND_COLOURS,
+    KINDS,
+    MESSAGE_ALPHA,
+    MESSAGE_COLOUR,
+    SAFE_ALPHA,
+    SAFE_COLOUR,
+    TRAIL_ALPHA,
+)
 from fftnav.report.replay import check_robot, end_s, robot_kinds
 from fftnav.validate import check_number
 
@@ -111,6 +120,7 @@ def player_data(rec: Recording, *, robot: int | None = None, from_s: float | Non
         "angles": np.round(rec.angles_rad, 6).tolist(), "ticks": g1 - g0, "robots": rec.n_robots,
         "kinds": list(KINDS), "colours": [KIND_COLOURS[k] for k in KINDS],
         "messageColour": MESSAGE_COLOUR, "safeColour": SAFE_COLOUR, "stateNames": names,
+        "alphas": {"trail": TRAIL_ALPHA, "safe": SAFE_ALPHA, "message": MESSAGE_ALPHA},
         "outcomes": [{"arrived": bool(r.get("arrived")), "failure": r.get("failure") or ""}
                      for r in rec.rows],
         "picked": picked, "speed": speed, "arrays": layout,
