@@ -34,7 +34,7 @@ from fftnav.report.frames import (
 from fftnav.validate import check_integer, check_number
 
 __all__ = ["FPS", "VIDEO_HINT", "default_robot", "end_s", "frame_ticks", "recording_frame",
-           "robot_kinds", "write_image", "write_video"]
+           "robot_kinds", "window", "write_image", "write_video"]
 
 #: Frames per second of the GIFs and MP4s; at ``speed`` 1 a frame advances 1 / FPS s of the
 #: episode (one tick at the default 10 Hz control rate).
@@ -99,6 +99,23 @@ def recording_frame(rec: Recording, tick: int, picked: int | None,
         messages=delivered[:, 1:3], causes=[str(r.get("failure") or "") for r in rec.rows])
 
 
+def window(rec: Recording, from_s: float | None, to_s: float | None) -> tuple[float, float]:
+    """The window ``from_s`` .. ``to_s`` (s) checked against the episode; None: its start, its
+    end.
+
+    Raises
+    ------
+    ValueError
+        A bound outside the episode or ``from_s > to_s``.
+    """
+    end = end_s(rec)
+    start = check_number("from_s", 0.0 if from_s is None else from_s, low=0.0, high=end)
+    stop = check_number("to_s", end if to_s is None else to_s, low=0.0, high=end)
+    if start > stop:
+        raise ValueError(f"from_s must be <= to_s, got from_s={start!r}, to_s={stop!r}")
+    return start, stop
+
+
 def frame_ticks(rec: Recording, *, from_s: float | None = None, to_s: float | None = None,
                 speed: float = 1.0, fps: float = FPS) -> np.ndarray:
     """The ticks of a video's frames: from ``from_s`` to ``to_s`` (s; default the whole
@@ -109,11 +126,7 @@ def frame_ticks(rec: Recording, *, from_s: float | None = None, to_s: float | No
     ValueError
         A bound outside the episode, ``from_s > to_s`` or a speed that is not positive.
     """
-    end = end_s(rec)
-    start = check_number("from_s", 0.0 if from_s is None else from_s, low=0.0, high=end)
-    stop = check_number("to_s", end if to_s is None else to_s, low=0.0, high=end)
-    if start > stop:
-        raise ValueError(f"from_s must be <= to_s, got from_s={start!r}, to_s={stop!r}")
+    start, stop = window(rec, from_s, to_s)
     speed = check_number("speed", speed, low=0.0, low_open=True, high=1000.0)
     times = np.arange(start, stop + 1e-9, speed / fps)
     return np.array([rec.tick_at(t + 1e-9) for t in times], dtype=np.int64)

@@ -47,7 +47,7 @@ from fftnav.report.frames import (
     SAFE_COLOUR,
     TRAIL_ALPHA,
 )
-from fftnav.report.replay import check_robot, end_s, robot_kinds
+from fftnav.report.replay import check_robot, robot_kinds, window
 from fftnav.validate import check_number
 
 __all__ = ["TEMPLATE", "player_data", "write_html"]
@@ -57,11 +57,8 @@ TEMPLATE = "replay_player.html"
 
 
 def _window(rec: Recording, from_s: float | None, to_s: float | None) -> tuple[int, int]:
-    end = end_s(rec)
-    start = check_number("from_s", 0.0 if from_s is None else from_s, low=0.0, high=end)
-    stop = check_number("to_s", end if to_s is None else to_s, low=0.0, high=end)
-    if start > stop:
-        raise ValueError(f"from_s must be <= to_s, got from_s={start!r}, to_s={stop!r}")
+    """The ticks ``g0 .. g1 - 1`` of the window (:func:`fftnav.report.replay.window`)."""
+    start, stop = window(rec, from_s, to_s)
     return rec.tick_at(start + 1e-9), rec.tick_at(stop + 1e-9) + 1
 
 
