@@ -11,6 +11,7 @@ Chromium fails.
 from __future__ import annotations
 
 import base64
+import fcntl
 import io
 import json
 import os
@@ -43,6 +44,13 @@ def _browser() -> str:
     pytest.skip("Chromium is not installed (make install-browser)")
 
 
+def _above(fd: int, low: int) -> int:
+    """``fd`` moved to a number >= ``low`` (close-on-exec, like the original)."""
+    moved = fcntl.fcntl(fd, fcntl.F_DUPFD_CLOEXEC, low)
+    os.close(fd)
+    return moved
+
+
 class DevTools:
     """A Chrome DevTools Protocol session over ``--remote-debugging-pipe`` (fd 3: commands to
     the browser, fd 4: its answers and events, JSON messages ended by a NUL byte)."""
@@ -50,8 +58,10 @@ class DevTools:
     def __init__(self, browser: str, profile: str) -> None:
         to_child, self._write = os.pipe()
         self._read, from_child = os.pipe()
+        # the child's ends above fd 4, so that putting them at 3 and 4 clobbers neither
+        to_child, from_child = (_above(fd, 10) for fd in (to_child, from_child))
 
-        def fds() -> None:
+        def fds() -> None:  # in the child, before exec: fds 3 and 4, inherited
             os.dup2(to_child, 3)
             os.dup2(from_child, 4)
 
@@ -60,7 +70,7 @@ class DevTools:
              "--no-first-run", "--no-default-browser-check", "--disable-extensions",
              "--disable-background-networking", "--disable-component-update",
              f"--user-data-dir={profile}", "about:blank"],
-            pass_fds=(3, 4, to_child, from_child), preexec_fn=fds,
+            close_fds=False, preexec_fn=fds,
             stdin=subprocess.DEVNULL, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL)
         os.close(to_child)
         os.close(from_child)
