@@ -5,15 +5,22 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install test lint benchmark bench figures collab clean
+.PHONY: install install-browser test lint benchmark bench figures collab clean
 
 install: $(STAMP)
 
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,marl,fast]'
+	$(BIN)/python -m pip install --quiet -e '.[test,marl,fast,video]'
 	touch $(STAMP)
+
+# Headless Chromium from Debian's package, for the HTML replay player's browser test
+# (tests/report/test_replay_browser.py; skipped without it, except in CI); sudo unless root.
+SUDO := $(if $(filter 0,$(shell id -u)),,sudo)
+install-browser:
+	command -v chromium >/dev/null || { $(SUDO) apt-get update -qq && \
+		DEBIAN_FRONTEND=noninteractive $(SUDO) apt-get install -y -qq chromium; }
 
 test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --doctest-modules fftnav tests

@@ -63,6 +63,7 @@ def test_the_wheel_ships_presets_and_urdf_and_no_tests(installed):
     assert "fftnav/world/presets/forest.toml" in names
     assert "fftnav/world/presets/rocky.toml" in names
     assert "fftnav/sim/wheeled.urdf" in names
+    assert "fftnav/report/replay_player.html" in names
     assert not any(n.startswith(("tests/", "worlds/")) for n in names)
 
 
@@ -74,8 +75,10 @@ def test_installed_wheel_generates_runs_an_episode_and_an_experiment(installed):
     _run(fftnav, "world", "generate", "--env", "rocky", "--seed", "2", "--size", "8", "8",
          "--robots", "3", "--out", "w.json", cwd=work)
     _run(fftnav, "episode", "--world", "w.json", "--policy", "fusion", "--set",
-         "time_limit_s=30", "--out", "e.csv", cwd=work)
+         "time_limit_s=30", "--out", "e.csv", "--record", "r.npz", cwd=work)
     assert len((work / "e.csv").read_text().splitlines()) == 4
+    _run(fftnav, "replay", "r.npz", "--out", "r.html", cwd=work)  # the player's template
+    assert "window.fftnavPlayer" in (work / "r.html").read_text()
     shutil.copy2(ROOT / "experiments" / "smoke.toml", work / "smoke.toml")
     _run(fftnav, "run", "smoke.toml", "--out", "smoke", "--workers", "1", "--quiet", cwd=work)
     assert len((work / "smoke" / "episodes.csv").read_text().splitlines()) == 1 + 2 * 2 * 3

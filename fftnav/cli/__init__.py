@@ -24,7 +24,7 @@ from collections.abc import Sequence
 from typing import Any
 
 #: Subcommand modules, in the order ``fftnav --help`` lists them.
-_MODULES = ("scan", "scan3d", "fly3d", "world", "episode", "run", "figure", "bench")
+_MODULES = ("scan", "scan3d", "fly3d", "world", "episode", "replay", "run", "figure", "bench")
 
 EXIT_USAGE = 2
 #: Exit statuses of a command stopped by Ctrl-C (128 + SIGINT) and by SIGTERM (128 + SIGTERM).

@@ -77,7 +77,7 @@ def cmd_episode(args: argparse.Namespace) -> int:
     if args.plot:
         from fftnav.report.trajectories import plot_episode
 
-        plot_episode(world, result.trajectories, result.rows, args.plot)
+        plot_episode(world, result.trajectories, result.rows, args.plot, r0_m=config.robot.r0_m)
     sys.stderr.write(outcome_line(result.rows) + "\n")
     return 0
 

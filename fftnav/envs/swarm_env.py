@@ -24,7 +24,7 @@ terminates on arrival or collision (it is then parked out of the world;
 ``terminate_on_collision=False`` keeps it driving, with the collision reward on every step in
 contact); all live agents are
 truncated at the time limit (``episode.time_limit_s``). ``render_mode="rgb_array"`` returns a
-top-down frame (obstacles dark, robots blue, goals green).
+top-down frame drawn like ``fftnav replay``'s (:meth:`SwarmNavEnv.render`).
 
 ``reset(seed=..., options=...)``: ``seed`` seeds the episode (sensor noise, packet loss);
 ``options`` may set ``world_kind``, ``map_seed``, ``robots`` and any config key
@@ -53,7 +53,7 @@ from fftnav.observe.safe import beam_index
 from fftnav.observe.scan import wrap_angle
 from fftnav.sim.swarm import SimConfig, SwarmSim
 from fftnav.validate import Checked, check_choice, check_integer, number_field
-from fftnav.world import World, generate_world, occupancy_grid
+from fftnav.world import World, generate_world
 
 __all__ = ["MESSAGE_BYTES", "Rewards", "SwarmNavEnv"]
 
@@ -201,7 +201,6 @@ class SwarmNavEnv(ParallelEnv):
                 self._sim.close()
             self._sim, self._sim_key = SwarmSim(self.world, config=sim_config), key
             self._set_agents()
-            self._grid = None
         self._pipe = self.config.pipeline()
         k = len(self.world.starts)
         self._channel = Channel(k, range_m=self.config.comms.comm_range_m,
@@ -210,6 +209,8 @@ class SwarmNavEnv(ParallelEnv):
         self._obs = self._sim.reset(seed=int(sim_ss.generate_state(1)[0]))
         self._tick = 0
         self._live = np.ones(k, dtype=bool)
+        self._trail = [self._obs.poses.copy()]  # drawn by render()
+        self._outcome = np.zeros(k, np.int8)  # 0 live, 1 arrived, 2 failed
         self._goals = np.asarray(self.world.goals, dtype=np.float64)
         self._dist = self._goal_distance()
         self.agents = list(self.possible_agents)
@@ -250,9 +251,11 @@ class SwarmNavEnv(ParallelEnv):
             infos[agent] = {"arrived": bool(arrived[i]), "collided": bool(collided[i]),
                             "goal_distance_m": float(dist[i])}
         observations = self._observe(agents)
+        self._trail.append(np.where(live[:, None], self._obs.poses, np.nan))
         for agent in agents:
             i = self._index[agent]
             if terminations[agent] or truncations[agent]:
+                self._outcome[i] = 1 if arrived[i] else 2
                 self._live[i] = False
                 self._sim.park(i)
         self.agents = [a for a in agents if self._live[self._index[a]]]
@@ -322,25 +325,29 @@ class SwarmNavEnv(ParallelEnv):
     # -- rendering ---------------------------------------------------------------------------
 
     def render(self) -> np.ndarray | None:
-        """A top-down RGB frame ``(H, W, 3)`` uint8 (``render_mode="rgb_array"``), else None."""
+        """A top-down RGB frame ``(H, W, 3)`` uint8 at 5 cm per pixel, the first row the top of
+        the world (``render_mode="rgb_array"``), else None. It is drawn like a replay's frames
+        (:class:`fftnav.report.frames.RasterRenderer`): every robot in the colour of its state
+        (moving, arrived, failed) with its heading and trail, a line to its goal while it
+        drives, a cross where it failed (collided, or truncated before its goal)."""
         if self.render_mode != "rgb_array" or self._sim is None:
             return None
-        res = 0.05
-        if getattr(self, "_grid", None) is None:
-            self._grid = occupancy_grid(self.world, resolution_m=res).grid
-        grid = self._grid
-        frame = np.full((*grid.shape, 3), 245, np.uint8)
-        frame[grid] = (60, 60, 60)
-        rows, cols = np.mgrid[0:grid.shape[0], 0:grid.shape[1]]
-        centres_x, centres_y = (cols + 0.5) * res, (rows + 0.5) * res
-        r0 = self.config.robot.r0_m
-        for i in range(len(self.possible_agents)):
-            gx, gy = self._goals[i]
-            frame[(np.abs(centres_x - gx) <= 0.1) & (np.abs(centres_y - gy) <= 0.1)] = (40, 160, 40)
-            if self._live[i]:
-                x, y = self._obs.poses[i, :2]
-                frame[np.hypot(centres_x - x, centres_y - y) <= r0] = (30, 90, 220)
-        return np.ascontiguousarray(np.flipud(frame))  # first image row = top of the world
+        # report is the layer above envs: imported here, when a frame is asked for
+        from fftnav.report.frames import KINDS, RasterRenderer, SwarmFrame
+
+        renderer = getattr(self, "_renderer", None)
+        if (renderer is None or renderer.world is not self.world
+                or renderer.r0_m != self.config.robot.r0_m):
+            renderer = self._renderer = RasterRenderer(self.world, r0_m=self.config.robot.r0_m,
+                                                       resolution_m=0.05)
+        trail = np.array(self._trail)  # (T, K, 3), NaN once a robot left
+        last = np.max(np.where(np.isfinite(trail[..., 0]), np.arange(len(trail))[:, None], 0),
+                      axis=0)
+        poses = trail[last, np.arange(trail.shape[1])]
+        kinds = np.array([KINDS.index(("moving", "arrived", "failed")[o])
+                          for o in self._outcome])
+        trails = [t[np.isfinite(t[:, 0]), :2] for t in trail.transpose(1, 0, 2)]
+        return renderer(SwarmFrame(poses=poses, kinds=kinds, trails=trails))
 
     def close(self) -> None:
         if self._sim is not None:

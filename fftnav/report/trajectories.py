@@ -9,11 +9,13 @@ from typing import Any
 import matplotlib.pyplot as plt
 import numpy as np
 
+from fftnav.config import SwarmConfig
 from fftnav.episode.record import EpisodeRow
+from fftnav.report.frames import KINDS, SwarmFrame, draw_frame
 from fftnav.report.world_plot import draw_world
 from fftnav.world.model import World
 
-__all__ = ["draw_trajectories", "plot_episode", "plot_failures"]
+__all__ = ["draw_trajectories", "episode_frame", "plot_episode", "plot_failures"]
 
 
 def draw_trajectories(
@@ -34,6 +36,16 @@ def draw_trajectories(
             ax.plot(path[-1, 0], path[-1, 1], "x", color="crimson", ms=8, mew=2)
 
 
+def episode_frame(trajectories: Sequence[np.ndarray], rows: Sequence[EpisodeRow]) -> SwarmFrame:
+    """The last frame of an episode from its trajectories and rows: every robot where it
+    stopped, arrived or failed (with its cause), its whole path as its trail."""
+    poses = np.array([np.asarray(t)[-1, :3] for t in trajectories]).reshape(-1, 3)
+    kinds = np.array([KINDS.index("arrived" if r.arrived else "failed") for r in rows])
+    return SwarmFrame(poses=poses, kinds=kinds, trails=[np.asarray(t)[:, :2]
+                                                        for t in trajectories],
+                      causes=[getattr(r, "failure", "") or "" for r in rows])
+
+
 def plot_episode(
     world: World,
     trajectories: Sequence[np.ndarray],
@@ -41,10 +53,14 @@ def plot_episode(
     path: str | Path,
     *,
     title: str = "",
+    r0_m: float | None = None,
 ) -> Path:
-    """Write a PNG of one episode's trajectories over its map; returns the path."""
+    """Write a PNG of one episode's end over its map (:func:`episode_frame`, drawn as a replay
+    frame by :mod:`fftnav.report.frames`): headings, trails, a cross for each failed robot;
+    robots of radius ``r0_m`` (default: the default configuration's); returns the path."""
     fig, ax = plt.subplots(figsize=(6.5, 6.5), dpi=120)
-    draw_trajectories(ax, world, trajectories, [r.arrived for r in rows])
+    r0_m = SwarmConfig().robot.r0_m if r0_m is None else r0_m
+    draw_frame(ax, world, episode_frame(trajectories, rows), r0_m)
     arrived = sum(r.arrived for r in rows)
     ax.set_title(title or f"{rows[0].policy}: {arrived}/{len(rows)} arrived")
     return _save(fig, path)

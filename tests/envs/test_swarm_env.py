@@ -11,6 +11,7 @@ pytest.importorskip("pettingzoo", reason="the optional extra fftnav[marl] is not
 from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
 
 from fftnav.envs import Rewards, SwarmNavEnv  # noqa: E402
+from fftnav.report.frames import kind_rgb  # noqa: E402
 from fftnav.world import Circle, World  # noqa: E402
 
 UP = math.pi / 2
@@ -77,10 +78,35 @@ def test_reset_options_and_render():
     frame = env.render()
     w, h = env.world.size_m
     assert frame.shape == (round(h / 0.05), round(w / 0.05), 3) and frame.dtype == np.uint8
-    x, y = env.world.starts[0, :2]  # a robot is drawn blue at its start (first row = top)
-    assert tuple(frame[int((h - y) / 0.05), int(x / 0.05)]) == (30, 90, 220)
+    x, y = env.world.starts[0, :2]  # a robot is drawn "moving" at its start (first row = top)
+    assert tuple(frame[int((h - y) / 0.05), int(x / 0.05)]) == kind_rgb("moving")
     with pytest.raises(ValueError, match=r"sensor\.range_m must be a finite number in \(0, 1000\], got sensor\.range_m=-1"):
         env.reset(seed=1, options={"sensor.range_m": -1})
+    env.close()
+
+
+def test_render_draws_states_trails_and_crosses_like_a_replay():
+    """Robot 0 arrives at y = 2.7 (tick 34), robot 1 hits the trunk at y ~ 4.35, robot 2 drives
+    along +x from (4, 1) and is truncated at 5 s (x ~ 6.5): arrived green, failed red, a trail."""
+    world = _world([Circle((6.0, 5.0), 0.5, 1.0)],
+                   [[2, 1, UP], [6, 3.5, UP], [4, 1, 0.0]], [[2, 3], [6, 9], [4, 9]])
+    env = SwarmNavEnv(world=world, render_mode="rgb_array")
+    env.reset(seed=0, options={"time_limit_s": 5.0})
+    while env.agents:
+        env.step({a: np.array([0.5, 0.0], np.float32) for a in env.agents})
+    frame = env.render()
+    h = world.size_m[1]
+
+    def pixel(x, y):
+        return tuple(frame[int((h - y) / 0.05), int(x / 0.05)])
+
+    assert pixel(2.0, 2.7) == kind_rgb("arrived")
+    column = {tuple(frame[int((h - y) / 0.05), int(6.0 / 0.05)]) for y in np.arange(4.1, 4.6, 0.05)}
+    assert kind_rgb("failed") in column  # robot 1's disc and cross below the trunk
+    assert pixel(6.5, 1.0) == kind_rgb("failed")  # robot 2 where it was truncated
+    r, g, b = (int(c) for c in pixel(5.0, 1.0))  # its trail, half-transparent red
+    assert r > g + 40 and r > b + 40
+    assert not (frame == kind_rgb("moving")).all(axis=-1).any()  # nobody drives any more
     env.close()
 
 

@@ -1,0 +1,68 @@
+"""``fftnav replay``: watch a recorded episode (``fftnav episode --record``, an experiment's
+``records/``) as an HTML player, a GIF, an MP4 or one PNG frame (docs/analysis.md)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+
+from fftnav.cli import CliError
+
+#: Output formats, by the suffix of --out.
+FORMATS = (".html", ".gif", ".mp4", ".png")
+
+
+def cmd_replay(args: argparse.Namespace) -> int:
+    """Read the recording, write --out in the format of its suffix, say what was written."""
+    suffix = Path(args.out).suffix.lower()
+    if suffix not in FORMATS:
+        raise CliError(f"--out must end in one of {', '.join(FORMATS)}, got --out={args.out!r}")
+    if suffix == ".mp4":
+        import importlib.util
+
+        if importlib.util.find_spec("imageio_ffmpeg") is None:
+            from fftnav.report.replay import VIDEO_HINT
+
+            raise CliError(VIDEO_HINT)
+    if suffix != ".png" and args.at is not None:
+        raise CliError("--at picks the frame of a .png; use --from and --to for a window")
+    if suffix == ".png" and (args.start is not None or args.stop is not None):
+        raise CliError("a .png is one frame: pick it with --at S")
+    from fftnav.episode.recording import read_recording
+    from fftnav.report import replay
+
+    rec = read_recording(args.recording)
+    if suffix == ".png":
+        out = replay.write_image(rec, args.out, at_s=args.at or 0.0, robot=args.robot)
+    elif suffix == ".html":
+        from fftnav.report.replay_html import write_html
+
+        out = write_html(rec, args.out, robot=args.robot, from_s=args.start, to_s=args.stop,
+                         speed=args.speed)
+    else:
+        out = replay.write_video(rec, args.out, robot=args.robot, from_s=args.start,
+                                 to_s=args.stop, speed=args.speed)
+    sys.stderr.write(f"{out}: {out.stat().st_size / 1e6:.2f} MB\n")
+    return 0
+
+
+def register(sub: argparse._SubParsersAction) -> None:
+    p = sub.add_parser("replay", help="watch a recorded episode: HTML player, GIF, MP4 or PNG")
+    p.add_argument("recording", metavar="PATH", help="a recording (fftnav episode --record)")
+    p.add_argument("--out", required=True, metavar="X.html|X.gif|X.mp4|X.png",
+                   help="what to write, by its suffix: a self-contained HTML player, a GIF, an "
+                   "MP4 (needs the extra 'video': imageio-ffmpeg) or one PNG frame")
+    p.add_argument("--robot", type=int, metavar="I",
+                   help="the robot whose scan and safe sectors are drawn (and whose state the "
+                   "HTML player plots); default: the first that did not arrive, else 0")
+    p.add_argument("--from", dest="start", type=float, metavar="S",
+                   help="start of the window (s; default the episode's start)")
+    p.add_argument("--to", dest="stop", type=float, metavar="S",
+                   help="end of the window (s; default the episode's end)")
+    p.add_argument("--speed", type=float, default=1.0, metavar="K",
+                   help="playback speed: K s of the episode per second (default 1; GIF and MP4 "
+                   "at 10 frames per second; the HTML player's initial speed)")
+    p.add_argument("--at", type=float, metavar="S", help="the time of the PNG's frame (s; "
+                   "default 0)")
+    p.set_defaults(func=cmd_replay)

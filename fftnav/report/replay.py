@@ -1,0 +1,268 @@
+"""Replays of a recorded episode (:mod:`fftnav.episode.recording`): one frame as a PNG, the
+episode as a GIF (Pillow) or an MP4 (imageio-ffmpeg, the optional extra ``video``), all drawn
+by :mod:`fftnav.report.frames`; the HTML player is :mod:`fftnav.report.replay_html`.
+
+A robot's drawn state at a tick (:func:`robot_kinds`) comes from its status and, while it
+drives, from its controller's ``mode`` state (0 go to goal: moving, 1 follow: following,
+2 escape: escaping; controllers without a ``mode`` draw as moving): waiting, arrived, and failed
+for a robot that collided or timed out.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Any
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.colors import to_rgb
+
+from fftnav.episode.recording import STATUS, Recording
+from fftnav.report.frames import (
+    KIND_COLOURS,
+    KINDS,
+    MESSAGE_ALPHA,
+    MESSAGE_COLOUR,
+    SAFE_ALPHA,
+    SAFE_COLOUR,
+    TRAIL_ALPHA,
+    FramePainter,
+    ScanView,
+    SwarmFrame,
+    kind_rgb,
+)
+from fftnav.validate import check_integer, check_number
+
+__all__ = ["FPS", "VIDEO_HINT", "default_robot", "end_s", "frame_ticks", "recording_frame",
+           "robot_kinds", "window", "write_image", "write_video"]
+
+#: Frames per second of the GIFs and MP4s; at ``speed`` 1 a frame advances 1 / FPS s of the
+#: episode (one tick at the default 10 Hz control rate).
+FPS = 10
+#: What ``.mp4`` needs when imageio-ffmpeg is missing.
+VIDEO_HINT = ("MP4 needs imageio-ffmpeg: pip install 'fftnav[video]' "
+              "(or pip install imageio-ffmpeg); .gif, .html and .png work without it")
+#: Figure width (pixels) of the PNG, GIF and MP4 frames.
+WIDTH_PX = 640
+
+
+def robot_kinds(rec: Recording) -> np.ndarray:
+    """Every robot's drawn state at every tick, ``(G, N)`` codes of
+    :data:`fftnav.report.frames.KINDS` (module docstring)."""
+    kinds = np.full(rec.status.shape, KINDS.index("moving"), dtype=np.uint8)
+    mode = rec.state.get("mode")
+    if mode is not None:  # the end tick has no state: each robot keeps its last mode
+        last = np.where(np.isnan(mode), 0, np.arange(len(mode))[:, None])
+        mode = mode[np.maximum.accumulate(last, axis=0), np.arange(mode.shape[1])]
+        for code, kind in ((1, "following"), (2, "escaping")):
+            kinds[mode == code] = KINDS.index(kind)
+    kinds[rec.status == STATUS.index("waiting")] = KINDS.index("waiting")
+    kinds[rec.status == STATUS.index("arrived")] = KINDS.index("arrived")
+    kinds[np.isin(rec.status, [STATUS.index("collided"), STATUS.index("timed_out")])] = (
+        KINDS.index("failed"))
+    return kinds
+
+
+def end_s(rec: Recording) -> float:
+    """The episode's end (s), rounded to the microsecond (the ticks' times are sums of the
+    control period)."""
+    return round(float(rec.time_s[-1]), 6)
+
+
+def default_robot(rec: Recording) -> int:
+    """The robot a replay picks by default: the first that did not arrive, else robot 0."""
+    failed = [i for i, row in enumerate(rec.rows) if not row.get("arrived")]
+    return failed[0] if failed else 0
+
+
+def check_robot(rec: Recording, robot: int | None) -> int:
+    """``robot`` checked against the recording's robots (None: :func:`default_robot`)."""
+    if robot is None:
+        return default_robot(rec)
+    return check_integer("robot", robot, low=0, high=rec.n_robots - 1)
+
+
+def recording_frame(rec: Recording, tick: int, picked: int | None,
+                    kinds: np.ndarray | None = None) -> SwarmFrame:
+    """The frame of ``tick``: poses, states, trails since the start, the messages delivered in
+    the tick, the picked robot's scan and the failure causes."""
+    kinds = robot_kinds(rec) if kinds is None else kinds
+    scan = None
+    if picked is not None:
+        scan = ScanView(rec.angles_rad, rec.scan_m[tick, picked], rec.safe[tick, picked],
+                        rec.config.sensor.range_m)
+    delivered = rec.delivered[rec.delivered[:, 0] == tick]
+    return SwarmFrame(
+        poses=rec.pose[tick], kinds=kinds[tick],
+        trails=[rec.pose[: tick + 1, i, :2] for i in range(rec.n_robots)],
+        time_s=float(rec.time_s[tick]), picked=picked, scan=scan,
+        messages=delivered[:, 1:3], causes=[str(r.get("failure") or "") for r in rec.rows])
+
+
+def window(rec: Recording, from_s: float | None, to_s: float | None) -> tuple[float, float]:
+    """The window ``from_s`` .. ``to_s`` (s) checked against the episode; None: its start, its
+    end.
+
+    Raises
+    ------
+    ValueError
+        A bound outside the episode or ``from_s > to_s``.
+    """
+    end = end_s(rec)
+    start = check_number("from_s", 0.0 if from_s is None else from_s, low=0.0, high=end)
+    stop = check_number("to_s", end if to_s is None else to_s, low=0.0, high=end)
+    if start > stop:
+        raise ValueError(f"from_s must be <= to_s, got from_s={start!r}, to_s={stop!r}")
+    return start, stop
+
+
+def frame_ticks(rec: Recording, *, from_s: float | None = None, to_s: float | None = None,
+                speed: float = 1.0, fps: float = FPS) -> np.ndarray:
+    """The ticks of a video's frames: from ``from_s`` to ``to_s`` (s; default the whole
+    episode), ``speed / fps`` s of the episode per frame.
+
+    Raises
+    ------
+    ValueError
+        A bound outside the episode, ``from_s > to_s`` or a speed that is not positive.
+    """
+    start, stop = window(rec, from_s, to_s)
+    speed = check_number("speed", speed, low=0.0, low_open=True, high=1000.0)
+    times = np.arange(start, stop + 1e-9, speed / fps)
+    return np.array([rec.tick_at(t + 1e-9) for t in times], dtype=np.int64)
+
+
+def _figure(rec: Recording) -> tuple[Any, FramePainter]:
+    w, h = rec.world.size_m
+    height_px = 2 * round(WIDTH_PX * (1.08 * h + 0.9) / (1.04 * w) / 2)  # even, for H.264
+    fig = plt.figure(figsize=(WIDTH_PX / 100, height_px / 100), dpi=100)
+    ax = fig.add_axes((0.02, 0.02, 0.96, 0.9))
+    ax.set_axis_off()
+    painter = FramePainter(ax, rec.world, rec.config.robot.r0_m, scale_bar=True)
+    ax.set_title(f"{rec.policy} on {rec.world.env} (map seed {rec.world.seed}, episode seed "
+                 f"{rec.seed})", fontsize=9)
+    return fig, painter
+
+
+def _pixels(fig: Any) -> np.ndarray:
+    fig.canvas.draw()
+    return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
+
+
+def write_image(rec: Recording, path: str | Path, *, at_s: float = 0.0,
+                robot: int | None = None) -> Path:
+    """Write one frame, at ``at_s`` (s), as a PNG; returns the path."""
+    picked = check_robot(rec, robot)
+    at_s = check_number("at_s", at_s, low=0.0, high=end_s(rec))
+    fig, painter = _figure(rec)
+    painter.update(recording_frame(rec, rec.tick_at(at_s + 1e-9), picked))
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(path)
+    plt.close(fig)
+    return path
+
+
+def write_video(rec: Recording, path: str | Path, *, robot: int | None = None,
+                from_s: float | None = None, to_s: float | None = None,
+                speed: float = 1.0, fps: float = FPS) -> Path:
+    """Write the episode (or its window ``from_s`` .. ``to_s``) as a GIF or an MP4, by the
+    suffix of ``path``; returns the path.
+
+    Raises
+    ------
+    ValueError
+        Another suffix, bad bounds (:func:`frame_ticks`), an MP4 without imageio-ffmpeg.
+    """
+    path = Path(path)
+    suffix = path.suffix.lower()
+    if suffix not in (".gif", ".mp4"):
+        raise ValueError(f"path must end in .gif or .mp4, got path={str(path)!r}")
+    if suffix == ".mp4":
+        try:
+            import imageio_ffmpeg
+        except ImportError:
+            raise ValueError(VIDEO_HINT) from None
+    picked = check_robot(rec, robot)
+    ticks = frame_ticks(rec, from_s=from_s, to_s=to_s, speed=speed, fps=fps)
+    kinds = robot_kinds(rec)
+    fig, painter = _figure(rec)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    try:
+        frames = (_draw(painter, fig, rec, int(g), picked, kinds) for g in ticks)
+        if suffix == ".gif":
+            _write_gif(path, frames, fps)
+        else:
+            _write_mp4(imageio_ffmpeg, path, frames, fps, fig)
+    finally:
+        plt.close(fig)
+    return path
+
+
+def _draw(painter: FramePainter, fig: Any, rec: Recording, tick: int, picked: int,
+          kinds: np.ndarray) -> np.ndarray:
+    painter.update(recording_frame(rec, tick, picked, kinds))
+    return _pixels(fig)
+
+
+def _gif_palette() -> Any:
+    """A fixed GIF palette: the state, message and safe colours exactly and as drawn over white
+    (trails, message lines, safe sectors), 24 greys and the 6 x 6 x 6 colour cube, so that every
+    frame maps the same colours the same way."""
+    from PIL import Image
+
+    colours = [kind_rgb(k) for k in KINDS] + [_rgb(c) for c in (MESSAGE_COLOUR, SAFE_COLOUR)]
+    colours += [_rgb(KIND_COLOURS[k], TRAIL_ALPHA) for k in KINDS]
+    colours += [_rgb(MESSAGE_COLOUR, MESSAGE_ALPHA), _rgb(SAFE_COLOUR, SAFE_ALPHA)]
+    colours += [(v, v, v) for v in np.linspace(0, 255, 24).round().astype(int).tolist()]
+    colours += [(r, g, b) for r in range(0, 256, 51) for g in range(0, 256, 51)
+                for b in range(0, 256, 51)]
+    palette = Image.new("P", (1, 1))
+    palette.putpalette([v for c in colours[:256] for v in c])
+    return palette
+
+
+def _rgb(colour: str, alpha: float = 1.0) -> tuple[int, int, int]:
+    """``colour`` drawn with opacity ``alpha`` over white, 8-bit RGB."""
+    return tuple(round(255 * (alpha * c + 1 - alpha)) for c in to_rgb(colour))  # type: ignore
+
+
+def _write_gif(path: Path, frames: Any, fps: float) -> None:
+    """Frames as a looping GIF on :func:`_gif_palette`, written as they come: each frame after
+    the first only as the rectangle that changed (Pillow's GIF encoder per frame)."""
+    from PIL import GifImagePlugin, Image
+
+    palette, duration = _gif_palette(), round(1000 / fps)
+    previous = None
+    with open(path, "wb") as fp:
+        for rgb in frames:
+            image = Image.fromarray(rgb).quantize(palette=palette, dither=Image.Dither.NONE)
+            index = np.asarray(image)
+            if previous is None:
+                header, _ = GifImagePlugin.getheader(image, info={"loop": 0,
+                                                                  "duration": duration})
+                fp.write(b"".join(header))
+                box = (0, 0, image.width, image.height)
+            else:
+                changed = np.argwhere(index != previous)
+                (y0, x0), (y1, x1) = ((changed.min(0), changed.max(0) + 1) if len(changed)
+                                      else ((0, 0), (1, 1)))
+                box = (int(x0), int(y0), int(x1), int(y1))
+            fp.write(b"".join(GifImagePlugin.getdata(image.crop(box), offset=box[:2],
+                                                     duration=duration)))
+            previous = index
+        fp.write(b";")
+
+
+def _write_mp4(imageio_ffmpeg: Any, path: Path, frames: Any, fps: float, fig: Any) -> None:
+    """Frames as an H.264 MP4 (yuv420p, plays in browsers and players)."""
+    width, height = fig.canvas.get_width_height()
+    writer = imageio_ffmpeg.write_frames(str(path), (width, height), fps=fps, codec="libx264",
+                                         pix_fmt_out="yuv420p", macro_block_size=1,
+                                         output_params=["-movflags", "+faststart"])
+    writer.send(None)
+    try:
+        for rgb in frames:
+            writer.send(np.ascontiguousarray(rgb))
+    finally:
+        writer.close()

@@ -1,0 +1,141 @@
+"""The HTML replay player: one self-contained file that works offline (``fftnav replay
+PATH --out X.html``).
+
+The page is the template ``replay_player.html`` (package data of :mod:`fftnav.report`) with two
+things put in: a JSON header (the world's obstacle outlines, goals, robot radius, the beam
+angles, the colours and opacities of :mod:`fftnav.report.frames`, the state names, each robot's
+outcome, and where each array lies in the data) and the data, one zlib-deflated block of
+little-endian arrays, base64-encoded, which the page inflates with the browser's own
+``DecompressionStream``:
+
+=============== ========= ==========================================================
+array           type      shape
+=============== ========= ==========================================================
+``time``        float32   (G,) episode time of each tick (s)
+``pose``        float32   (G, N, 3) x, y (m), yaw (rad)
+``kind``        uint8     (G, N) drawn state (:func:`fftnav.report.replay.robot_kinds`)
+``scan``        uint8/16  (G, N, M) range in steps of ``scanStep`` m (0: none)
+``safe``        uint8     (G, N, ceil(M / 8)) safe mask, bit-packed (``numpy.packbits``)
+``state``       float32   (S, G, N) the controller's state values, then command v, w
+``msgStart``    int32     (G + 1,) messages delivered in tick g: ``msg[msgStart[g]:...]``
+``msg``         int32     (D, 2) sender, receiver
+=============== ========= ==========================================================
+
+No script, style or data comes from elsewhere: the page makes no network request. The player
+exposes ``window.fftnavPlayer`` (``ready``, ``play``, ``pause``, ``seek``, ``pick``,
+``toCanvas``, ``toPage``, ``tick``, ``picked``) for scripting and the browser test.
+"""
+
+from __future__ import annotations
+
+import base64
+import json
+import zlib
+from importlib import resources
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fftnav.episode.recording import Recording
+from fftnav.report.frames import (
+    KIND_COLOURS,
+    KINDS,
+    MESSAGE_ALPHA,
+    MESSAGE_COLOUR,
+    SAFE_ALPHA,
+    SAFE_COLOUR,
+    TRAIL_ALPHA,
+)
+from fftnav.report.replay import check_robot, robot_kinds, window
+from fftnav.validate import check_number
+
+__all__ = ["TEMPLATE", "player_data", "write_html"]
+
+#: The player's page, with ``/*FFTNAV_HEADER*/`` and ``FFTNAV_DATA`` to fill in.
+TEMPLATE = "replay_player.html"
+
+
+def _window(rec: Recording, from_s: float | None, to_s: float | None) -> tuple[int, int]:
+    """The ticks ``g0 .. g1 - 1`` of the window (:func:`fftnav.report.replay.window`)."""
+    start, stop = window(rec, from_s, to_s)
+    return rec.tick_at(start + 1e-9), rec.tick_at(stop + 1e-9) + 1
+
+
+def _arrays(rec: Recording, g0: int, g1: int) -> tuple[dict[str, np.ndarray], list[str]]:
+    """The player's arrays of ticks ``g0 .. g1 - 1`` and the names of its state plots."""
+    step = float(rec.meta.get("scan_step_m", 0.02))
+    scan = np.rint(rec.scan_m[g0:g1] / step)
+    delivered = rec.delivered[(rec.delivered[:, 0] >= g0) & (rec.delivered[:, 0] < g1)]
+    delivered = delivered[np.argsort(delivered[:, 0], kind="stable")]
+    names = [*rec.state, "command v (m/s)", "command w (rad/s)"]
+    state = np.stack([*(rec.state[k][g0:g1] for k in rec.state),
+                      rec.command[g0:g1, :, 0], rec.command[g0:g1, :, 1]])
+    arrays = {
+        "time": rec.time_s[g0:g1].astype("<f4"),
+        "pose": rec.pose[g0:g1].astype("<f4"),
+        "kind": robot_kinds(rec)[g0:g1].astype(np.uint8),
+        "scan": scan.astype("<u2" if scan.max(initial=0) > 255 else np.uint8),
+        "safe": np.packbits(rec.safe[g0:g1], axis=-1),
+        "state": state.astype("<f4"),
+        "msgStart": np.searchsorted(delivered[:, 0], np.arange(g0, g1 + 1)).astype("<i4"),
+        "msg": delivered[:, 1:3].astype("<i4"),
+    }
+    return arrays, names
+
+
+def _pack(arrays: dict[str, np.ndarray]) -> tuple[bytes, dict[str, list[Any]]]:
+    """The arrays in one buffer, each at an offset that is a multiple of 4 (typed-array views),
+    and where each lies: name -> [offset, type, length]."""
+    types = {"<f4": "Float32Array", "|u1": "Uint8Array", "<u2": "Uint16Array",
+             "<i4": "Int32Array"}
+    chunks, layout, offset = [], {}, 0
+    for name, array in arrays.items():
+        data = np.ascontiguousarray(array).tobytes()
+        layout[name] = [offset, types[array.dtype.str], int(array.size)]
+        pad = -len(data) % 4
+        chunks.append(data + b"\0" * pad)
+        offset += len(data) + pad
+    return b"".join(chunks), layout
+
+
+def player_data(rec: Recording, *, robot: int | None = None, from_s: float | None = None,
+                to_s: float | None = None, speed: float = 1.0) -> tuple[dict[str, Any], bytes]:
+    """The player's JSON header and its deflated data (module docstring)."""
+    picked = check_robot(rec, robot)
+    speed = check_number("speed", speed, low=0.0, low_open=True, high=1000.0)
+    g0, g1 = _window(rec, from_s, to_s)
+    arrays, names = _arrays(rec, g0, g1)
+    blob, layout = _pack(arrays)
+    world = rec.world
+    header = {
+        "title": f"{rec.policy} on {world.env} (map seed {world.seed}, episode seed {rec.seed})",
+        "size": list(world.size_m), "boundary": world.boundary,
+        "obstacles": [np.round(o.outline(), 3).tolist() for o in world.obstacles],
+        "goals": np.round(world.goals, 3).tolist(), "r0": rec.config.robot.r0_m,
+        "rangeM": rec.config.sensor.range_m, "scanStep": float(rec.meta.get("scan_step_m", 0.02)),
+        "angles": np.round(rec.angles_rad, 6).tolist(), "ticks": g1 - g0, "robots": rec.n_robots,
+        "kinds": list(KINDS), "colours": [KIND_COLOURS[k] for k in KINDS],
+        "messageColour": MESSAGE_COLOUR, "safeColour": SAFE_COLOUR, "stateNames": names,
+        "alphas": {"trail": TRAIL_ALPHA, "safe": SAFE_ALPHA, "message": MESSAGE_ALPHA},
+        "outcomes": [{"arrived": bool(r.get("arrived")), "failure": r.get("failure") or ""}
+                     for r in rec.rows],
+        "picked": picked, "speed": speed, "arrays": layout,
+    }
+    return header, zlib.compress(blob, 9)
+
+
+def write_html(rec: Recording, path: str | Path, *, robot: int | None = None,
+               from_s: float | None = None, to_s: float | None = None,
+               speed: float = 1.0) -> Path:
+    """Write the self-contained HTML player of ``rec`` (or of its window ``from_s`` ..
+    ``to_s``), the robot ``robot`` picked, playing at ``speed``; returns the path."""
+    header, data = player_data(rec, robot=robot, from_s=from_s, to_s=to_s, speed=speed)
+    page = resources.files("fftnav.report").joinpath(TEMPLATE).read_text(encoding="utf-8")
+    text = json.dumps(header, separators=(",", ":")).replace("<", "\\u003c")
+    page = page.replace("/*FFTNAV_HEADER*/", text, 1)
+    page = page.replace("FFTNAV_DATA", base64.b64encode(data).decode("ascii"), 1)
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(page, encoding="utf-8")
+    return path

@@ -1,0 +1,107 @@
+"""``fftnav replay`` as a subprocess: each format's file, and bad input as one line, exit 2."""
+
+from __future__ import annotations
+
+import os
+import re
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from PIL import Image
+
+from tests.report.recordings import TICKS, make_recording
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+def _fftnav(*args, code=None):
+    cmd = code or "from fftnav.cli import main; import sys; sys.exit(main(sys.argv[1:]))"
+    return subprocess.run([sys.executable, "-c", cmd, *map(str, args)], capture_output=True,
+                          text=True, timeout=300,
+                          env={**os.environ, "PYTHONPATH": str(ROOT)}, cwd=ROOT)
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rec") / "r.npz"
+    make_recording(path)
+    return path
+
+
+def test_png_is_one_frame(recording, tmp_path):
+    out = tmp_path / "f.png"
+    done = _fftnav("replay", recording, "--out", out, "--at", "3.5", "--robot", "2")
+    assert done.returncode == 0, done.stderr
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    assert re.fullmatch(rf"{re.escape(str(out))}: \d+\.\d\d MB\n", done.stderr)
+
+
+def test_gif_has_one_frame_per_tenth_of_a_second_times_speed(recording, tmp_path):
+    out = tmp_path / "r.gif"
+    done = _fftnav("replay", recording, "--out", out, "--from", "1", "--to", "5", "--speed", "2")
+    assert done.returncode == 0, done.stderr
+    assert out.read_bytes()[:6] == b"GIF89a"
+    with Image.open(out) as gif:  # 1 .. 5 s every 0.2 s
+        assert gif.n_frames == 21 and gif.info["duration"] == 100
+
+
+def test_mp4(recording, tmp_path):
+    pytest.importorskip("imageio_ffmpeg", reason="the optional extra fftnav[video]")
+    out = tmp_path / "r.mp4"
+    done = _fftnav("replay", recording, "--out", out, "--speed", "4")
+    assert done.returncode == 0, done.stderr
+    assert out.read_bytes()[4:8] == b"ftyp"
+
+
+def test_mp4_without_imageio_ffmpeg_says_how_to_install_it(recording, tmp_path):
+    block = ("import sys; sys.modules['imageio_ffmpeg'] = None; from fftnav.cli import main; "
+             "sys.exit(main(sys.argv[1:]))")
+    done = _fftnav("replay", recording, "--out", tmp_path / "r.mp4", code=block)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "pip install 'fftnav[video]'" in done.stderr
+    assert not (tmp_path / "r.mp4").exists()
+
+
+def test_html_is_self_contained(recording, tmp_path):
+    out = tmp_path / "r.html"
+    done = _fftnav("replay", recording, "--out", out)
+    assert done.returncode == 0, done.stderr
+    text = out.read_text()
+    assert text.startswith("<!DOCTYPE html>") and "window.fftnavPlayer" in text
+    assert not re.search(r"""(src|href)\s*=\s*["']?\s*(https?:)?//""", text, re.I)
+    assert "http://" not in text and "https://" not in text
+    assert not re.search(r"<(link|img|iframe)\b|<script[^>]*\ssrc=|@import|url\(", text, re.I)
+    assert "FFTNAV_DATA" not in text and "/*FFTNAV_HEADER*/" not in text
+    assert f'"ticks":{TICKS + 1}' in text
+
+
+@pytest.mark.parametrize(("args", "message"), [
+    (["--robot", "4"], r"robot must be an integer in \[0, 3\], got robot=4"),
+    (["--robot", "-1"], r"robot must be an integer in \[0, 3\], got robot=-1"),
+    (["--from", "4", "--to", "2"], r"from_s must be <= to_s, got from_s=4.0, to_s=2.0"),
+    (["--to", "9"], r"to_s must be a finite number in \[0, 6\], got to_s=9.0"),
+    (["--speed", "0"], r"speed must be a finite number in \(0, 1000\], got speed=0.0"),
+])
+def test_bad_arguments_are_one_line_and_exit_2(recording, tmp_path, args, message):
+    done = _fftnav("replay", recording, "--out", tmp_path / "r.gif", *args)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert re.search(message, done.stderr), done.stderr
+    assert not (tmp_path / "r.gif").exists()
+
+
+def test_bad_format_and_unreadable_recording(recording, tmp_path):
+    done = _fftnav("replay", recording, "--out", tmp_path / "r.txt")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "--out must end in one of .html, .gif, .mp4, .png, got --out=" in done.stderr
+    bad = tmp_path / "bad.npz"
+    bad.write_text("not a recording")
+    done = _fftnav("replay", bad, "--out", tmp_path / "r.png")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "path must be an fftnav recording, got path=" in done.stderr
+    done = _fftnav("replay", tmp_path / "missing.npz", "--out", tmp_path / "r.png")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1
+    assert "missing.npz" in done.stderr
+    done = _fftnav("replay", recording, "--out", tmp_path / "r.png", "--from", "1")
+    assert done.returncode == 2 and "a .png is one frame: pick it with --at S" in done.stderr

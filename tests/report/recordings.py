@@ -1,0 +1,87 @@
+"""A recording made by hand (through the recorder's own ``Tape``), whose every pose and state is
+known: the oracle of the replay tests.
+
+World 10 m x 8 m, one trunk at (8, 6). 60 ticks of 0.1 s (6 s), then the end tick:
+
+- robot 0 drives up x = 2 from y = 1 at 0.5 m/s in mode 0 (moving) and arrives at tick 40
+  (y = 3), where it stays (status arrived from tick 41);
+- robot 1 drives along y = 5 from x = 1 at 0.5 m/s in mode 1 (following);
+- robot 2 drives along y = 2 from x = 4 at 0.5 m/s in mode 2 (escaping), times out at the end;
+- robot 3 stands at (8, 4) in mode 0 and collides at tick 30 (status collided after it).
+
+Robot 1's scan returns 1.0 m on every beam ahead (|angle| < 90 degrees), nothing behind, and
+its safe mask is the beams behind. Every tick robot 0 delivers a message to robot 1.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+
+from fftnav.config import SwarmConfig
+from fftnav.episode.recording import STATUS, Tape, write_recording
+from fftnav.world import Circle, World
+
+TICKS = 60
+DT = 0.1
+WORLD = World("forest", 7, (10.0, 8.0), (Circle((8.0, 6.0), 0.5, 1.0),),
+              np.array([[2.0, 1.0, math.pi / 2], [1.0, 5.0, 0.0], [4.0, 2.0, 0.0],
+                        [8.0, 4.0, math.pi]]),
+              np.array([[2.0, 3.0], [9.0, 5.0], [9.5, 2.0], [8.0, 7.5]]))
+CONFIG = SwarmConfig()
+
+
+def pose(robot: int, tick: int) -> tuple[float, float, float]:
+    """Robot ``robot``'s pose at tick ``tick`` as recorded (the oracle): a robot that left the
+    world (arrived, collided, timed out) keeps its last pose in it."""
+    x, y, yaw = WORLD.starts[robot]
+    d = 0.5 * DT * min(tick, TICKS - 1)
+    if robot == 0:
+        return x, y + min(d, 2.0), yaw
+    if robot in (1, 2):
+        return x + d, y, yaw
+    return x, y, yaw
+
+
+def status(robot: int, tick: int) -> int:
+    if robot == 0 and tick > 40:
+        return STATUS.index("arrived")
+    if robot == 3 and tick > 30:
+        return STATUS.index("collided")
+    if robot == 2 and tick == TICKS:
+        return STATUS.index("timed_out")
+    return STATUS.index("moving")
+
+
+MODES = (0.0, 1.0, 2.0, 0.0)
+
+
+def angles() -> np.ndarray:
+    m = CONFIG.sensor.beams
+    return -math.pi + np.arange(m) * 2 * math.pi / m
+
+
+def make_recording(path) -> None:
+    """Write the recording to ``path``."""
+    a = angles()
+    ahead = np.abs(a) < math.pi / 2
+    tape = Tape(WORLD, CONFIG, "by-hand", 5, a)
+    n = len(WORLD.starts)
+    for g in range(TICKS):
+        poses = np.array([pose(i, g) for i in range(n)])
+        st = np.array([status(i, g) for i in range(n)])
+        moving = st == STATUS.index("moving")
+        ranges = np.zeros((n, len(a)))
+        ranges[1] = np.where(ahead, 1.0, CONFIG.sensor.range_m)
+        safe = np.zeros((n, len(a)), bool)
+        safe[1] = ~ahead
+        tape.tick(g * DT, poses, st, commands=np.tile([0.5, 0.0], (n, 1)), ranges_m=ranges,
+                  safe=safe, state={i: {"mode": MODES[i], "side": 1.0, "decisions": float(g // 10)}
+                                    for i in np.flatnonzero(moving).tolist()})
+        tape.delivery(g, 0, 1, g)
+    tape.end(TICKS * DT, np.array([pose(i, TICKS) for i in range(n)]),
+             np.array([status(i, TICKS) for i in range(n)]))
+    rows = [{"robot": i, "policy": "by-hand", "arrived": i == 0,
+             "failure": {2: "slow", 3: "collision"}.get(i, "")} for i in range(n)]
+    write_recording(path, tape.to_bytes(rows))

@@ -1,0 +1,197 @@
+"""The frame drawer (fftnav.report.frames) and the replay's frames of a recording
+(fftnav.report.replay): pixels of rendered PNGs against the axes transform, states against a
+recording made by hand."""
+
+from __future__ import annotations
+
+import io
+import math
+
+import matplotlib.pyplot as plt
+import numpy as np
+import pytest
+from matplotlib.colors import to_rgb
+from PIL import Image
+
+from fftnav.episode.record import EpisodeRow
+from fftnav.episode.recording import read_recording
+from fftnav.report.frames import (
+    KINDS,
+    MESSAGE_COLOUR,
+    SAFE_COLOUR,
+    ScanView,
+    SwarmFrame,
+    draw_frame,
+    kind_rgb,
+    runs_of,
+)
+from fftnav.report.replay import (
+    default_robot,
+    frame_ticks,
+    recording_frame,
+    robot_kinds,
+    write_image,
+    write_video,
+)
+from fftnav.report.trajectories import episode_frame, plot_episode
+from fftnav.world import World
+from tests.report.recordings import MODES, TICKS, make_recording, pose, status
+
+R0 = 0.15
+WORLD = World("forest", 0, (12.0, 8.0), (), np.zeros((6, 3)), np.array([[11.0, 7.5]] * 6))
+
+
+def _render(frame: SwarmFrame, world: World = WORLD):
+    """The frame as pixels, and a function from world (m) to pixel (row, col)."""
+    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    draw_frame(ax, world, frame, R0)
+    fig.canvas.draw()
+    buffer = io.BytesIO()
+    fig.savefig(buffer, format="png")  # same size and layout as the canvas
+    pixels = np.asarray(Image.open(buffer).convert("RGB"))
+    height = fig.canvas.get_width_height()[1]
+    transform = ax.transData
+
+    def at(x, y):
+        px, py = transform.transform((x, y))
+        return pixels[int(height - py), int(px)]
+
+    plt.close(fig)
+    return pixels, at
+
+
+def _blend(colour: str, alpha: float) -> np.ndarray:
+    return 255 * (alpha * np.array(to_rgb(colour)) + (1 - alpha))
+
+
+def test_every_state_has_its_colour_at_the_robots_pixel():
+    poses = np.array([[1.0 + 2 * i, 4.0, 0.3 * i] for i in range(6)])
+    frame = SwarmFrame(poses=poses, kinds=np.arange(6))
+    _, at = _render(frame)
+    for i, kind in enumerate(KINDS):
+        assert tuple(at(*poses[i, :2])) == kind_rgb(kind), kind
+    # the heading: a dark tick out of the disc, 1.5 r0 ahead of robot 0 (yaw 0)
+    assert at(1.0 + 1.5 * R0, 4.0).max() < 60
+    assert tuple(at(1.0 - 1.5 * R0, 4.0)) == (255, 255, 255)  # nothing behind it
+
+
+def test_a_failed_robot_has_a_cross_beyond_its_disc_and_its_cause():
+    frame = SwarmFrame(poses=np.array([[6.0, 4.0, 0.0]]), kinds=np.array([KINDS.index("failed")]),
+                       causes=["stuck"])
+    pixels, at = _render(frame)
+    d = 1.5 * R0
+    for sx, sy in ((1, 1), (1, -1), (-1, 1), (-1, -1)):  # on the cross's diagonals
+        assert tuple(at(6.0 + sx * d, 4.0 + sy * d)) == kind_rgb("failed")
+    assert tuple(at(6.0 - d, 4.0)) == (255, 255, 255)  # between its arms
+    moving = SwarmFrame(poses=np.array([[6.0, 4.0, 0.0]]), kinds=np.array([1]))
+    _, at_moving = _render(moving)
+    assert tuple(at_moving(6.0 + d, 4.0 + d)) == (255, 255, 255)  # no cross while moving
+
+
+def test_picked_scan_safe_sectors_trails_goal_lines_and_messages():
+    angles = -math.pi + np.arange(360) * 2 * math.pi / 360
+    ahead = np.abs(angles) < math.pi / 2
+    scan = ScanView(angles, np.where(ahead, 1.0, 3.0), ~ahead, 3.0)
+    poses = np.array([[6.0, 4.0, 0.0], [2.0, 1.0, 0.0]])
+    frame = SwarmFrame(poses=poses, kinds=np.array([1, 1]), picked=0, scan=scan,
+                       trails=[np.array([[6.0, 1.0], [6.0, 4.0]]), np.zeros((0, 2))],
+                       messages=np.array([[1, 0]]))
+    _, at = _render(frame)
+    assert at(7.0, 4.0).max() < 60  # a return 1 m ahead
+    assert np.abs(at(4.0, 4.0) - _blend(SAFE_COLOUR, 0.22)).max() <= 3  # safe, behind, 2 m
+    assert tuple(at(6.8, 5.0)) == (255, 255, 255)  # ahead, beyond the returns: nothing
+    trail = at(6.0, 2.5).astype(int)
+    assert trail[2] > trail[0] + 60  # the trail, in the moving colour (blue)
+    message = at(*(poses[0, :2] + poses[1, :2]) / 2)
+    assert np.abs(message - _blend(MESSAGE_COLOUR, 0.8)).max() <= 40
+    assert tuple(at(8.5, 5.75)) != (255, 255, 255)  # the dashed line to the goal (11, 7.5)
+
+
+def test_runs_of_safe_beams_wrap_round_a_full_circle():
+    mask = np.array([True, False, False, True, True, False, True])
+    assert runs_of(mask, wrap=False) == [(0, 1), (3, 5), (6, 7)]
+    assert runs_of(mask, wrap=True) == [(6, 1), (3, 5)]
+    assert runs_of(np.ones(4, bool), wrap=True) == [(0, 4)]
+    assert runs_of(np.zeros(4, bool), wrap=True) == []
+
+
+@pytest.fixture(scope="module")
+def recording(tmp_path_factory):
+    path = tmp_path_factory.mktemp("rec") / "r.npz"
+    make_recording(path)
+    return read_recording(path)
+
+
+def _oracle_kind(robot, tick):
+    code = status(robot, tick)
+    if code in (3, 4):
+        return "failed"
+    return "arrived" if code == 2 else ("moving", "following", "escaping")[int(MODES[robot])]
+
+
+def test_robot_kinds_follow_status_and_mode(recording):
+    kinds = robot_kinds(recording)
+    for tick in (0, 30, 31, 40, 41, TICKS):
+        for i in range(4):
+            assert KINDS[kinds[tick, i]] == _oracle_kind(i, tick), (i, tick)
+
+
+def test_recording_frame_has_poses_trails_messages_and_the_picked_scan(recording):
+    frame = recording_frame(recording, 20, 1)
+    np.testing.assert_allclose(frame.poses, [pose(i, 20) for i in range(4)], atol=1e-5)
+    assert len(frame.trails[2]) == 21 and frame.trails[2][0] == pytest.approx([4.0, 2.0])
+    assert frame.messages.tolist() == [[0, 1]] and frame.time_s == pytest.approx(2.0)
+    ahead = np.abs(recording.angles_rad) < math.pi / 2
+    assert np.allclose(frame.scan.ranges_m[ahead], 1.0) and (frame.scan.safe == ~ahead).all()
+    assert list(frame.causes) == ["", "", "slow", "collision"]
+    assert default_robot(recording) == 1  # the first that did not arrive
+
+
+def test_frame_ticks_window_and_speed(recording):
+    assert frame_ticks(recording).tolist() == list(range(TICKS + 1))
+    assert frame_ticks(recording, from_s=1.0, to_s=2.0, speed=5).tolist() == [10, 15, 20]
+    with pytest.raises(ValueError, match=r"from_s must be <= to_s, got from_s=3.0, to_s=1.0"):
+        frame_ticks(recording, from_s=3, to_s=1)
+    with pytest.raises(ValueError, match=r"speed must be a finite number in \(0, 1000\], got speed=0"):
+        frame_ticks(recording, speed=0)
+    with pytest.raises(ValueError, match=r"to_s must be a finite number in \[0, 6\], got to_s=7"):
+        frame_ticks(recording, to_s=7)
+
+
+def test_write_image_refuses_a_robot_out_of_range(recording, tmp_path):
+    with pytest.raises(ValueError, match=r"robot must be an integer in \[0, 3\], got robot=4"):
+        write_image(recording, tmp_path / "x.png", robot=4)
+
+
+def _row(robot, arrived, failure=""):
+    return EpisodeRow(robot, "p", arrived, False, 1, 1, 1, 1.0 if arrived else 0.0, 1,
+                      *[0] * 7, failure=failure)
+
+
+def test_episode_plot_is_the_last_frame_of_the_same_drawing(tmp_path):
+    paths = [np.array([[1.0, 1.0, 0.0], [1.0, 7.0, 1.5]]), np.array([[5.0, 1.0, 0.0],
+                                                                      [5.0, 3.0, 0.5]])]
+    frame = episode_frame(paths, [_row(0, True), _row(1, False, "stuck")])
+    assert [KINDS[k] for k in frame.kinds] == ["arrived", "failed"]
+    np.testing.assert_allclose(frame.poses, [[1.0, 7.0, 1.5], [5.0, 3.0, 0.5]])
+    assert list(frame.causes) == ["", "stuck"] and len(frame.trails[0]) == 2
+    _, at = _render(frame)
+    assert tuple(at(5.0, 3.0)) == kind_rgb("failed") and tuple(at(1.0, 7.0)) == kind_rgb(
+        "arrived")
+    out = plot_episode(WORLD, paths, [_row(0, True), _row(1, False, "stuck")], tmp_path / "e.png")
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_gif_frames_are_the_png_frames_on_the_gif_palette(recording, tmp_path):
+    gif = write_video(recording, tmp_path / "r.gif", robot=1, from_s=2.0, to_s=4.0, speed=10)
+    with Image.open(gif) as frames:
+        assert frames.n_frames == 3  # 2, 3, 4 s
+        frames.seek(2)
+        last = np.asarray(frames.convert("RGB")).astype(int)
+    png = np.asarray(Image.open(write_image(recording, tmp_path / "r.png", at_s=4.0, robot=1))
+                     .convert("RGB")).astype(int)
+    assert last.shape == png.shape
+    assert (np.abs(last - png).max(axis=-1) > 40).mean() < 0.002
+    for kind in ("moving", "following", "escaping", "failed"):  # exact on the palette
+        where = (png == kind_rgb(kind)).all(-1)
+        assert where.sum() > 20 and (last[where] == kind_rgb(kind)).all()
