@@ -32,9 +32,13 @@ def cmd_replay(args: argparse.Namespace) -> int:
     from fftnav.episode.recording import read_recording
     from fftnav.report import replay
 
-    rec = read_recording(args.recording)
+    if suffix == ".html" and len(args.recording) > 1:
+        raise CliError(f"an .html player shows one recording, got {len(args.recording)}; "
+                       "side by side: --out X.gif, X.mp4 or X.png")
+    rec, *beside = (read_recording(path) for path in args.recording)
     if suffix == ".png":
-        out = replay.write_image(rec, args.out, at_s=args.at or 0.0, robot=args.robot)
+        out = replay.write_image(rec, args.out, at_s=args.at or 0.0, robot=args.robot,
+                                 beside=beside)
     elif suffix == ".html":
         from fftnav.report.replay_html import write_html
 
@@ -42,14 +46,17 @@ def cmd_replay(args: argparse.Namespace) -> int:
                          speed=args.speed)
     else:
         out = replay.write_video(rec, args.out, robot=args.robot, from_s=args.start,
-                                 to_s=args.stop, speed=args.speed)
+                                 to_s=args.stop, speed=args.speed, beside=beside)
     sys.stderr.write(f"{out}: {out.stat().st_size / 1e6:.2f} MB\n")
     return 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("replay", help="watch a recorded episode: HTML player, GIF, MP4 or PNG")
-    p.add_argument("recording", metavar="PATH", help="a recording (fftnav episode --record)")
+    p.add_argument("recording", metavar="PATH", nargs="+",
+                   help="a recording (fftnav episode --record, an experiment's records/); "
+                   "more than one: drawn side by side at the same times (GIF, MP4, PNG), the "
+                   "window and the robot those of the first")
     p.add_argument("--out", required=True, metavar="X.html|X.gif|X.mp4|X.png",
                    help="what to write, by its suffix: a self-contained HTML player, a GIF, an "
                    "MP4 (needs the extra 'video': imageio-ffmpeg) or one PNG frame")

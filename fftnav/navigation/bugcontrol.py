@@ -15,6 +15,8 @@ its decision counters, the planner's diagnostics and the neighbour accounting.
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from fftnav import metrics
@@ -67,22 +69,16 @@ class BugController(Controller):
         self.heard = np.zeros(n, dtype=np.int64)  # messages read (the message kind counts)
         self._seen = np.zeros(n, dtype=np.int64)  # messages read at the last (re)decision
         self.poses = np.zeros((n, 3))
-        #: Per robot: the last P_s and fused P its policy asked for (NaN: not asked yet).
-        self.last_p = np.full((n, 2), np.nan)
         self.goals = np.zeros((n, 2))
         self.planner = BugPlanner.for_swarm(
             n, setup.config, self._decide, self._reconsider if policy.reconsiders else None,
             area_m=area_m)
 
     def _decide(self, i: int) -> int:
-        ctx = DecisionContext(i, lambda: self._note(i, 0, self.decider.own_probability(i)),
-                              lambda: self._note(i, 1, self.decider.fused_probability(i)),
-                              self.rng, lambda: self._shared_side(i))
+        ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
+                              lambda: self.decider.fused_probability(i), self.rng,
+                              lambda: self._shared_side(i))
         return self.policy.decide(ctx)
-
-    def _note(self, i: int, k: int, p: float) -> float:
-        self.last_p[i, k] = p
-        return p
 
     def _shared_side(self, i: int) -> int | None:
         """The side (+1 left, -1 right of the goal) whose way to the goal through robot ``i``'s
@@ -129,16 +125,18 @@ class BugController(Controller):
     def state(self, robot: int) -> dict[str, float]:
         """``mode`` (0 go to goal, 1 follow, 2 escape, 3 done, 4 waiting), ``side`` (+1 left,
         -1 right, 0 none), ``decisions`` taken, and the last ``p_own`` (P_s) and ``p_fused``
-        (fused P) the policy asked for (NaN before)."""
+        (fused P) computed for its decisions (NaN before; ``fusion`` computes both, ``own-only``
+        only P_s, the baselines neither)."""
         mem = self.planner.memory[robot]
         mode = _MODE_CODES[mem.mode]
         if mem.escape and mode <= 1:
             mode = 2
         decisions = self.planner.decisions
-        p_own, p_fused = self.last_p[robot].tolist()
+        nan = math.nan
         return {"mode": mode, "side": mem.side if mode in (1, 2) else 0,
                 "decisions": int(decisions[robot, 0] + decisions[robot, 1]),
-                "p_own": p_own, "p_fused": p_fused}
+                "p_own": self.decider.last_p_own.get(robot, nan),
+                "p_fused": self.decider.last_p_fused.get(robot, nan)}
 
     def counters(self, robot: int) -> dict[str, int | float]:
         planner, dt = self.planner, 1.0 / self.config.episode.control_hz

@@ -53,6 +53,9 @@ class Decider:
         #: over its fused decisions, another robot in the world was fused or not, and why.
         self.neighbour_reasons: dict[int, collections.Counter[str]] = collections.defaultdict(
             collections.Counter)
+        #: Per robot: the last P_s and fused P computed for it (its state, for recordings).
+        self.last_p_own: dict[int, float] = {}
+        self.last_p_fused: dict[int, float] = {}
         self.inbox: Callable[[int], Sequence[Packet]] = lambda i: ()
         self.unheard: Callable[[int], Mapping[int, str]] = lambda i: {}
 
@@ -74,7 +77,8 @@ class Decider:
         """P_s of robot ``i`` (eq. (P_s)) from the quadrant areas of its Sigma."""
         x0 = quadrant_areas(self._own_sigma(i), alpha_rad=self.geometry.alpha_rad,
                             range_m=self.config.sensor.range_m, full_circle=self.full_circle)
-        return float(own_probability(x0))
+        p = self.last_p_own[i] = float(own_probability(x0))
+        return p
 
     def _neighbours(self, i: int) -> tuple[list[tuple[np.ndarray, np.ndarray]], np.ndarray]:
         """Decoded messages in robot ``i``'s inbox and the senders' poses relative to its goal
@@ -105,6 +109,7 @@ class Decider:
             self.with_neighbours[i] += 1
             self.flipped[i] += decision.turn_left != (decision.p_s > 0.5)
         self._account(i, rel, decision.sides)
+        self.last_p_own[i], self.last_p_fused[i] = float(decision.p_s), float(decision.p)
         return decision.p
 
     def _account(self, i: int, rel: np.ndarray, sides: np.ndarray) -> None:

@@ -10,6 +10,8 @@ for a robot that collided or timed out.
 
 from __future__ import annotations
 
+import itertools
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -149,25 +151,58 @@ def _pixels(fig: Any) -> np.ndarray:
     return np.asarray(fig.canvas.buffer_rgba())[..., :3].copy()
 
 
+class _Panels:
+    """One figure per recording, drawn at the same episode time and put side by side (the first
+    recording on the left): an episode beside another one, e.g. two policies on one map."""
+
+    def __init__(self, recs: Sequence[Recording], robot: int | None) -> None:
+        picked = check_robot(recs[0], robot)
+        self.recs = list(recs)
+        self.picked = [picked] + [check_robot(r, picked if picked < r.n_robots else None)
+                                  for r in recs[1:]]
+        self.kinds = [robot_kinds(r) for r in recs]
+        self.figures = [_figure(r) for r in recs]
+
+    def pixels(self, time_s: float) -> np.ndarray:
+        """The frame of every recording at ``time_s`` (each clamped to its end), side by side
+        on white."""
+        images = []
+        for rec, picked, kinds, (fig, painter) in zip(self.recs, self.picked, self.kinds,
+                                                      self.figures, strict=True):
+            images.append(_draw(painter, fig, rec, rec.tick_at(time_s + 1e-9), picked, kinds))
+        height = max(image.shape[0] for image in images)
+        return np.hstack([np.pad(image, ((0, height - image.shape[0]), (0, 0), (0, 0)),
+                                 constant_values=255) for image in images])
+
+    def close(self) -> None:
+        for fig, _ in self.figures:
+            plt.close(fig)
+
+
 def write_image(rec: Recording, path: str | Path, *, at_s: float = 0.0,
-                robot: int | None = None) -> Path:
-    """Write one frame, at ``at_s`` (s), as a PNG; returns the path."""
-    picked = check_robot(rec, robot)
+                robot: int | None = None, beside: Sequence[Recording] = ()) -> Path:
+    """Write one frame, at ``at_s`` (s), as a PNG (with the recordings ``beside`` at the same
+    time to its right); returns the path."""
     at_s = check_number("at_s", at_s, low=0.0, high=end_s(rec))
-    fig, painter = _figure(rec)
-    painter.update(recording_frame(rec, rec.tick_at(at_s + 1e-9), picked))
+    panels = _Panels([rec, *beside], robot)
+    try:
+        rgb = panels.pixels(at_s)
+    finally:
+        panels.close()
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
-    plt.close(fig)
+    from PIL import Image
+
+    Image.fromarray(rgb).save(path)
     return path
 
 
 def write_video(rec: Recording, path: str | Path, *, robot: int | None = None,
                 from_s: float | None = None, to_s: float | None = None,
-                speed: float = 1.0, fps: float = FPS) -> Path:
+                speed: float = 1.0, fps: float = FPS, beside: Sequence[Recording] = ()) -> Path:
     """Write the episode (or its window ``from_s`` .. ``to_s``) as a GIF or an MP4, by the
-    suffix of ``path``; returns the path.
+    suffix of ``path``, with the recordings ``beside`` at the same times to its right (each
+    still after its end); returns the path.
 
     Raises
     ------
@@ -183,19 +218,17 @@ def write_video(rec: Recording, path: str | Path, *, robot: int | None = None,
             import imageio_ffmpeg
         except ImportError:
             raise ValueError(VIDEO_HINT) from None
-    picked = check_robot(rec, robot)
     ticks = frame_ticks(rec, from_s=from_s, to_s=to_s, speed=speed, fps=fps)
-    kinds = robot_kinds(rec)
-    fig, painter = _figure(rec)
+    panels = _Panels([rec, *beside], robot)
     path.parent.mkdir(parents=True, exist_ok=True)
     try:
-        frames = (_draw(painter, fig, rec, int(g), picked, kinds) for g in ticks)
+        frames = (panels.pixels(float(rec.time_s[g])) for g in ticks)
         if suffix == ".gif":
             _write_gif(path, frames, fps)
         else:
-            _write_mp4(imageio_ffmpeg, path, frames, fps, fig)
+            _write_mp4(imageio_ffmpeg, path, frames, fps)
     finally:
-        plt.close(fig)
+        panels.close()
     return path
 
 
@@ -254,9 +287,12 @@ def _write_gif(path: Path, frames: Any, fps: float) -> None:
         fp.write(b";")
 
 
-def _write_mp4(imageio_ffmpeg: Any, path: Path, frames: Any, fps: float, fig: Any) -> None:
+def _write_mp4(imageio_ffmpeg: Any, path: Path, frames: Any, fps: float) -> None:
     """Frames as an H.264 MP4 (yuv420p, plays in browsers and players)."""
-    width, height = fig.canvas.get_width_height()
+    frames = iter(frames)
+    first = next(frames)
+    height, width = first.shape[:2]
+    frames = itertools.chain([first], frames)
     writer = imageio_ffmpeg.write_frames(str(path), (width, height), fps=fps, codec="libx264",
                                          pix_fmt_out="yuv420p", macro_block_size=1,
                                          output_params=["-movflags", "+faststart"])

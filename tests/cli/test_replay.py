@@ -105,3 +105,20 @@ def test_bad_format_and_unreadable_recording(recording, tmp_path):
     assert "missing.npz" in done.stderr
     done = _fftnav("replay", recording, "--out", tmp_path / "r.png", "--from", "1")
     assert done.returncode == 2 and "a .png is one frame: pick it with --at S" in done.stderr
+
+
+def test_recordings_side_by_side_are_each_frame_next_to_the_other(recording, tmp_path):
+    import numpy as np
+
+    one, two = tmp_path / "one.png", tmp_path / "two.png"
+    assert _fftnav("replay", recording, "--out", one, "--at", "2").returncode == 0
+    done = _fftnav("replay", recording, recording, "--out", two, "--at", "2")
+    assert done.returncode == 0, done.stderr
+    single, pair = np.asarray(Image.open(one)), np.asarray(Image.open(two))
+    width = single.shape[1]
+    assert pair.shape == (single.shape[0], 2 * width, single.shape[2])
+    np.testing.assert_array_equal(pair[:, :width], single)
+    np.testing.assert_array_equal(pair[:, width:], single)
+    html = _fftnav("replay", recording, recording, "--out", tmp_path / "x.html")
+    assert html.returncode == 2 and html.stderr.strip().endswith(
+        "an .html player shows one recording, got 2; side by side: --out X.gif, X.mp4 or X.png")

@@ -123,9 +123,11 @@ def test_bug_controller_state_names_its_mode_and_side():
     following = moving & (rec.state["mode"] == 1)
     assert following.any() and set(np.unique(rec.state["side"][following])) <= {-1.0, 1.0}
     assert (rec.state["side"][moving & (rec.state["mode"] == 0)] == 0).all()
-    asked = ~np.isnan(rec.state["p_fused"][moving])
-    assert asked.any() and ((rec.state["p_fused"][moving][asked] >= 0)
-                            & (rec.state["p_fused"][moving][asked] <= 1)).all()
+    for name in ("p_own", "p_fused"):  # fusion computes both at each decision
+        values = rec.state[name][moving]
+        asked = ~np.isnan(values)
+        assert asked.any() and ((values[asked] >= 0) & (values[asked] <= 1)).all()
+        np.testing.assert_array_equal(asked, rec.state["decisions"][moving] > 0)
 
 
 class Circle15(Controller):
