@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install install-browser test lint benchmark bench figures collab clean
+.PHONY: install install-browser test lint benchmark bench figures collab replays clean
 
 install: $(STAMP)
 
@@ -54,6 +54,11 @@ bench: $(STAMP)
 figures: $(STAMP)
 	$(BIN)/fftnav figure filters --out results/figures
 	$(BIN)/fftnav figure depth3d --out results/figures
+
+# replays: the README's GIF and docs/analysis.md's frame per cause of failure, from the
+# committed recordings (results/table1/records, results/collab/core/records).
+replays: $(STAMP)
+	$(BIN)/python experiments/replay_figures.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache
