@@ -1,6 +1,6 @@
 """The replay figures of the docs, from the committed recordings (``make replays``).
 
-- ``results/table1/figures/replay_rocky-1006.gif`` (README): ``bug-left`` on rocky map 1006,
+- ``results/figures/replay_rocky-1006.gif`` (README): ``bug-left`` on rocky map 1006,
   where robot 8 ends ``stuck``, beside ``fusion`` on the same map and episode seed, where every
   robot arrives. ``fusion``'s episode has no failure, so ``records/`` does not keep it: it is
   rerun here from the world, config and seed of the ``bug-left`` recording, and its rows are
@@ -93,5 +93,5 @@ def cause_frames(folder: Path) -> list[Path]:
 
 
 if __name__ == "__main__":
-    print(readme_gif(ROOT / "results" / "table1" / "figures" / "replay_rocky-1006.gif"))
+    print(readme_gif(ROOT / "results" / "figures" / "replay_rocky-1006.gif"))
     cause_frames(ROOT / "results" / "figures" / "causes")
