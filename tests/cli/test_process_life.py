@@ -120,7 +120,7 @@ def test_a_swallowed_first_interrupt_is_delivered_again_outside_the_hook(exc_typ
         cli._redeliver(types.SimpleNamespace(exc_type=exc, exc_value=exc(), exc_traceback=None,
                                              err_msg=None, object=None))  # returns normally
         with pytest.raises(exc):
-            for _ in range(500):
+            for _ in range(6000):
                 time.sleep(0.01)
     finally:
         for s, handler in saved.items():
