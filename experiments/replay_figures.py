@@ -6,7 +6,7 @@
   rerun here from the world, config and seed of the ``bug-left`` recording, and its rows are
   checked against ``results/table1/episodes.csv`` first.
 - ``results/figures/causes/<cause>.png`` (docs/analysis.md): one frame per cause of failure,
-  the failed robot picked, a few seconds before the end of its episode, from the first
+  the failed robot picked, at the last tick of its episode, from the first
   recording with that cause in ``results/table1/records`` or ``results/collab/core/records``.
   No committed result has a ``collision`` (the planner's clearance guard keeps the robots off
   the obstacles), so its frame is of a scripted robot driving straight at a rock.
@@ -83,11 +83,10 @@ def cause_frames(folder: Path) -> list[Path]:
         for cause in FAILURE_CAUSES:
             path, robot = found[cause]
             rec = read_recording(path)
-            end = float(rec.time_s[-1])
-            out = write_image(rec, folder / f"{cause}.png", at_s=max(0.0, end - 2.0),
-                              robot=robot)
+            at_s = float(rec.time_s[-2])  # the last tick with scans
+            out = write_image(rec, folder / f"{cause}.png", at_s=at_s, robot=robot)
             print(f"{cause}: {path.relative_to(ROOT) if path.is_relative_to(ROOT) else 'scripted'}"
-                  f" robot {robot} at {max(0.0, end - 2.0):.1f} s -> {out.relative_to(ROOT)}")
+                  f" robot {robot} at {at_s:.1f} s -> {out.relative_to(ROOT)}")
             written.append(out)
     return written
 
