@@ -14,7 +14,6 @@ from matplotlib.colors import to_rgb
 from PIL import Image
 
 from fftnav.episode.record import EpisodeRow
-from fftnav.episode.recording import read_recording
 from fftnav.report.frames import (
     KINDS,
     MESSAGE_COLOUR,
@@ -35,7 +34,7 @@ from fftnav.report.replay import (
 )
 from fftnav.report.trajectories import episode_frame, plot_episode
 from fftnav.world import World
-from tests.report.recordings import MODES, TICKS, make_recording, pose, status
+from tests.report.recordings import MODES, TICKS, pose, status
 
 R0 = 0.15
 WORLD = World("forest", 0, (12.0, 8.0), (), np.zeros((6, 3)), np.array([[11.0, 7.5]] * 6))
@@ -113,13 +112,6 @@ def test_runs_of_safe_beams_wrap_round_a_full_circle():
     assert runs_of(mask, wrap=True) == [(6, 1), (3, 5)]
     assert runs_of(np.ones(4, bool), wrap=True) == [(0, 4)]
     assert runs_of(np.zeros(4, bool), wrap=True) == []
-
-
-@pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    path = tmp_path_factory.mktemp("rec") / "r.npz"
-    make_recording(path)
-    return read_recording(path)
 
 
 def _oracle_kind(robot, tick):

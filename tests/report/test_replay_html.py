@@ -11,19 +11,11 @@ import zlib
 import numpy as np
 import pytest
 
-from fftnav.episode.recording import read_recording
 from fftnav.report.frames import KINDS
 from fftnav.report.replay_html import player_data, write_html
-from tests.report.recordings import TICKS, make_recording, pose
+from tests.report.recordings import TICKS, pose
 
 TYPES = {"Float32Array": "<f4", "Uint8Array": "u1", "Uint16Array": "<u2", "Int32Array": "<i4"}
-
-
-@pytest.fixture(scope="module")
-def recording(tmp_path_factory):
-    path = tmp_path_factory.mktemp("rec") / "r.npz"
-    make_recording(path)
-    return read_recording(path)
 
 
 def _arrays(header, data):
