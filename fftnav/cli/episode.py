@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import sys
 from collections import Counter
 from collections.abc import Sequence
@@ -25,6 +26,21 @@ def _overrides(pairs: list[str]) -> dict[str, str]:
             raise CliError(f"--set expects KEY=VALUE, e.g. time_limit_s=60; got {pair!r}")
         out[key] = text
     return out
+
+
+def _check_writable(flag: str, path: str) -> None:
+    """Refuse, before the episode runs, a path that cannot be written: a folder, or a file in
+    a folder that cannot be made or written."""
+    target = Path(path)
+    if target.is_dir():
+        raise CliError(f"{flag} must be a file path, not a folder, got {flag}={path!r}")
+    try:
+        target.parent.mkdir(parents=True, exist_ok=True)
+    except OSError as exc:
+        raise CliError(f"{flag} must be in a folder that can be made, got {flag}={path!r} "
+                       f"({exc.strerror})") from None
+    if not os.access(target.parent, os.W_OK):
+        raise CliError(f"{flag} must be in a writable folder, got {flag}={path!r}")
 
 
 def outcome_line(rows: Sequence[EpisodeRow]) -> str:
@@ -59,19 +75,21 @@ def cmd_episode(args: argparse.Namespace) -> int:
 
     resolve(args.policy)  # an unknown name or a plugin that does not load: refused first
     config = SwarmConfig().replace(_overrides(args.set or []))
+    if args.record:
+        _check_writable("--record", args.record)
     world = load_world(args.world)
     result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui,
                          record=bool(args.record))
-    if args.record:
-        from fftnav.episode.recording import write_recording
-
-        write_recording(args.record, result.recording())
     text = episode_csv(result.rows)
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
         Path(args.out).write_text(text)
     else:
         sys.stdout.write(text)
+    if args.record:
+        from fftnav.episode.recording import write_recording
+
+        write_recording(args.record, result.recording())
     if args.trajectories:
         np.savez_compressed(args.trajectories, *result.trajectories)
     if args.plot:

@@ -4,6 +4,7 @@
 from __future__ import annotations
 
 import argparse
+import re
 import sys
 from pathlib import Path
 
@@ -13,8 +14,26 @@ from fftnav.cli import CliError
 FORMATS = (".html", ".gif", ".mp4", ".png")
 
 
+#: The library's parameter names in messages -> the flags a user typed.
+FLAGS = {"from_s": "--from", "to_s": "--to", "at_s": "--at", "robot": "--robot",
+         "speed": "--speed"}
+
+
 def cmd_replay(args: argparse.Namespace) -> int:
-    """Read the recording, write --out in the format of its suffix, say what was written."""
+    """Read the recording, write --out in the format of its suffix, say what was written; a
+    refused value is named by its flag."""
+    try:
+        return _replay(args)
+    except CliError:
+        raise
+    except ValueError as exc:
+        text = str(exc)
+        for name, flag in FLAGS.items():
+            text = re.sub(rf"(?<![\w-]){name}\b", flag, text)
+        raise CliError(text) from None
+
+
+def _replay(args: argparse.Namespace) -> int:
     suffix = Path(args.out).suffix.lower()
     if suffix not in FORMATS:
         raise CliError(f"--out must end in one of {', '.join(FORMATS)}, got --out={args.out!r}")

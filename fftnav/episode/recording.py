@@ -48,8 +48,8 @@ import io
 import json
 import math
 import os
-import tempfile
 import zipfile
+import zlib
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -58,6 +58,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.config import SwarmConfig
+from fftnav.files import write_atomic
 from fftnav.world.model import World
 
 __all__ = ["FORMAT", "SCAN_STEP_M", "STATUS", "VERSION", "Recording", "RecordingError",
@@ -242,18 +243,19 @@ def _jsonable(row: Mapping[str, Any]) -> dict[str, Any]:
 
 
 def write_recording(path: str | os.PathLike[str], data: bytes) -> Path:
-    """Write a recording's bytes to ``path`` atomically (a temporary file in the same folder,
-    then renamed), creating the folder."""
+    """Write a recording's bytes to ``path`` atomically (:func:`fftnav.files.write_atomic`: a
+    temporary file beside it, renamed over it), creating the folder.
+
+    Raises
+    ------
+    ValueError
+        ``path`` is a folder.
+    """
     path = Path(path)
+    if path.is_dir():
+        raise ValueError(f"path must be a file path, not a folder, got path={str(path)!r}")
     path.parent.mkdir(parents=True, exist_ok=True)
-    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
-    try:
-        with os.fdopen(fd, "wb") as handle:
-            handle.write(data)
-        os.replace(tmp, path)
-    except BaseException:
-        Path(tmp).unlink(missing_ok=True)
-        raise
+    write_atomic(path, data)
     return path
 
 
@@ -264,21 +266,52 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
     Raises
     ------
     RecordingError
-        ``path`` is not a recording (not an ``.npz``, no ``meta``, another format or a newer
-        version, missing columns).
+        ``path`` is not a recording (not an ``.npz``, damaged data, no ``meta``, another format
+        or a newer version, a missing column or meta key, columns whose shapes disagree).
     """
     try:
         with np.load(path, allow_pickle=False) as npz:
             cols = {key: npz[key] for key in npz.files}
-    except (OSError, ValueError, zipfile.BadZipFile, EOFError) as exc:
+    except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error) as exc:
         raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "
                              f"({exc})") from None
     meta = _read_meta(path, cols)
     try:
+        _check_shapes(cols, meta)
         return _decode(cols, meta)
     except KeyError as exc:
+        where = "meta key" if exc.args and exc.args[0] in _META_KEYS else "column"
         raise RecordingError(f"path must be a complete fftnav recording, got path={str(path)!r}"
-                             f" (no column {exc})") from None
+                             f" (no {where} {exc})") from None
+    except (TypeError, ValueError, IndexError) as exc:
+        raise RecordingError(f"path must be a consistent fftnav recording, got "
+                             f"path={str(path)!r} ({exc})") from None
+
+
+#: The keys of a recording's ``meta`` that the reader needs.
+_META_KEYS = ("beams", "angles_rad", "scan_step_m", "world", "config", "policy", "seed", "rows")
+
+
+def _check_shapes(cols: Mapping[str, np.ndarray], meta: dict[str, Any]) -> None:
+    """Every column's shape against the schema's (G ticks, N robots, M beams); ValueError
+    naming the first that disagrees."""
+    g, n, _ = cols["pose"].shape
+    m = int(meta["beams"])
+    expected = {"time_s": (g,), "pose": (g, n, 3), "command": (g, n, 2), "status": (g, n),
+                "contact_obstacle": (g, n), "contact_robot": (g, n), "scan": (g, n, m),
+                "safe_bits": (g, n, (m + 7) // 8),
+                **{key: (g, n) for key in cols if key.startswith("state/")},
+                "sent_offset": (len(cols["sent_tick"]) + 1,),
+                "sent_robot": (len(cols["sent_tick"]),)}
+    for key, shape in expected.items():
+        if cols[key].shape != shape:
+            raise ValueError(f"column {key} has shape {cols[key].shape}, expected {shape}")
+    offsets = cols["sent_offset"]
+    if offsets[0] != 0 or (np.diff(offsets) < 0).any() or offsets[-1] != len(cols["sent_bytes"]):
+        raise ValueError("column sent_offset does not index sent_bytes")
+    if len(meta["angles_rad"]) != m or len(meta["rows"]) != n:
+        raise ValueError(f"meta has {len(meta['angles_rad'])} beam angles and "
+                         f"{len(meta['rows'])} rows for {m} beams and {n} robots")
 
 
 def _read_meta(path: Any, cols: Mapping[str, np.ndarray]) -> dict[str, Any]:

@@ -60,7 +60,7 @@ import numpy as np
 from scipy import ndimage
 
 from fftnav.optimal import gridsearch
-from fftnav.optimal.gridgraph import GridPath, check_grid, grid_moves, shortest_paths
+from fftnav.optimal.gridgraph import GridPath, check_grid, grid_moves
 from fftnav.optimal.reference import reference_resolution, robot_cells
 from fftnav.validate import check_number
 from fftnav.world import World
@@ -330,10 +330,10 @@ def reference_paths(world: World, *, r0_m: float,
 
     The grid of :func:`fftnav.optimal.reference.optimal_lengths` (solids inflated by ``r0_m``,
     cells of :func:`~fftnav.optimal.reference.reference_resolution`) and, per robot, a shortest
-    8-connected path between its start and goal cells (compiled A*,
-    :func:`fftnav.optimal.gridsearch.astar_paths`, with numba; else Dijkstra,
-    :func:`fftnav.optimal.gridgraph.shortest_paths`): its ``length_cells`` times the cell size
-    is ``optimal_lengths``' ``astar_m`` (to 1e-12 relative).
+    8-connected path between its start and goal cells (A*,
+    :func:`fftnav.optimal.gridsearch.astar_paths`: compiled with numba, the same search and
+    the same paths in plain Python without it): its ``length_cells`` times the cell size is
+    ``optimal_lengths``' ``astar_m`` (to 1e-12 relative).
 
     Raises
     ------
@@ -345,9 +345,7 @@ def reference_paths(world: World, *, r0_m: float,
     grid = occupancy_grid(world, resolution_m=reference_resolution(world, resolution_m),
                           inflate_m=r0_m)
     starts, goals = robot_cells(grid, world)
-    if gridsearch.AVAILABLE:
-        return grid, gridsearch.astar_paths(grid.grid, starts, goals, connectivity=8)
-    return grid, shortest_paths(grid.grid, starts, goals, connectivity=8)
+    return grid, gridsearch.astar_paths(grid.grid, starts, goals, connectivity=8)
 
 
 def map_difficulty(world: World, *, r0_m: float, resolution_m: float = 0.05,

@@ -22,8 +22,9 @@ from matplotlib.patches import Rectangle
 from fftnav.episode.recording import RecordingError, read_recording
 from fftnav.metrics import FAILURE_CAUSES
 from fftnav.report.markdown import markdown_table
+from fftnav.runner import run
 from fftnav.runner.config import ExperimentConfig
-from fftnav.runner.tasks import task_id, task_world
+from fftnav.runner.tasks import Task, task_id, task_world
 
 __all__ = ["POSITION_COLUMNS", "draw_failure_positions", "failure_lines", "failure_positions",
            "failure_table", "last_positions", "record_path"]
@@ -34,8 +35,9 @@ _MARKERS = ("X", "o", "s", "^", "D", "v", "P", "*")
 
 
 def record_path(out: str | Path, env: str, map_seed: int, policy: str) -> Path:
-    """Where a results folder keeps an episode's recording: ``OUT/records/<task_id>.npz``."""
-    return Path(out) / "records" / f"{task_id(env, map_seed, policy)}.npz"
+    """Where a results folder keeps an episode's recording: ``OUT/records/<task_id>.npz``
+    (:func:`fftnav.runner.run.record_path` of the task)."""
+    return run.record_path(Path(out), Task(env, map_seed, policy, 0, False))
 
 
 def _failed(episodes: pd.DataFrame) -> pd.DataFrame:
@@ -131,7 +133,7 @@ def last_positions(out: Path, env: str, map_seed: int, policy: str,
     if recorded.is_file():
         try:
             return read_recording(recorded).pose[-1, list(robots), :2]
-        except RecordingError:  # a damaged file: the next source
+        except (RecordingError, IndexError):  # a damaged file: the next source
             pass
     path = out / "trajectories" / f"{task_id(env, map_seed, policy)}.npz"
     if not path.is_file():

@@ -44,6 +44,8 @@ FPS = 10
 #: What ``.mp4`` needs when imageio-ffmpeg is missing.
 VIDEO_HINT = ("MP4 needs imageio-ffmpeg: pip install 'fftnav[video]' "
               "(or pip install imageio-ffmpeg); .gif, .html and .png work without it")
+#: The slowest playback: a tenth of real time (a 120 s episode in 12,000 frames).
+MIN_SPEED = 0.1
 #: Figure width (pixels) of the PNG, GIF and MP4 frames.
 WIDTH_PX = 640
 
@@ -129,7 +131,7 @@ def frame_ticks(rec: Recording, *, from_s: float | None = None, to_s: float | No
         A bound outside the episode, ``from_s > to_s`` or a speed that is not positive.
     """
     start, stop = window(rec, from_s, to_s)
-    speed = check_number("speed", speed, low=0.0, low_open=True, high=1000.0)
+    speed = check_number("speed", speed, low=MIN_SPEED, high=1000.0)
     times = np.arange(start, stop + 1e-9, speed / fps)
     return np.array([rec.tick_at(t + 1e-9) for t in times], dtype=np.int64)
 

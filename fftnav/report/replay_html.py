@@ -47,7 +47,7 @@ from fftnav.report.frames import (
     SAFE_COLOUR,
     TRAIL_ALPHA,
 )
-from fftnav.report.replay import check_robot, robot_kinds, window
+from fftnav.report.replay import MIN_SPEED, check_robot, robot_kinds, window
 from fftnav.validate import check_number
 
 __all__ = ["TEMPLATE", "player_data", "write_html"]
@@ -103,7 +103,7 @@ def player_data(rec: Recording, *, robot: int | None = None, from_s: float | Non
                 to_s: float | None = None, speed: float = 1.0) -> tuple[dict[str, Any], bytes]:
     """The player's JSON header and its deflated data (module docstring)."""
     picked = check_robot(rec, robot)
-    speed = check_number("speed", speed, low=0.0, low_open=True, high=1000.0)
+    speed = check_number("speed", speed, low=MIN_SPEED, high=1000.0)
     g0, g1 = _window(rec, from_s, to_s)
     arrays, names = _arrays(rec, g0, g1)
     blob, layout = _pack(arrays)
@@ -133,8 +133,9 @@ def write_html(rec: Recording, path: str | Path, *, robot: int | None = None,
     header, data = player_data(rec, robot=robot, from_s=from_s, to_s=to_s, speed=speed)
     page = resources.files("fftnav.report").joinpath(TEMPLATE).read_text(encoding="utf-8")
     text = json.dumps(header, separators=(",", ":")).replace("<", "\\u003c")
-    page = page.replace("/*FFTNAV_HEADER*/", text, 1)
+    # the data first: the header's names (a policy, an env) may hold any text
     page = page.replace("FFTNAV_DATA", base64.b64encode(data).decode("ascii"), 1)
+    page = page.replace("/*FFTNAV_HEADER*/", text, 1)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(page, encoding="utf-8")

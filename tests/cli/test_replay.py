@@ -78,11 +78,11 @@ def test_html_is_self_contained(recording, tmp_path):
 
 
 @pytest.mark.parametrize(("args", "message"), [
-    (["--robot", "4"], r"robot must be an integer in \[0, 3\], got robot=4"),
-    (["--robot", "-1"], r"robot must be an integer in \[0, 3\], got robot=-1"),
-    (["--from", "4", "--to", "2"], r"from_s must be <= to_s, got from_s=4.0, to_s=2.0"),
-    (["--to", "9"], r"to_s must be a finite number in \[0, 6\], got to_s=9.0"),
-    (["--speed", "0"], r"speed must be a finite number in \(0, 1000\], got speed=0.0"),
+    (["--robot", "4"], r"--robot must be an integer in \[0, 3\], got --robot=4"),
+    (["--robot", "-1"], r"--robot must be an integer in \[0, 3\], got --robot=-1"),
+    (["--from", "4", "--to", "2"], r"--from must be <= --to, got --from=4.0, --to=2.0"),
+    (["--to", "9"], r"--to must be a finite number in \[0, 6\], got --to=9.0"),
+    (["--speed", "0"], r"--speed must be a finite number in \[0.1, 1000\], got --speed=0.0"),
 ])
 def test_bad_arguments_are_one_line_and_exit_2(recording, tmp_path, args, message):
     done = _fftnav("replay", recording, "--out", tmp_path / "r.gif", *args)
@@ -108,17 +108,27 @@ def test_bad_format_and_unreadable_recording(recording, tmp_path):
 
 
 def test_recordings_side_by_side_are_each_frame_next_to_the_other(recording, tmp_path):
+    import json
+
     import numpy as np
 
-    one, two = tmp_path / "one.png", tmp_path / "two.png"
-    assert _fftnav("replay", recording, "--out", one, "--at", "2").returncode == 0
-    done = _fftnav("replay", recording, recording, "--out", two, "--at", "2")
-    assert done.returncode == 0, done.stderr
-    single, pair = np.asarray(Image.open(one)), np.asarray(Image.open(two))
-    width = single.shape[1]
-    assert pair.shape == (single.shape[0], 2 * width, single.shape[2])
-    np.testing.assert_array_equal(pair[:, :width], single)
-    np.testing.assert_array_equal(pair[:, width:], single)
-    html = _fftnav("replay", recording, recording, "--out", tmp_path / "x.html")
+    with np.load(recording) as npz:  # a second recording: another policy name in its title
+        cols = {k: npz[k] for k in npz.files}
+    meta = json.loads(cols["meta"].tobytes())
+    cols["meta"] = np.frombuffer(json.dumps({**meta, "policy": "other"}).encode(), np.uint8)
+    other = tmp_path / "other.npz"
+    np.savez_compressed(other, **cols)
+    paths = {"one": [recording], "two": [other], "pair": [recording, other]}
+    images = {}
+    for name, sources in paths.items():
+        done = _fftnav("replay", *sources, "--out", tmp_path / f"{name}.png", "--at", "2")
+        assert done.returncode == 0, done.stderr
+        images[name] = np.asarray(Image.open(tmp_path / f"{name}.png"))
+    width = images["one"].shape[1]
+    assert images["pair"].shape == (images["one"].shape[0], 2 * width, images["one"].shape[2])
+    assert not np.array_equal(images["one"], images["two"])
+    np.testing.assert_array_equal(images["pair"][:, :width], images["one"])
+    np.testing.assert_array_equal(images["pair"][:, width:], images["two"])
+    html = _fftnav("replay", recording, other, "--out", tmp_path / "x.html")
     assert html.returncode == 2 and html.stderr.strip().endswith(
         "an .html player shows one recording, got 2; side by side: --out X.gif, X.mp4 or X.png")

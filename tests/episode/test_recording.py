@@ -195,3 +195,61 @@ def test_cli_episode_record_writes_exactly_the_path(tmp_path):
     assert [r["path_length_m"] for r in rec.rows] == pytest.approx(list(rows.path_length_m),
                                                                     abs=1e-6)
     assert rec.policy == "fusion" and rec.config.episode.time_limit_s == 5
+
+
+def _rewritten(data, **changes):
+    """The recording ``data`` with some columns replaced (``meta`` as a dict)."""
+    with np.load(io.BytesIO(data)) as npz:
+        cols = {k: npz[k] for k in npz.files}
+    for key, value in changes.items():
+        cols[key] = _meta(**value) if key == "meta" else value
+    return _npz(**cols)
+
+
+def test_damaged_or_inconsistent_recordings_are_refused_by_name(spied):
+    result, rec, _ = spied
+    data = result.recording()
+    meta = json.loads(np.load(io.BytesIO(data))["meta"].tobytes())
+    with pytest.raises(RecordingError, match=r"consistent fftnav recording, .*\(column command "
+                                             r"has shape \(\d+, 2, 2\), expected \(\d+, 1, 2\)"):
+        read_recording(_rewritten(data, pose=rec.pose[:, :1].astype(np.float32)))
+    with pytest.raises(RecordingError, match=r"got path=.*\(column scan has shape"):
+        read_recording(_rewritten(data, meta={**meta, "beams": 7}))
+    with pytest.raises(RecordingError, match=r"no meta key 'seed'"):
+        read_recording(_rewritten(data, meta={k: v for k, v in meta.items() if k != "seed"}))
+    with pytest.raises(RecordingError, match=r"sent_offset does not index sent_bytes"):
+        read_recording(_rewritten(data, sent_bytes=np.zeros(3, np.uint8)))
+    # deflate data damaged inside the zip: the archive opens, the column does not
+    raw = bytearray(data)
+    with zipfile.ZipFile(io.BytesIO(data)) as z:
+        info = z.getinfo("scan.npy")
+    start = info.header_offset + 30 + len(info.filename) + len(info.extra)
+    raw[start:start + 64] = b"\xff" * 64
+    with pytest.raises(RecordingError, match=r"path must be an fftnav recording, got path="):
+        read_recording(io.BytesIO(bytes(raw)))
+
+
+@pytest.mark.parametrize(("record", "message"), [
+    ("adir", "--record must be a file path, not a folder, got --record='adir'"),
+    ("afile/r.npz", "--record must be in a folder that can be made, got --record='afile/r.npz'"),
+])
+def test_cli_record_path_that_cannot_be_written_is_refused_before_the_episode(tmp_path, record,
+                                                                               message):
+    (tmp_path / "adir").mkdir()
+    (tmp_path / "afile").write_text("")
+    proc = subprocess.run([sys.executable, "-m", "fftnav", "episode", "--world", "missing.json",
+                           "--policy", "fusion", "--record", record], cwd=tmp_path,
+                          capture_output=True, text=True, timeout=300)
+    assert proc.returncode == 2 and proc.stderr.splitlines() == [
+        f"fftnav episode: error: {message} (File exists)"
+        if record == "afile/r.npz" else f"fftnav episode: error: {message}"]
+
+
+def test_the_obstacle_contact_is_on_the_tick_the_robot_collided(spied):
+    result, rec, _ = spied
+    assert result.rows[0].collided and not result.rows[1].collided
+    moving = np.flatnonzero(rec.status[:, 0] == STATUS.index("moving"))
+    last = int(moving[-1])  # the tick whose command drove robot 0 into the trunk
+    assert np.flatnonzero(rec.contact_obstacle[:, 0]).tolist() == [last]
+    assert STATUS[rec.status[last + 1, 0]] == "collided"
+    assert not rec.contact_obstacle[:, 1].any() and not rec.contact_robot.any()

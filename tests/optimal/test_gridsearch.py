@@ -149,3 +149,25 @@ def test_paths_are_allowed_move_chains_as_short_as_dijkstra(case, connectivity):
             total += move.cost
         assert total == pytest.approx(length, rel=1e-12)
         assert path.length_cells == pytest.approx(length, rel=1e-12)
+
+
+def test_paths_do_not_depend_on_numba():
+    """Without numba the same search runs as plain Python: the same cells on a benchmark map
+    (``maps.csv`` is the same on every install)."""
+    from fftnav.optimal.gridgraph import _allowed, check_pairs, move_table
+    from fftnav.optimal.reference import robot_cells
+    from fftnav.world.generate import generate_world
+    from fftnav.world.grid import occupancy_grid
+
+    world = generate_world("rocky", 1003, robots=15)
+    grid = occupancy_grid(world, resolution_m=0.05, inflate_m=0.15)
+    starts, goals = robot_cells(grid, world)
+    pairs = np.array([(*s, *g) for s, g in check_pairs(grid.grid, starts, goals)])[:4]
+    moves = move_table(8)
+    args = (np.stack([_allowed(grid.grid, m) for m in moves]),
+            np.array([m.step for m in moves], dtype=np.int64),
+            np.array([m.cost for m in moves]), pairs, gridsearch.HEAP_SIZE, True)
+    compiled, plain = gridsearch._search(*args), gridsearch._search.py_func(*args)
+    np.testing.assert_array_equal(compiled[0], plain[0])
+    np.testing.assert_array_equal(compiled[2], plain[2])
+    np.testing.assert_array_equal(compiled[1][:compiled[2][-1]], plain[1][:plain[2][-1]])
