@@ -117,6 +117,11 @@ class PlannerParams(Checked):
     escape_lookahead_m, replan_s : float
         An escaping robot steers to the point this far along its way, replanned every
         ``replan_s`` seconds from its map as it is then.
+    escape_bound_s, escape_block_m : float
+        Loop detection in escape: when the planned way's length has not become ``progress_m``
+        shorter than its best for ``escape_bound_s`` seconds, the robot closes the next
+        ``escape_block_m`` of that way in its own map (:meth:`OwnMaps.block_way`) and plans
+        another (a loop detection, counted in ``loop_flips``).
     map_every : int
         The own maps take every other beam of the scans of one control tick in ``map_every``.
     memory_radius_m : float
@@ -143,6 +148,8 @@ class PlannerParams(Checked):
     map_margin_m: float = _non_negative(2.0)
     escape_lookahead_m: float = _positive(1.0)
     replan_s: float = _positive(1.0)
+    escape_bound_s: float = _positive(15.0)
+    escape_block_m: float = _positive(1.0)
     map_every: int = integer_field(2, low=1)
 
     @classmethod
@@ -165,6 +172,8 @@ class _Memory:
     escape: bool = False  # steering along the own map's way to the goal
     planned_s: float = -math.inf  # when the escape way was last planned
     turn: int = 0  # escape: the side turned to while the way's bearing is unsafe (0: none)
+    way_best_m: float = math.inf  # escape: the shortest planned way so far (m) ...
+    way_best_s: float = 0.0  # ... and since when
     #: Hit points: (x m, y m, goal distance m, side taken).
     hits: list[tuple[float, float, float, int]] = field(default_factory=list)
 
@@ -373,6 +382,7 @@ class BugPlanner:
                     self.loop_flips[i] += looping  # loop detection
                     mem.flips += looping
                     mem.escape, mem.planned_s, mem.turn = True, -math.inf, 0
+                    mem.way_best_m, mem.way_best_s = math.inf, t
                 if mem.escape:  # until the leave rule (no way: follow side s meanwhile)
                     heading = self._escape_heading(i, mem, t, view)
                     if heading is not None:
@@ -411,6 +421,15 @@ class BugPlanner:
         if t - mem.planned_s >= p.replan_s - 1e-9:
             mem.planned_s = t
             maps.plan(i, xy, view.goal)
+            way = maps.way_length(i, xy)
+            if way < mem.way_best_m - p.progress_m:
+                mem.way_best_m, mem.way_best_s = way, t
+            elif t - mem.way_best_s > p.escape_bound_s and maps.block_way(i, xy,
+                                                                          p.escape_block_m):
+                self.loop_flips[i] += 1  # the way leads nowhere: close it, plan another
+                mem.flips += 1
+                maps.plan(i, xy, view.goal)
+                mem.way_best_m, mem.way_best_s, mem.turn = maps.way_length(i, xy), t, 0
         point = maps.waypoint(i, xy, p.escape_lookahead_m)
         if point is None:
             return None

@@ -68,6 +68,10 @@ class BugController(Controller):
         self.decider = Decider(setup.config, setup.rng, full_circle=full_circle)
         self.heard = np.zeros(n, dtype=np.int64)  # messages read (the message kind counts)
         self._seen = np.zeros(n, dtype=np.int64)  # messages read at the last (re)decision
+        #: Messages that arrived but are not read yet, ``(tick, payload)`` per robot, and
+        #: whether a robot's own scans have shown a wall longer than R (``walls``' gate).
+        self.held: list[list[tuple[int, np.ndarray]]] = [[] for _ in range(n)]
+        self.long_wall_seen = np.zeros(n, dtype=bool)
         self.poses = np.zeros((n, 3))
         self.goals = np.zeros((n, 2))
         self.planner = BugPlanner.for_swarm(

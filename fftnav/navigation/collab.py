@@ -9,6 +9,12 @@ range-limited :class:`~fftnav.episode.comms.Channel`, in at most :data:`MAX_MESS
 draws them into its own map (:meth:`fftnav.navigation.ownmap.OwnMaps.add_segments`): a robot at a
 wall then knows where its neighbours saw the wall go on, and where they saw it end.
 
+A receiver reads its neighbours' segments only once one of its own scans has shown a wall longer
+than the sensing range R (:func:`long_wall`): only there can the wall's far side lie beyond what
+the robot sees, so only there can its neighbours tell it something it cannot see. Until then it
+holds what arrives and decides as ``own-only`` does; the held segments are drawn at their
+arrival ticks when the gate opens.
+
 At a decision ``collab`` compares the two sides by the length of the way to the goal through
 that map (:meth:`fftnav.navigation.ownmap.OwnMaps.side_costs`) and takes the clearly shorter one
 (docs/planner.md, "collab"). Pure numpy; nothing but the robot's own scan and pose and its
@@ -28,6 +34,7 @@ __all__ = [
     "PERIOD_TICKS",
     "decode_segments",
     "encode_segments",
+    "long_wall",
     "scan_segments",
 ]
 
@@ -114,3 +121,15 @@ def scan_segments(pose: np.ndarray, ranges_m: np.ndarray, angles_rad: np.ndarray
     kept = [(a, b) for a, b in segments if math.hypot(*(b - a)) >= MIN_SEGMENT_M]
     kept.sort(key=lambda s: -math.hypot(*(s[1] - s[0])))
     return np.array(kept, dtype=float).reshape(-1, 2, 2)
+
+
+def long_wall(segments: np.ndarray, *, range_m: float) -> bool:
+    """Whether any segment ``(n, 2, 2)`` (m) is longer than the sensing range ``range_m``.
+
+    >>> long_wall(np.array([[[0.0, 0.0], [3.5, 0.0]]]), range_m=3.0)
+    True
+    >>> long_wall(np.array([[[0.0, 0.0], [2.0, 2.0]]]), range_m=3.0)
+    False
+    """
+    seg = np.asarray(segments, dtype=float).reshape(-1, 2, 2)
+    return bool(np.any(np.hypot(*(seg[:, 1] - seg[:, 0]).T) > range_m))

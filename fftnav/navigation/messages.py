@@ -13,7 +13,10 @@ tick, to :meth:`~MessageKind.receive` what arrived (before the planner decides) 
 ``walls``
     ``collab``'s messages: every :data:`~fftnav.navigation.collab.PERIOD_TICKS` ticks a robot
     broadcasts the longest wall segments of its current scan; each packet is drawn into its
-    receiver's own map when it arrives (:meth:`fftnav.navigation.ownmap.OwnMaps.add_segments`).
+    receiver's own map (:meth:`fftnav.navigation.ownmap.OwnMaps.add_segments`) when it arrives,
+    once the receiver has itself seen a wall longer than R
+    (:func:`~fftnav.navigation.collab.long_wall`); until then packets are held, and drawn at
+    their arrival ticks when that happens.
 
 A new kind is a :class:`MessageKind` subclass registered with :func:`register_message_kind`.
 """
@@ -30,6 +33,7 @@ from fftnav.navigation.collab import (
     PERIOD_TICKS,
     decode_segments,
     encode_segments,
+    long_wall,
     scan_segments,
 )
 from fftnav.navigation.controllers import SwarmStep
@@ -100,7 +104,7 @@ class Observations(MessageKind):
 @register_message_kind("walls")
 class Walls(MessageKind):
     """Wall segments fitted to the scan, every PERIOD_TICKS ticks, drawn into the receivers'
-    own maps."""
+    own maps once they have seen a wall longer than R."""
 
     def receive(self, control: BugController, swarm: SwarmStep, present: np.ndarray) -> None:
         maps = control.planner.maps
@@ -108,8 +112,19 @@ class Walls(MessageKind):
             return
         for r in np.flatnonzero(present).tolist():
             for pkt in swarm.arrived(r):
-                maps.add_segments(r, swarm.tick, decode_segments(pkt.payload))
-                control.heard[r] += 1
+                control.held[r].append((swarm.tick, decode_segments(pkt.payload)))
+            if control.long_wall_seen[r]:
+                self._draw(control, r)
+
+    @staticmethod
+    def _draw(control: BugController, robot: int) -> None:
+        """Draw robot ``robot``'s held segments into its map, at their arrival ticks."""
+        maps = control.planner.maps
+        assert maps is not None
+        for tick, segments in control.held[robot]:
+            maps.add_segments(robot, tick, segments)
+            control.heard[robot] += 1
+        control.held[robot].clear()
 
     def send(self, control: BugController, swarm: SwarmStep,
              blocked: np.ndarray) -> dict[int, bytes]:
@@ -119,8 +134,13 @@ class Walls(MessageKind):
         for i in swarm.active.tolist():
             if (swarm.tick + i) % PERIOD_TICKS:
                 continue
+            range_m = control.config.sensor.range_m
             segments = scan_segments(swarm.poses[i], swarm.ranges_m[i], swarm.angles_rad,
-                                     range_m=control.config.sensor.range_m)
+                                     range_m=range_m)
+            if not control.long_wall_seen[i] and long_wall(segments, range_m=range_m):
+                control.long_wall_seen[i] = True
+                if control.planner.maps is not None:
+                    self._draw(control, i)
             if len(segments):
                 outgoing[i] = encode_segments(segments[:MAX_SEGMENTS_PER_MESSAGE])
         return outgoing

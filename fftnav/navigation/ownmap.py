@@ -77,6 +77,8 @@ class OwnMaps:
         reach = int(math.floor(clearance_m / self.res + 1e-9))
         di, dj = np.mgrid[-reach:reach + 1, -reach:reach + 1]
         self._disc = np.hypot(di, dj) * self.res <= clearance_m + 1e-9
+        #: Cells a robot closed itself: the ways of escapes that led nowhere (:meth:`block_way`).
+        self.blocked = np.zeros((n_robots, *self.shape), dtype=bool)
         self._field: dict[int, np.ndarray] = {}
         self._closed = np.zeros(self.shape, dtype=bool)  # the closed cells of the last plan
 
@@ -144,8 +146,9 @@ class OwnMaps:
                     layer[robot, cells[:, 0], cells[:, 1]], tick)
 
     def occupied(self, robot: int) -> np.ndarray:
-        """Robot ``robot``'s occupancy grid (True: its last look at the cell was a hit)."""
-        return self.last_hit[robot] > self.last_free[robot]
+        """Robot ``robot``'s occupancy grid (True: its last look at the cell was a hit, or it
+        closed the cell with :meth:`block_way`)."""
+        return (self.last_hit[robot] > self.last_free[robot]) | self.blocked[robot]
 
     def plan(self, robot: int, xy: np.ndarray, goal: np.ndarray) -> bool:
         """Recompute robot ``robot``'s distance field to ``goal`` (cells within the clearance
@@ -231,6 +234,31 @@ class OwnMaps:
             out.append(float(cost[on_side].min()) if on_side.any() else math.inf)
         return out[0], out[1]
 
+    def way_length(self, robot: int, xy: np.ndarray) -> float:
+        """Length (m) of the last planned way from ``xy`` to the goal; inf without one."""
+        field = self._field.get(robot)
+        here = self.cell(xy)
+        if field is None or not self.inside(here):
+            return math.inf
+        return float(field[tuple(here)]) * self.res
+
+    def block_way(self, robot: int, xy: np.ndarray, length_m: float) -> int:
+        """Close, in robot ``robot``'s map, the next ``length_m`` of its last planned way from
+        ``xy``, beginning one cell beyond the clearance (so the robot is never shut in); the
+        number of cells closed (0 without a way).
+
+        The next :meth:`plan` treats them as occupied (dilated by the clearance like any
+        obstacle), so it finds another way, or none."""
+        field = self._field.get(robot)
+        here = self.cell(xy)
+        if field is None or not self.inside(here) or not np.isfinite(field[tuple(here)]):
+            return 0
+        skip = self._disc.shape[0] // 2 + 1  # cells
+        way = self._descent(field, here, skip + max(1, int(round(length_m / self.res))))[skip + 1:]
+        for r, c in way:
+            self.blocked[robot, r, c] = True
+        return len(way)
+
     def waypoint(self, robot: int, xy: np.ndarray, lookahead_m: float) -> np.ndarray | None:
         """The point (m) about ``lookahead_m`` down the last planned field from ``xy`` (steepest
         descent over the 8 neighbours); None without a field or without a way from ``xy``."""
@@ -238,17 +266,23 @@ class OwnMaps:
         here = self.cell(xy)
         if field is None or not self.inside(here) or not np.isfinite(field[tuple(here)]):
             return None
-        cell = here
-        for _ in range(max(1, int(round(lookahead_m / self.res)))):
+        cell = self._descent(field, here, max(1, int(round(lookahead_m / self.res))))[-1]
+        return self.lo + (cell[::-1] + 0.5) * self.res
+
+    def _descent(self, field: np.ndarray, cell: np.ndarray, steps: int) -> list[np.ndarray]:
+        """``cell`` and the cells after it down ``field`` (steepest descent over the 8
+        neighbours), at most ``steps`` of them, stopping at the goal cell."""
+        way = [cell]
+        for _ in range(steps):
             nxt = cell + _NEIGHBOURS
-            ok = self.inside(nxt)
-            nxt = nxt[ok]
+            nxt = nxt[self.inside(nxt)]
             values = field[nxt[:, 0], nxt[:, 1]]
             best = int(np.argmin(values))
             if not values[best] < field[tuple(cell)]:
                 break  # at the goal cell
             cell = nxt[best]
-        return self.lo + (cell[::-1] + 0.5) * self.res
+            way.append(cell)
+        return way
 
 
 def kernels_available() -> bool:

@@ -234,3 +234,30 @@ def test_a_robot_on_the_wrong_side_of_a_wall_joined_to_the_map_edge_turns_back()
         assert row.path_length_m < 2.2 * optimal, (policy, row.path_length_m, optimal)
     assert rows["bug-left"].escape_time_s > 0
     assert rows["bug-right"].path_length_m < rows["bug-left"].path_length_m
+
+
+def test_an_escape_whose_way_does_not_shorten_closes_it_and_plans_another():
+    """A robot held in place in escape (its way never gets shorter): every escape_bound_s
+    after the escape began it closes the next escape_block_m of its way in its own map, counts
+    a loop detection, and its way is replanned round the closed cells (it gets longer). A robot
+    that drives along its way, shortening it, never closes it."""
+    p, _ = _planner(LEFT, loop_timeout_s=5.0, escape_bound_s=15.0)
+    flips_at, ways = [], []
+    for k in range(500):
+        t = 0.1 * k
+        before = int(p.loop_flips[0])
+        _step(p, t, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+        if p.loop_flips[0] > before:
+            flips_at.append(round(t, 1))
+            ways.append(p.maps.way_length(0, np.zeros(2)))
+    # the escape begins at 5.1 s; its way is planned every second and found no shorter
+    assert flips_at[0] == pytest.approx(5.1)
+    assert flips_at[1:] == pytest.approx([21.1, 37.1])
+    assert p.maps.blocked[0].sum() > 0 and ways[2] > ways[1] > 10.0 - 0.2
+
+    moving, _ = _planner(LEFT, loop_timeout_s=5.0, escape_bound_s=15.0)
+    for k in range(500):
+        x = min(max(0.0, 0.01 * (k - 60)), 4.0)  # drives along its way once escaping
+        _step(moving, 0.1 * k, (x, 0, 0), (10, 0), _mask([(-30, 30)]))
+    assert moving.memory[0].escape and moving.loop_flips[0] == 1
+    assert not moving.maps.blocked[0].any()

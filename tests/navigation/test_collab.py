@@ -149,3 +149,50 @@ def test_collab_reconsider_changes_sides_when_walls_arrive_and_collab_never_does
     assert all(r.sides_reconsidered <= r.decisions_left + r.decisions_right for r in again)
     once = run_episode(world, "collab", seed=5, config=cfg).rows
     assert all(r.sides_reconsidered == 0 for r in once)
+
+
+def test_collab_decides_and_moves_as_own_only_where_no_wall_is_longer_than_the_range(
+        monkeypatch):
+    """Rocky ruins (rocks, no wall longer than R): collab robots share their rocks' sides but
+    read none of it, so every trajectory and every row but the policy's name and the messages
+    sent equals own-only's. The same episode with the gate held open from the start (robots
+    read their neighbours' segments at once) moves differently: the world is one where reading
+    them would change decisions."""
+    import dataclasses
+
+    from fftnav.navigation import bugcontrol
+    from fftnav.world.generate import generate_world
+
+    world = generate_world("rocky", 1003, robots=6, size_m=(10.0, 10.0), goal_y_m=9.0)
+    cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=60.0))
+    own = run_episode(world, "own-only", seed=1, config=cfg)
+    collab = run_episode(world, "collab", seed=1, config=cfg)
+
+    def same_moves(a, b):
+        return all(np.array_equal(x, y) for x, y in zip(a.trajectories, b.trajectories,
+                                                         strict=True))
+
+    def without_messages(row):
+        return {k: v for k, v in dataclasses.asdict(row).items()
+                if k != "policy" and not k.startswith(("bytes_", "messages_"))}
+
+    assert same_moves(own, collab)
+    assert [without_messages(r) for r in own.rows] == [without_messages(r) for r in collab.rows]
+    assert sum(r.bytes_sent for r in collab.rows) > 0
+
+    setup = bugcontrol.BugController.__init__
+
+    def gate_open(self, *args, **kwargs):
+        setup(self, *args, **kwargs)
+        self.long_wall_seen[:] = True
+
+    monkeypatch.setattr(bugcontrol.BugController, "__init__", gate_open)
+    assert not same_moves(own, run_episode(world, "collab", seed=1, config=cfg))
+
+
+def test_long_wall_is_longer_than_the_range():
+    from fftnav.navigation.collab import long_wall
+
+    assert not long_wall(np.zeros((0, 2, 2)), range_m=R)
+    assert not long_wall(np.array([[[0.0, 0.0], [3.0, 0.0]]]), range_m=R)
+    assert long_wall(np.array([[[0.0, 0.0], [1.0, 0.0]], [[0.0, 1.0], [2.2, 3.2]]]), range_m=R)

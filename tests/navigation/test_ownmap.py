@@ -148,3 +148,34 @@ def test_compiled_update_marks_the_same_cells_as_numpy(monkeypatch, beam_step):
     assert np.array_equal(fast.last_free, slow.last_free)
     assert np.array_equal(fast.last_hit, slow.last_hit)
     assert (fast.last_hit >= 0).sum() > 50 and (fast.last_free >= 0).sum() > 500
+
+
+def test_way_length_and_blocking_the_way_ahead_make_the_next_plan_go_round():
+    """A wall across the map with two gaps, the near one straight ahead: the planned way runs
+    through the near gap and its length is grid A*'s; block_way closes the next metre of it
+    (beyond the clearance, never the robot's own cell) and the next plan goes through the far
+    gap, as long as A*'s path on the grid with those cells closed."""
+    maps = _maps(lo=(0.0, 0.0), hi=(8.0, 6.0))
+    occ = np.zeros(maps.shape, dtype=bool)
+    row = maps.cell(np.array([0.0, 3.0]))[0]
+    occ[row, :] = True
+    near, far = maps.cell(np.array([2.0, 3.0]))[1], maps.cell(np.array([7.0, 3.0]))[1]
+    occ[row, near - 2:near + 3] = False
+    occ[row, far - 2:far + 3] = False
+    maps.last_hit[0][occ] = 1
+    start, goal = np.array([2.0, 1.0]), np.array([2.0, 5.0])
+    here, there = tuple(maps.cell(start)), tuple(maps.cell(goal))
+    assert maps.plan(0, start, goal)
+    before = astar(_closed_by_brute_force(occ, 0.2, 0.3), here, there)
+    assert maps.way_length(0, start) == pytest.approx(before.length_cells * 0.2, abs=1e-9)
+    assert maps.way_length(0, start) < 5.0
+    closed = maps.block_way(0, start, 1.0)
+    assert closed == 5 and not maps.blocked[0][here]
+    assert maps.occupied(0)[maps.blocked[0]].all()
+    assert maps.plan(0, start, goal)
+    after = astar(_closed_by_brute_force(occ | maps.blocked[0], 0.2, 0.3), here, there)
+    assert maps.way_length(0, start) == pytest.approx(after.length_cells * 0.2, abs=1e-9)
+    assert maps.way_length(0, start) > 10.0  # round by the far gap
+    point = maps.waypoint(0, start, 1.0)
+    assert point is not None and point[0] > start[0] + 0.5  # heads right, toward it
+    assert maps.block_way(0, np.array([50.0, 0.0]), 1.0) == 0
