@@ -17,9 +17,10 @@ Registered policies:
     A seeded coin per decision.
 ``collab``
     Robots share the *walls* they see (a few line segments a second,
-    :mod:`fftnav.navigation.collab`), drawn into the receivers' own maps; at a decision the side
-    whose way to the goal through that map is clearly shorter (by 1 m, a step through a cell
-    the robot never saw counting three), else P_s as ``own-only``.
+    :mod:`fftnav.navigation.collab`), drawn into the receivers' own maps once they have seen a
+    wall longer than R themselves (before that, ``collab`` is ``own-only``); at a decision the
+    side whose way to the goal through that map is clearly shorter (by 1 m, a step through a
+    cell the robot never saw counting three), else P_s as ``own-only``.
 ``collab-reconsider``
     ``collab`` that also asks again while following a wall, when wall segments arrived since
     it decided (``Policy.reconsiders``).
