@@ -187,6 +187,8 @@ def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, exec
                 outcome.skipped += 1
                 bar.update()
             else:
+                if fresh:  # an earlier run's recording would outlive an episode that now arrives
+                    record_path(out, task).unlink(missing_ok=True)
                 yield _with_reference(out, task) if real else task
 
     rebuilt = _EpisodesRebuild(out, config)

@@ -75,6 +75,16 @@ def test_a_resume_reruns_only_the_task_whose_wanted_recording_is_missing(failure
     assert (outcome.completed, outcome.skipped) == (0, 4)
 
 
+def test_fresh_keeps_only_the_recordings_of_its_own_failures(failures_run, tmp_path):
+    """A recording left by an earlier run of a task whose episode now has no failure (here: a
+    run with every episode recorded) is removed by --fresh, not kept beside the new results."""
+    out = tmp_path / "again"
+    run_experiment(_config("all"), out, workers=1, progress=False)
+    assert len(list((out / "records").iterdir())) == 4
+    run_experiment(_config(), out, workers=1, progress=False, fresh=True)
+    assert {p.stem for p in (out / "records").iterdir()} == _failed_tasks(failures_run)
+
+
 def test_an_unknown_record_mode_or_key_is_refused_by_name():
     with pytest.raises(ValueError, match=r"record.episodes must be one of \['none', "
                                          r"'failures', 'all'\], got record.episodes='some'"):
