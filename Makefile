@@ -32,8 +32,8 @@ benchmark: $(STAMP)
 	$(BIN)/fftnav run experiments/table1.toml --out results/table1
 
 # collab: the core comparison (walls, traps; own-only, fusion, collab; 20 maps), its walls
-# holdouts (maps 21-40 and 41-60) and the full sweep (docs/experiments.md, [sweep]); all resume
-# when rerun.
+# holdouts (maps 21-40 and 41-60), the fresh maps 61-80 of every kind (with and without lidar
+# noise) and the full sweep (docs/experiments.md, [sweep]); all resume when rerun.
 collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/core.toml
 	$(BIN)/fftnav figure sweep experiments/collab/core.toml
@@ -41,6 +41,10 @@ collab: $(STAMP)
 	$(BIN)/fftnav figure sweep experiments/collab/walls_holdout.toml
 	$(BIN)/fftnav run experiments/collab/walls_fresh.toml
 	$(BIN)/fftnav figure sweep experiments/collab/walls_fresh.toml
+	$(BIN)/fftnav run experiments/collab/fresh.toml
+	$(BIN)/fftnav figure sweep experiments/collab/fresh.toml
+	$(BIN)/fftnav run experiments/collab/fresh_noise.toml
+	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise.toml
 	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)
@@ -56,7 +60,8 @@ figures: $(STAMP)
 	$(BIN)/fftnav figure depth3d --out results/figures
 
 # replays: the README's GIF and docs/analysis.md's frame per cause of failure, from the
-# committed recordings (results/table1/records, results/collab/core/records).
+# committed recordings (results/table1/records, results/collab/core/records and
+# results/collab/fresh/records).
 replays: $(STAMP)
 	$(BIN)/python experiments/replay_figures.py
 

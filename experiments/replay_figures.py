@@ -32,7 +32,8 @@ from fftnav.report.replay import write_image, write_video
 from fftnav.world import Circle, World
 
 ROOT = Path(__file__).resolve().parents[1]
-SOURCES = (ROOT / "results" / "table1", ROOT / "results" / "collab" / "core")
+SOURCES = (ROOT / "results" / "table1", ROOT / "results" / "collab" / "core",
+           ROOT / "results" / "collab" / "fresh")
 
 
 def readme_gif(out: Path) -> Path:
