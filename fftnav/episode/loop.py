@@ -238,6 +238,7 @@ def run_episode(
     the robots still driving when the last tick ends).
     """
     cfg = config or SwarmConfig()
+    cfg.episode.check_departures(len(world.starts))
     method = resolve(policy)
     sim_seed, rng = _seeds(seed)
     tape = Tape(world, cfg, method.name, seed, cfg.pipeline().angles_rad) if record else None
