@@ -17,6 +17,13 @@ def test_a_million_hz_physics_within_the_step_limit_is_accepted_by_config_and_si
     cfg = SwarmConfig().replace({"physics_hz": "1e6", "time_limit_s": "10"})
     assert cfg.episode.time_limit_s * cfg.episode.physics_hz == 1e7 < MAX_EPISODE_PHYSICS_STEPS
     assert SimConfig.for_swarm(cfg).substeps == 100_000
+    from fftnav.runner import parse_config
+
+    experiment = parse_config({"experiment": {"name": "fast", "envs": ["forest"], "maps": 1,
+                                              "map_seed": 0, "robots": 15,
+                                              "policies": ["fusion"]},
+                               "episode": {"physics_hz": 1e6, "time_limit_s": 10}})
+    assert experiment.swarm == cfg
     with pytest.raises(ValueError, match=r"physics steps per episode \(time_limit_s x "
                                          r"physics_hz\): 1,000,000,000 estimated"):
         SwarmConfig().replace({"physics_hz": "1e7", "time_limit_s": "100"})
@@ -54,11 +61,27 @@ def test_the_last_departure_is_checked_for_the_robots_there_are():
         waves.check_departures(15)
 
 
-def test_fftnav_episode_refuses_huge_delays_before_the_episode(tmp_path):
+def _world(tmp_path):
     from fftnav.world import generate_world, save_world
 
     world = tmp_path / "w.json"
     save_world(generate_world("forest", 3, size_m=[8.0, 8.0], goal_y_m=7.0, robots=3), world)
+    return world
+
+
+def test_fftnav_episode_with_two_beams_prints_no_warning(tmp_path):
+    """Two beams make one-tap filters, whose -3 dB point is Nyquist: the episode runs and its
+    stderr is the outcome line alone."""
+    proc = subprocess.run([sys.executable, "-m", "fftnav", "episode", "--world",
+                           str(_world(tmp_path)), "--policy", "fusion", "--set", "beams=2",
+                           "--set", "time_limit_s=1", "--out", str(tmp_path / "e.csv")],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stderr.count("\n") == 1 and "/3 arrived" in proc.stderr, proc.stderr
+
+
+def test_fftnav_episode_refuses_huge_delays_before_the_episode(tmp_path):
+    world = _world(tmp_path)
     for sets, match in ((["stagger_s=1e300"], "2 robots staggered by stagger_s=1e+300"),
                         (["stagger_s=3e5"], "3 robots staggered by stagger_s=300000.0"),
                         (["control_hz=1e-6"], "at least one control tick")):
