@@ -11,6 +11,7 @@ applied to the trajectories.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -24,8 +25,10 @@ from fftnav.episode.record import EpisodeResult, EpisodeRow
 from fftnav.episode.recording import STATUS, Tape
 from fftnav.navigation.bugcontrol import BugController
 from fftnav.navigation.controllers import Controller, ControllerSetup, Packet, SwarmStep
-from fftnav.navigation.resolve import Resolved, resolve
+from fftnav.navigation.policies import Policy
+from fftnav.navigation.resolve import Resolved, registered_names, resolve
 from fftnav.optimal.reference import optimal_lengths
+from fftnav.plugins import PluginProxy, plugin_call, source_file
 from fftnav.sim.swarm import Observation, SimConfig, SwarmSim
 from fftnav.validate import check_integer
 from fftnav.world.model import World
@@ -98,10 +101,14 @@ class _Onboard:
                                loss=config.comms.packet_loss,
                                delay_ticks=config.comms.delay_ticks, rng=rng)
         setup = ControllerSetup(n, config, rng)
+        plugin = method.reference not in registered_names()
         if method.policy is not None:
-            self.controller: Controller = BugController(setup, method.policy,
+            policy = _guarded_policy(method) if plugin else method.policy
+            self.controller: Controller = BugController(setup, policy,
                                                         full_circle=self.pipe.bank.full_circle,
                                                         area_m=world.size_m)
+        elif plugin:
+            self.controller = _guarded_controller(method, setup)
         else:
             assert method.controller is not None
             self.controller = method.controller(setup)
@@ -179,6 +186,29 @@ class _Onboard:
         return obs
 
 
+def _guarded_policy(method: Resolved) -> Policy:
+    """A plugin's decision policy whose errors are one-line PluginErrors naming it."""
+    assert method.policy is not None
+    decide = method.policy.decide
+    name = getattr(decide, "__name__", "decide")
+    return dataclasses.replace(method.policy, decide=functools.partial(
+        plugin_call, method.reference, name, source_file(decide), decide))
+
+
+def _guarded_controller(method: Resolved, setup: ControllerSetup) -> Controller:
+    """A plugin's controller, made and then called through :class:`~fftnav.plugins.PluginProxy`
+    (what it raises, in ``__init__``, ``act`` or any other call, is a one-line PluginError
+    naming it, the call and its file and line)."""
+    cls = method.controller
+    assert cls is not None
+    source = source_file(cls)
+    controller = plugin_call(method.reference, f"{cls.__name__}.__init__", source, cls, setup,
+                             defined=cls.__init__)
+    calls = ({} if cls.step is not Controller.step  # the base's step calls act per robot
+             else {"step": (f"{cls.__name__}.act", controller.act)})
+    return PluginProxy(controller, method.reference, source, calls)  # type: ignore[return-value]
+
+
 def run_episode(
     world: World,
     policy: str,
@@ -238,6 +268,7 @@ def run_episode(
     the robots still driving when the last tick ends).
     """
     cfg = config or SwarmConfig()
+    cfg.episode.check_departures(len(world.starts))
     method = resolve(policy)
     sim_seed, rng = _seeds(seed)
     tape = Tape(world, cfg, method.name, seed, cfg.pipeline().angles_rad) if record else None

@@ -42,6 +42,21 @@ _WHEELS = (0, 1)  # left, right
 _WHEEL_TORQUE_NM = 0.5
 
 
+#: Robot-steps of planar velocities made at once (a control period of any length in bounded
+#: memory: a few hundred kB per block).
+_VELOCITY_BLOCK = 4096
+
+
+def _planar_velocities(yaw0: np.ndarray, v: np.ndarray, w: np.ndarray, first: int, steps: int,
+                       physics_hz: float) -> list[list[list[float]]]:
+    """The body robots' linear velocities (v cos(yaw), v sin(yaw), 0) during physics steps
+    ``first .. first + steps - 1`` of a control period, ``[step][robot]``: frictionless spheres
+    feel no contact torque, so the heading during step k is exactly ``yaw0 + k w / physics_hz``
+    and the velocities are known up front."""
+    yaw = yaw0 + np.outer(np.arange(first, first + steps) / physics_hz, w)
+    return np.stack([v * np.cos(yaw), v * np.sin(yaw), np.zeros_like(yaw)], axis=-1).tolist()
+
+
 @dataclass(frozen=True)
 class SimConfig(Checked):
     """Simulation parameters: the robot and its lidar (:mod:`fftnav.config`), rates and physics.
@@ -331,13 +346,10 @@ class SwarmSim:
                 p.setJointMotorControlArray(body, _WHEELS, p.VELOCITY_CONTROL,
                                             targetVelocities=[left, right],
                                             forces=[_WHEEL_TORQUE_NM] * 2, physicsClientId=cid)
-            linear, steered = [], set()
+            planar, steered = False, set()
         else:
-            # Frictionless spheres feel no contact torque, so the heading during physics step k
-            # is exactly yaw0 + k w dt: the planar velocities of the period are known up front.
-            yaw = self._poses[active, 2] + np.outer(np.arange(cfg.substeps) / cfg.physics_hz, w)
-            linear = np.stack([v * np.cos(yaw), v * np.sin(yaw), np.zeros_like(yaw)], axis=-1)
-            linear = linear.tolist()
+            planar, yaw0 = True, self._poses[active, 2]
+            block = max(1, _VELOCITY_BLOCK // max(1, len(active)))
             angular = [(0.0, 0.0, wi) for wi in w.tolist()]
             # Without gravity, damping or contact a body keeps its velocity bit for bit: after
             # the first step only robots on an arc (v and w != 0) and those that touched
@@ -355,8 +367,11 @@ class SwarmSim:
         steered_order = sorted(steered)
         touched = set(range(len(bodies)))  # every velocity is set before the first step
         for k in range(cfg.substeps):
-            if linear:
-                velocity = linear[k]
+            if planar:
+                if k % block == 0:
+                    linear = _planar_velocities(yaw0, v, w, k, min(block, cfg.substeps - k),
+                                                cfg.physics_hz)
+                velocity = linear[k % block]
                 for j in (touched | steered) if touched else steered_order:
                     reset_velocity(bodies[j], velocity[j], angular[j], cid)
             step_physics(cid)
