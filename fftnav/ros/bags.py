@@ -33,8 +33,8 @@ from fftnav.ros import check_not_special, require_rosbags
 from fftnav.ros import messages as rosmsg
 from fftnav.ros.laserscan import Layout, layout_of, rep117_ranges
 
-__all__ = ["BATCH_READINGS", "LASERSCAN", "AnnotatedBag", "check_bag", "check_out_bag",
-           "open_bag", "scan_bag"]
+__all__ = ["BATCH_READINGS", "LASERSCAN", "AnnotatedBag", "BagFile", "check_bag",
+           "check_out_bag", "open_bag", "scan_bag"]
 
 LASERSCAN = "sensor_msgs/msg/LaserScan"
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
@@ -328,9 +328,70 @@ def _out_kind(out: Path, bag: Path) -> tuple[bool, str | None, bool]:
     return False, "mcap" if mcap else "db3", False
 
 
+class BagFile:
+    """A bag written into a temporary folder beside ``out`` and moved to ``out`` whole when it
+    closes (:meth:`close`); :meth:`discard` leaves nothing behind.
+
+    Parameters
+    ----------
+    out : Path
+        The bag: a ROS 1 ``.bag`` file (``ros1``), a single ``.mcap`` or ``.db3`` file
+        (``single``) or a ROS 2 bag folder.
+    ros1 : bool
+        A ROS 1 bag; else ROS 2 in ``storage`` (``"mcap"`` or ``"db3"``).
+    """
+
+    def __init__(self, out: Path, *, ros1: bool, storage: str | None, single: bool) -> None:
+        from rosbags.rosbag1 import Writer as Writer1
+        from rosbags.rosbag2 import StoragePlugin
+        from rosbags.rosbag2 import Writer as Writer2
+
+        self.out, self.ros1, self.storage, self.single = Path(out), ros1, storage, single
+        self.tmp = self.out.parent / f".{self.out.name}.{os.getpid()}.tmp"
+        shutil.rmtree(self.tmp, ignore_errors=True)
+        self.tmp.mkdir(parents=True)
+        target = self.tmp / self.out.name
+        if ros1:
+            self.writer: Any = Writer1(target)
+        else:
+            plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+            self.writer = Writer2(target, version=8, storage_plugin=plugin)
+        try:
+            self.writer.open()
+        except BaseException:
+            self.discard()
+            raise
+        self.store = rosmsg.typestore(ros1=ros1)
+
+    def add(self, topic: str, msgtype: str) -> Any:
+        """A connection for ``topic`` with this bag's message definitions."""
+        return self.writer.add_connection(topic, msgtype, typestore=self.store)
+
+    def write(self, conn: Any, timestamp: int, msg: Any) -> None:
+        """Serialise ``msg`` (of the connection's type) and write it at ``timestamp`` (ns)."""
+        self.writer.write(conn, timestamp,
+                          rosmsg.serialize(self.store, msg, conn.msgtype, self.ros1))
+
+    def close(self) -> None:
+        """Finish the bag and move it to ``out`` (replacing a file there)."""
+        try:
+            self.writer.close()
+            target = self.tmp / self.out.name
+            if self.single and not self.ros1:
+                target = target / f"{self.out.name}.{self.storage}"
+            os.replace(target, self.out)
+        finally:
+            shutil.rmtree(self.tmp, ignore_errors=True)
+
+    def discard(self) -> None:
+        """Drop the bag being written."""
+        with contextlib.suppress(Exception):
+            self.writer.close()
+        shutil.rmtree(self.tmp, ignore_errors=True)
+
+
 class AnnotatedBag:
-    """The annotated bag of :func:`scan_bag`, written beside ``out`` and moved there whole
-    when it closes without error (nothing is left behind on error).
+    """The annotated bag of :func:`scan_bag`, written through a :class:`BagFile`.
 
     It holds the input's topics (converted when the kinds differ, by rosbags) and per scan:
 
@@ -341,63 +402,37 @@ class AnnotatedBag:
     """
 
     def __init__(self, out: str | Path, reader: Any, bag: Path) -> None:
-        self.out, self.reader = Path(out), reader
-        self.ros1, self.storage, self.single = _out_kind(self.out, bag)
-        self.tmp = self.out.parent / f".{self.out.name}.{os.getpid()}.tmp"
+        self.out, self.reader, self.bag = Path(out), reader, bag
 
     def __enter__(self) -> AnnotatedBag:
         from rosbags.convert.converter import create_connections_converters
-        from rosbags.rosbag1 import Writer as Writer1
-        from rosbags.rosbag2 import StoragePlugin
-        from rosbags.rosbag2 import Writer as Writer2
 
-        shutil.rmtree(self.tmp, ignore_errors=True)
-        self.tmp.mkdir(parents=True)
-        target = self.tmp / self.out.name
-        if self.ros1:
-            self.writer: Any = Writer1(target)
-        else:
-            plugin = StoragePlugin.MCAP if self.storage == "mcap" else StoragePlugin.SQLITE3
-            self.writer = Writer2(target, version=8, storage_plugin=plugin)
+        ros1, storage, single = _out_kind(self.out, self.bag)
+        self.file = BagFile(self.out, ros1=ros1, storage=storage, single=single)
+        self.ros1, self.store = ros1, self.file.store
         try:
-            self.writer.open()
             copied = [c for c in self.reader.connections
                       if c.topic not in (SAFE_SCAN, SAFE_DIRECTIONS)]
             with contextlib.redirect_stdout(io.StringIO()):  # rosbags prints what it migrates
                 self.connmap, self.convmap = create_connections_converters(
-                    copied, None, self.reader, self.writer)
-            self.store = rosmsg.typestore(ros1=self.ros1)
-            self.scan_conn = self.writer.add_connection(SAFE_SCAN, LASERSCAN,
-                                                        typestore=self.store)
-            self.marker_conn = self.writer.add_connection(SAFE_DIRECTIONS, MARKER_ARRAY,
-                                                          typestore=self.store)
+                    copied, None, self.reader, self.file.writer)
+            self.scan_conn = self.file.add(SAFE_SCAN, LASERSCAN)
+            self.marker_conn = self.file.add(SAFE_DIRECTIONS, MARKER_ARRAY)
         except BaseException:
-            self._discard()
+            self.file.discard()
             raise
         return self
 
     def __exit__(self, kind: Any, exc: Any, tb: Any) -> None:
-        if kind is not None:
-            self._discard()
-            return
-        try:
-            self.writer.close()
-            target = self.tmp / self.out.name
-            if self.single and not self.ros1:
-                target = target / f"{self.out.name}.{self.storage}"
-            os.replace(target, self.out)
-        finally:
-            shutil.rmtree(self.tmp, ignore_errors=True)
-
-    def _discard(self) -> None:
-        with contextlib.suppress(Exception):
-            self.writer.close()
-        shutil.rmtree(self.tmp, ignore_errors=True)
+        if kind is None:
+            self.file.close()
+        else:
+            self.file.discard()
 
     def copy(self, conn: Any, timestamp: int, raw: bytes) -> None:
         """Write an input message again."""
-        self.writer.write(self.connmap[(conn.id, conn.owner)], timestamp,
-                          self.convmap[conn.msgtype](raw))
+        self.file.writer.write(self.connmap[(conn.id, conn.owner)], timestamp,
+                               self.convmap[conn.msgtype](raw))
 
     def annotate(self, scan: _Scan) -> None:
         """Write a processed scan's ``/fftnav/safe_scan`` and ``/fftnav/safe_directions``."""
@@ -415,11 +450,9 @@ class AnnotatedBag:
                            time_increment=float(msg.time_increment),
                            scan_time=float(msg.scan_time), range_min=0.0,
                            range_max=float(scan.range_m), ranges=ranges)
-        self.writer.write(self.scan_conn, scan.timestamp,
-                          rosmsg.serialize(s, safe, LASERSCAN, self.ros1))
-        markers = rosmsg.make(s, MARKER_ARRAY, markers=[_wedges(s, msg, head, mask, length)])
-        self.writer.write(self.marker_conn, scan.timestamp,
-                          rosmsg.serialize(s, markers, MARKER_ARRAY, self.ros1))
+        self.file.write(self.scan_conn, scan.timestamp, safe)
+        self.file.write(self.marker_conn, scan.timestamp,
+                        rosmsg.make(s, MARKER_ARRAY, markers=[_wedges(s, msg, head, mask, length)]))
 
 
 def _wedges(s: Any, msg: Any, head: Any, mask: np.ndarray, length: np.ndarray) -> Any:

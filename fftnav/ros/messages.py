@@ -16,7 +16,7 @@ import numpy as np
 __all__ = ["make", "stamp", "typestore", "yaw_quaternion"]
 
 #: Marker types and actions used here (visualization_msgs/Marker constants).
-LINE_STRIP, TRIANGLE_LIST = 4, 11
+LINE_LIST, SPHERE_LIST, TRIANGLE_LIST = 5, 7, 11
 ADD, DELETE = 0, 2
 
 
