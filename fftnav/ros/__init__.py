@@ -51,10 +51,10 @@ def is_bag(path: str | Path) -> bool:
     return path.is_dir() and (path / "metadata.yaml").is_file()
 
 
-def check_not_special(path: str | Path, what: str = "bag") -> None:
+def check_not_special(path: str | Path, what: str = "a bag") -> None:
     """Refuse a pipe, FIFO, socket or device by ``stat``, without opening it (opening a FIFO
     blocks until a writer comes); a missing path raises FileNotFoundError."""
     mode = os.stat(path).st_mode
     if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
-        raise ValueError(f"{path}: a {what} must be a regular file or a ROS 2 bag folder, "
+        raise ValueError(f"{path}: {what} must be a regular file or a ROS 2 bag folder, "
                          "not a pipe, FIFO, socket or device")

@@ -1,6 +1,8 @@
 import io
 import json
 import math
+import os
+import re
 
 import numpy as np
 import pytest
@@ -178,3 +180,93 @@ def test_annotated_bag_read_back(tmp_path):
             assert marker.type == 11 and len(marker.points) == 3 * mask.sum()
             assert marker.header.frame_id == "laser"
         assert not list(tmp_path.glob(".*tmp"))
+
+
+def refused(match, path, **kw):
+    with pytest.raises(ValueError, match=re.escape(match)):
+        run(path, **kw)
+
+
+def test_missing_and_wrong_topics_list_the_laserscan_topics(tmp_path):
+    items = {"/front": [(LASERSCAN, lambda s: scan_msg(s, np.full(181, 5.0)))],
+             "/rear": [(LASERSCAN, lambda s: scan_msg(s, np.full(181, 5.0)))],
+             "/chatter": [("std_msgs/msg/String",
+                           lambda s: s.types["std_msgs/msg/String"]("hi"))]}
+    path = write_bag(tmp_path / "t.mcap", items)
+    refused("t.mcap has no topic '/scan'; its LaserScan topics: /front, /rear", path,
+            topic="/scan")
+    refused("t.mcap is not a LaserScan topic '/chatter'; its LaserScan topics: /front, /rear",
+            path, topic="/chatter")
+    refused("pass --topic, one of the LaserScan topics: /front, /rear", path)
+    empty = write_bag(tmp_path / "e.bag", {"/chatter": items["/chatter"]})
+    refused("e.bag has no topic '/scan'; its LaserScan topics: none", empty, topic="/scan")
+
+
+@pytest.mark.parametrize("kind", ["bag", "db3", "mcap"])
+def test_damaged_and_truncated_bags_are_refused(tmp_path, kind):
+    good = scans_bag(tmp_path / f"g.{kind}", np.full((40, 361), 5.0))
+    data = good.read_bytes()
+    for name, cut in (("half", data[: len(data) // 2]), ("head", data[:30]),
+                      ("noise", b"\x00garbage" * 50)):
+        path = tmp_path / f"{name}.{kind}"
+        path.write_bytes(cut)
+        with pytest.raises(ValueError, match=re.escape(f"{path}: damaged")) as info:
+            run(path)
+        assert "\n" not in str(info.value) and len(str(info.value)) < 300
+
+
+def test_a_truncated_db3_is_checked_against_its_header(tmp_path):
+    good = scans_bag(tmp_path / "g.db3", np.full((200, 361), 5.0))
+    cut = tmp_path / "cut.db3"
+    cut.write_bytes(good.read_bytes()[:-4096])  # whole pages gone: rosbags alone reads on
+    refused(f"{cut}: damaged bag: truncated ({cut.stat().st_size} bytes, its SQLite header "
+            f"states {good.stat().st_size})", cut)
+
+
+def test_a_damaged_bag_folder_is_refused(tmp_path):
+    folder = scans_bag(tmp_path / "f", np.full((2, 181), 5.0), kind="mcap-folder")
+    (folder / "metadata.yaml").write_text("rosbag2_bagfile_information: [")
+    refused(f"{folder}: damaged or unreadable bag", folder)
+
+
+@pytest.mark.parametrize(
+    ("fields", "match"),
+    [
+        ({"angle_increment": math.pi / 90},
+         "message 1: angle_increment disagrees with the angles and the count: angle_min + "
+         "(M - 1) * angle_increment = 4.71239 rad but angle_max = 1.5708 rad (M = 181"),
+        ({"range_min": 5.0, "range_max": 5.0},
+         "message 1: range_min and range_max must be finite with 0 <= range_min < range_max, "
+         "got range_min=5.0, range_max=5.0"),
+        ({"range_min": 6.0, "range_max": 2.0}, "range_min=6.0, range_max=2.0"),
+    ],
+)
+def test_bad_messages_are_refused_by_index(tmp_path, fields, match):
+    items = [(LASERSCAN, lambda s: scan_msg(s, np.full(181, 5.0))),
+             (LASERSCAN, lambda s: scan_msg(s, np.full(181, 5.0), **fields))]
+    refused(match, write_bag(tmp_path / "b.bag", {"/scan": items}))
+
+
+def test_special_files_are_refused_without_opening_them(tmp_path):
+    fifo = tmp_path / "live.bag"
+    os.mkfifo(fifo)
+    refused(f"{fifo}: a bag must be a regular file or a ROS 2 bag folder, not a pipe", fifo)
+    folder = tmp_path / "folder"
+    folder.mkdir()
+    (folder / "metadata.yaml").write_text("x")
+    os.mkfifo(folder / "x.db3")
+    refused("x.db3: a bag must be a regular file", folder)
+
+
+def test_out_bag_never_overwrites_the_input(tmp_path):
+    single = scans_bag(tmp_path / "s.mcap", np.full((2, 181), 5.0))
+    folder = scans_bag(tmp_path / "in", np.full((2, 181), 5.0), kind="db3-folder")
+    before = {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    for src, out in ((single, single), (folder, folder), (folder, folder / "x.db3"),
+                     (folder, tmp_path), (single, tmp_path), (single, tmp_path / ".")):
+        refused("--out-bag must not be the input bag, a path inside it or a folder holding it",
+                src, out_bag=out)
+    assert before == {p: p.read_bytes() for p in tmp_path.rglob("*") if p.is_file()}
+    fifo = tmp_path / "out.mcap"
+    os.mkfifo(fifo)
+    refused("--out-bag must be a regular file", single, out_bag=fifo)
