@@ -21,10 +21,16 @@ ADD, DELETE = 0, 2
 
 
 def typestore(ros1: bool) -> Any:
-    """The rosbags typestore messages are written with: ROS 1 Noetic or ROS 2 Humble."""
-    from rosbags.typesys import Stores, get_typestore
+    """The rosbags typestore messages are written with: ROS 1 Noetic (with ``tf2_msgs/TFMessage``,
+    which rosbags' Noetic store lacks) or ROS 2 Humble."""
+    from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
-    return get_typestore(Stores.ROS1_NOETIC if ros1 else Stores.ROS2_HUMBLE)
+    if not ros1:
+        return get_typestore(Stores.ROS2_HUMBLE)
+    store = get_typestore(Stores.ROS1_NOETIC)
+    store.register(get_types_from_msg("geometry_msgs/TransformStamped[] transforms",
+                                      "tf2_msgs/msg/TFMessage"))
+    return store
 
 
 def _zero(store: Any, node: tuple) -> Any:
