@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.limits import MAX_BEAMS, check_limit
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.pipeline import Pipeline
 from fftnav.observe.safe import safe_sectors_rad
@@ -34,7 +35,7 @@ from fftnav.ros import messages as rosmsg
 from fftnav.ros.laserscan import Layout, layout_of, rep117_ranges
 
 __all__ = ["BATCH_READINGS", "LASERSCAN", "AnnotatedBag", "BagFile", "check_bag",
-           "check_out_bag", "open_bag", "scan_bag"]
+           "check_out_bag", "deserialize", "messages", "open_bag", "scan_bag"]
 
 LASERSCAN = "sensor_msgs/msg/LaserScan"
 MARKER_ARRAY = "visualization_msgs/msg/MarkerArray"
@@ -102,7 +103,7 @@ def _reader_errors() -> tuple[type[BaseException], ...]:
 
     return (AnyReaderError, Reader1Error, Reader2Error, SerdeError, TypesysError,
             sqlite3.DatabaseError, struct.error, EOFError, zlib.error, UnicodeDecodeError,
-            KeyError, IndexError, AssertionError)
+            KeyError, IndexError, AssertionError, ValueError)
 
 
 class _AnyCase(dict):
@@ -133,18 +134,48 @@ def _reader(path: Path) -> Any:
 
 
 @contextlib.contextmanager
-def open_bag(path: str | Path) -> Iterator[Any]:
-    """An open rosbags ``AnyReader`` of a checked bag (:func:`check_bag`); damage found while
-    it is open (opening, reading a message) becomes one ValueError naming the bag."""
-    require_rosbags()
-    path = check_bag(path)
-    errors = _reader_errors()
+def _damage(path: Path) -> Iterator[None]:
+    """Turn what rosbags raises on a damaged bag into one ValueError naming the bag."""
     try:
-        with _reader(path) as reader:
-            yield reader
-    except errors as exc:
+        yield
+    except _reader_errors() as exc:
         text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         raise ValueError(f"{path}: damaged or unreadable bag: {text}") from None
+
+
+@contextlib.contextmanager
+def open_bag(path: str | Path) -> Iterator[Any]:
+    """An open rosbags ``AnyReader`` of a checked bag (:func:`check_bag`); damage found while
+    opening it becomes one ValueError naming the bag (:func:`messages` and
+    :func:`deserialize` do the same for what is read later)."""
+    require_rosbags()
+    path = check_bag(path)
+    with _damage(path):
+        reader = _reader(path)
+        reader.open()
+    try:
+        yield reader
+    finally:
+        with contextlib.suppress(Exception):
+            reader.close()
+
+
+def messages(reader: Any, path: Path, connections: Any) -> Iterator[tuple[Any, int, bytes]]:
+    """``reader.messages(connections=...)``, damage becoming one ValueError naming the bag."""
+    stream = reader.messages(connections=connections)
+    while True:
+        with _damage(path):
+            try:
+                item = next(stream)
+            except StopIteration:
+                return
+        yield item
+
+
+def deserialize(reader: Any, path: Path, raw: bytes, msgtype: str) -> Any:
+    """A message from its bytes; a damaged message is one ValueError naming the bag."""
+    with _damage(path):
+        return reader.deserialize(raw, msgtype)
 
 
 def laserscan_topics(reader: Any) -> list[str]:
@@ -190,6 +221,7 @@ def _read_scan(msg: Any, index: int, timestamp: int, path: Path, range_m: float 
                          f"0 <= range_min < range_max, got range_min={rmin!r}, "
                          f"range_max={rmax!r}")
     ranges = np.asarray(msg.ranges)
+    check_limit(f"{where}: beams", len(ranges), MAX_BEAMS)
     layout = layout_of(float(msg.angle_min), float(msg.angle_max),
                        float(msg.angle_increment), len(ranges), where=where)
     r = rmax if range_m is None else range_m
@@ -225,8 +257,8 @@ class _Batch:
     """Messages in bag order until a batch is full: the scans (processed together, one
     pipeline per layout and range) and, for the annotated bag, the other topics' messages."""
 
-    def __init__(self, geometry: RobotGeometry) -> None:
-        self.geometry = geometry
+    def __init__(self, geometry: RobotGeometry, path: Path) -> None:
+        self.geometry, self.path = geometry, path
         self.pipes: dict[tuple, Pipeline] = {}
         self.items: list[tuple[Any, int, bytes, _Scan | None]] = []
         self.readings = self.bytes = 0
@@ -238,29 +270,45 @@ class _Batch:
         self.bytes += len(raw)
         return self.readings >= BATCH_READINGS or self.bytes >= BATCH_BYTES
 
-    def process(self) -> list[tuple[Any, int, bytes, _Scan | None]]:
-        """Run the pipeline on the held scans; return and forget the held messages."""
-        groups: dict[tuple, list[_Scan]] = {}
-        for *_, scan in self.items:
-            if scan is not None:
-                lay = scan.layout
-                groups.setdefault((lay.beams, lay.fov_rad, scan.range_m), []).append(scan)
-        for key, scans in groups.items():
-            if key not in self.pipes:
+    def _pipeline(self, scan: _Scan) -> Pipeline:
+        """The pipeline of a scan's layout and range, made on first use."""
+        lay = scan.layout
+        key = (lay.beams, lay.fov_rad, scan.range_m)
+        if key not in self.pipes:
+            try:
                 self.pipes[key] = Pipeline(self.geometry, beams=key[0], fov_rad=key[1],
                                            range_m=key[2])
-            res = self.pipes[key].process(np.stack([s.ranges for s in scans]))
+            except ValueError as exc:
+                raise ValueError(f"{self.path}: message {scan.index}: {exc}") from None
+        return self.pipes[key]
+
+    def process(self) -> tuple[list[tuple[Any, int, bytes, _Scan | None]], ValueError | None]:
+        """Run the pipeline on the held scans; return and forget the held messages. A scan no
+        pipeline can take ends the batch before it: (the messages before it, its error)."""
+        groups: dict[int, list[_Scan]] = {}
+        error = None
+        for k, (*_, scan) in enumerate(self.items):
+            if scan is not None:
+                try:
+                    pipe = self._pipeline(scan)
+                except ValueError as exc:
+                    error, self.items = exc, self.items[:k]
+                    break
+                groups.setdefault(id(pipe), []).append(scan)
+        for scans in groups.values():
+            res = self._pipeline(scans[0]).process(np.stack([s.ranges for s in scans]))
             for j, scan in enumerate(scans):
                 scan.result, scan.row = res, j
         items, self.items, self.readings, self.bytes = self.items, [], 0, 0
-        return items
+        return items, error
 
 
 def scan_bag(path: str | Path, *, topic: str | None, geometry: RobotGeometry,
              range_m: float | None, write: Callable[[str], Any],
              out_bag: str | Path | None = None) -> int:
     """Run the pipeline on every LaserScan of ``topic`` in a bag; ``write`` gets one JSON line
-    per message, in bag order. Returns the number of messages.
+    per message, in bag order (up to a bad message, which then raises ValueError). Returns the
+    number of messages.
 
     Parameters
     ----------
@@ -287,29 +335,34 @@ def scan_bag(path: str | Path, *, topic: str | None, geometry: RobotGeometry,
         writer = None
         if out_bag is not None:
             writer = stack.enter_context(AnnotatedBag(out_bag, reader, path))
-        batch = _Batch(geometry)
+        batch = _Batch(geometry, path)
 
         def flush() -> None:
-            for conn, timestamp, raw, scan in batch.process():
+            items, error = batch.process()
+            for conn, timestamp, raw, scan in items:
                 if scan is not None:
                     write(json.dumps(_row(scan, name), separators=(",", ":")) + "\n")
                 if writer is not None:
                     writer.copy(conn, timestamp, raw)
                     if scan is not None:
                         writer.annotate(scan)
+            if error is not None:
+                raise error
 
-        for conn, timestamp, raw in reader.messages(
-                connections=reader.connections if writer is not None else conns):
-            scan = None
-            if conn.topic == name:
-                scan = _read_scan(reader.deserialize(raw, conn.msgtype), count, timestamp,
-                                  path, range_m)
-                count += 1
-            elif writer is not None and conn.topic in (SAFE_SCAN, SAFE_DIRECTIONS):
-                continue  # an annotated bag's annotations are written anew
-            if batch.add(conn, timestamp, raw if writer is not None else b"", scan):
-                flush()
-        flush()
+        try:
+            for conn, timestamp, raw in messages(
+                    reader, path, reader.connections if writer is not None else conns):
+                scan = None
+                if conn.topic == name:
+                    scan = _read_scan(deserialize(reader, path, raw, conn.msgtype), count,
+                                      timestamp, path, range_m)
+                    count += 1
+                elif writer is not None and conn.topic in (SAFE_SCAN, SAFE_DIRECTIONS):
+                    continue  # an annotated bag's annotations are written anew
+                if batch.add(conn, timestamp, raw if writer is not None else b"", scan):
+                    flush()
+        finally:  # the lines of the messages before a bad one are not lost
+            flush()
     return count
 
 

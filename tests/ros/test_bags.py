@@ -238,13 +238,19 @@ def test_a_damaged_bag_folder_is_refused(tmp_path):
         ({"range_min": 5.0, "range_max": 5.0},
          "message 1: range_min and range_max must be finite with 0 <= range_min < range_max, "
          "got range_min=5.0, range_max=5.0"),
-        ({"range_min": 6.0, "range_max": 2.0}, "range_min=6.0, range_max=2.0"),
+        ({"range_min": 6.0, "range_max": 2.0}, "message 1: range_min and range_max must be "
+         "finite with 0 <= range_min < range_max, got range_min=6.0, range_max=2.0"),
+        ({"range_max": 1.0}, "message 1: range_m must be finite and >= l_th_m=1.69"),
     ],
 )
 def test_bad_messages_are_refused_by_index(tmp_path, fields, match):
     items = [(LASERSCAN, lambda s: scan_msg(s, np.full(181, 5.0))),
              (LASERSCAN, lambda s: scan_msg(s, np.full(181, 5.0), **fields))]
-    refused(match, write_bag(tmp_path / "b.bag", {"/scan": items}))
+    path = write_bag(tmp_path / "b.bag", {"/scan": items})
+    lines = []
+    with pytest.raises(ValueError, match=re.escape(f"{path}: {match}")):
+        scan_bag(path, topic=None, geometry=REAL_ROBOT, range_m=None, write=lines.append)
+    assert [json.loads(line)["index"] for line in lines] == [0]  # the line before is kept
 
 
 def test_special_files_are_refused_without_opening_them(tmp_path):
