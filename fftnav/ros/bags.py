@@ -399,7 +399,10 @@ class BagFile:
         from rosbags.rosbag2 import StoragePlugin
         from rosbags.rosbag2 import Writer as Writer2
 
-        self.out, self.ros1, self.storage, self.single = Path(out), ros1, storage, single
+        out = Path(out)
+        # a symbolic link is written through, not replaced by the bag
+        self.out = out.resolve() if out.is_symlink() else out
+        self.ros1, self.storage, self.single = ros1, storage, single
         self.tmp = self.out.parent / f".{self.out.name}.{os.getpid()}.tmp"
         shutil.rmtree(self.tmp, ignore_errors=True)
         self.tmp.mkdir(parents=True)

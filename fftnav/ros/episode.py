@@ -39,6 +39,9 @@ def check_episode_bag(path: str | Path) -> tuple[bool, str | None]:
     suffix = Path(path).suffix.lower()
     if suffix not in _KINDS:
         raise ValueError(f"--bag must end in .mcap, .db3 or .bag, got --bag={str(path)!r}")
+    if Path(path).exists() and not Path(path).resolve().is_file():
+        raise ValueError(f"--bag must be a file path, not a folder, pipe or device, got "
+                         f"--bag={str(path)!r}")
     require_rosbags()
     return _KINDS[suffix]
 

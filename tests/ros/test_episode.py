@@ -62,3 +62,24 @@ def test_bag_suffixes(world, tmp_path):
     with pytest.raises(ValueError, match=r"--bag must end in \.mcap, \.db3 or \.bag, got "
                                          r"--bag='x\.json'"):
         EpisodeBag("x.json", world, CONFIG)
+
+
+def test_special_targets_are_refused_and_links_written_through(world, tmp_path):
+    import os
+
+    fifo = tmp_path / "f.mcap"
+    os.mkfifo(fifo)
+    with pytest.raises(ValueError, match=r"--bag must be a file path, not a folder, pipe or "
+                                         r"device, got --bag='.*f\.mcap'"):
+        EpisodeBag(fifo, world, CONFIG)
+    (tmp_path / "d.mcap").mkdir()
+    with pytest.raises(ValueError, match="not a folder"):
+        EpisodeBag(tmp_path / "d.mcap", world, CONFIG)
+    real = tmp_path / "real.mcap"
+    real.write_bytes(b"old")
+    link = tmp_path / "link.mcap"
+    link.symlink_to(real)
+    with EpisodeBag(link, world, CONFIG) as bag:
+        run_episode(world, "fusion", seed=2, config=CONFIG.replace({"time_limit_s": "0.5"}),
+                    on_tick=bag)
+    assert link.is_symlink() and real.read_bytes()[:8] == b"\x89MCAP0\r\n"
