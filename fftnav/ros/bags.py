@@ -34,7 +34,7 @@ from fftnav.ros import check_not_special, require_rosbags
 from fftnav.ros import messages as rosmsg
 from fftnav.ros.laserscan import Layout, layout_of, rep117_ranges
 
-__all__ = ["BATCH_READINGS", "LASERSCAN", "AnnotatedBag", "BagFile", "check_bag",
+__all__ = ["BATCH_READINGS", "LASERSCAN", "AnnotatedBag", "BagFile", "BagWriter", "check_bag",
            "check_out_bag", "deserialize", "messages", "open_bag", "scan_bag"]
 
 LASERSCAN = "sensor_msgs/msg/LaserScan"
@@ -446,34 +446,22 @@ class BagFile:
         shutil.rmtree(self.tmp, ignore_errors=True)
 
 
-class AnnotatedBag:
-    """The annotated bag of :func:`scan_bag`, written through a :class:`BagFile`.
+class BagWriter:
+    """A bag written through a :class:`BagFile` in a ``with`` block: :meth:`setup` runs on
+    entry; the bag is moved into place when the block ends without error, dropped otherwise."""
 
-    It holds the input's topics (converted when the kinds differ, by rosbags) and per scan:
+    def __init__(self, out: str | Path, *, ros1: bool, storage: str | None,
+                 single: bool) -> None:
+        self.out, self.ros1, self.storage, self.single = Path(out), ros1, storage, single
 
-    - ``/fftnav/safe_scan``, a LaserScan of the same beams: ``y1 * R`` on safe beams and NaN
-      (REP 117 "invalid", which viewers leave out) elsewhere;
-    - ``/fftnav/safe_directions``, a MarkerArray: one triangle-list marker holding a wedge per
-      safe beam, ``y1 * R`` long and one increment wide, in the scan's frame.
-    """
+    def setup(self) -> None:
+        """Add the connections (and messages) the bag starts with."""
 
-    def __init__(self, out: str | Path, reader: Any, bag: Path) -> None:
-        self.out, self.reader, self.bag = Path(out), reader, bag
-
-    def __enter__(self) -> AnnotatedBag:
-        from rosbags.convert.converter import create_connections_converters
-
-        ros1, storage, single = _out_kind(self.out, self.bag)
-        self.file = BagFile(self.out, ros1=ros1, storage=storage, single=single)
-        self.ros1, self.store = ros1, self.file.store
+    def __enter__(self) -> Any:
+        self.file = BagFile(self.out, ros1=self.ros1, storage=self.storage, single=self.single)
+        self.store = self.file.store
         try:
-            copied = [c for c in self.reader.connections
-                      if c.topic not in (SAFE_SCAN, SAFE_DIRECTIONS)]
-            with contextlib.redirect_stdout(io.StringIO()):  # rosbags prints what it migrates
-                self.connmap, self.convmap = create_connections_converters(
-                    copied, None, self.reader, self.file.writer)
-            self.scan_conn = self.file.add(SAFE_SCAN, LASERSCAN)
-            self.marker_conn = self.file.add(SAFE_DIRECTIONS, MARKER_ARRAY)
+            self.setup()
         except BaseException:
             self.file.discard()
             raise
@@ -484,6 +472,34 @@ class AnnotatedBag:
             self.file.close()
         else:
             self.file.discard()
+
+
+class AnnotatedBag(BagWriter):
+    """The annotated bag of :func:`scan_bag`.
+
+    It holds the input's topics (converted when the kinds differ, by rosbags) and per scan:
+
+    - ``/fftnav/safe_scan``, a LaserScan of the same beams: ``y1 * R`` on safe beams and NaN
+      (REP 117 "invalid", which viewers leave out) elsewhere;
+    - ``/fftnav/safe_directions``, a MarkerArray: one triangle-list marker holding a wedge per
+      safe beam, ``y1 * R`` long and one increment wide, in the scan's frame.
+    """
+
+    def __init__(self, out: str | Path, reader: Any, bag: Path) -> None:
+        ros1, storage, single = _out_kind(Path(out), bag)
+        super().__init__(out, ros1=ros1, storage=storage, single=single)
+        self.reader = reader
+
+    def setup(self) -> None:
+        from rosbags.convert.converter import create_connections_converters
+
+        copied = [c for c in self.reader.connections
+                  if c.topic not in (SAFE_SCAN, SAFE_DIRECTIONS)]
+        with contextlib.redirect_stdout(io.StringIO()):  # rosbags prints what it migrates
+            self.connmap, self.convmap = create_connections_converters(
+                copied, None, self.reader, self.file.writer)
+        self.scan_conn = self.file.add(SAFE_SCAN, LASERSCAN)
+        self.marker_conn = self.file.add(SAFE_DIRECTIONS, MARKER_ARRAY)
 
     def copy(self, conn: Any, timestamp: int, raw: bytes) -> None:
         """Write an input message again."""

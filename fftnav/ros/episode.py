@@ -25,7 +25,7 @@ from fftnav.config import SwarmConfig
 from fftnav.navigation.controllers import SwarmStep
 from fftnav.ros import messages as rosmsg
 from fftnav.ros import require_rosbags
-from fftnav.ros.bags import LASERSCAN, MARKER_ARRAY, BagFile
+from fftnav.ros.bags import LASERSCAN, MARKER_ARRAY, BagWriter
 from fftnav.world.model import World
 
 __all__ = ["EpisodeBag", "check_episode_bag"]
@@ -46,7 +46,7 @@ def check_episode_bag(path: str | Path) -> tuple[bool, str | None]:
     return _KINDS[suffix]
 
 
-class EpisodeBag:
+class EpisodeBag(BagWriter):
     """The bag of one episode; use as a context manager and pass it as ``on_tick``.
 
     Parameters
@@ -62,34 +62,19 @@ class EpisodeBag:
 
     def __init__(self, path: str | Path, world: World, config: SwarmConfig) -> None:
         ros1, storage = check_episode_bag(path)
-        self.path, self.world, self.config = Path(path), world, config
+        super().__init__(path, ros1=ros1, storage=storage, single=True)
+        self.world, self.config = world, config
         self.angles = config.pipeline().angles_rad
-        self.ros1, self.storage = ros1, storage
         self.conns: dict[str, Any] = {}
-
-    def __enter__(self) -> EpisodeBag:
-        self.file = BagFile(self.path, ros1=self.ros1, storage=self.storage, single=True)
-        self.s = self.file.store
-        try:
-            self._world()
-        except BaseException:
-            self.file.discard()
-            raise
-        return self
-
-    def __exit__(self, kind: Any, exc: Any, tb: Any) -> None:
-        if kind is None:
-            self.file.close()
-        else:
-            self.file.discard()
 
     def _put(self, topic: str, msgtype: str, t_ns: int, msg: Any) -> None:
         if topic not in self.conns:
             self.conns[topic] = self.file.add(topic, msgtype)
         self.file.write(self.conns[topic], t_ns, msg)
 
-    def _world(self) -> None:
-        s = self.s
+    def setup(self) -> None:
+        """Write ``/world``."""
+        s = self.store
         head = rosmsg.header(s, 0.0, "map")
         edges = []
         for obstacle in self.world.solids:
@@ -114,7 +99,7 @@ class EpisodeBag:
     def __call__(self, step: SwarmStep, scans: np.ndarray, commands: np.ndarray,
                  outgoing: dict[int, bytes]) -> None:
         """Write one control tick (:data:`fftnav.episode.loop.OnTick`)."""
-        s, t_ns = self.s, round(step.time_s * 1e9)
+        s, t_ns = self.store, round(step.time_s * 1e9)
         when = rosmsg.stamp(s, step.time_s)
         poses = np.asarray(step.poses, dtype=float)
         present = np.flatnonzero(step.present_mask())
@@ -140,27 +125,27 @@ class EpisodeBag:
     def _scan(self, when: Any, frame: str, ranges: np.ndarray) -> Any:
         a = self.angles
         return rosmsg.make(
-            self.s, LASERSCAN, header=rosmsg.header(self.s, when, frame),
+            self.store, LASERSCAN, header=rosmsg.header(self.store, when, frame),
             angle_min=float(a[0]), angle_max=float(a[-1]), angle_increment=float(a[1] - a[0]),
             scan_time=1.0 / self.config.episode.control_hz, range_min=0.0,
             range_max=float(self.config.sensor.range_m),
             ranges=np.asarray(ranges, dtype=np.float32))
 
     def _pose(self, pose: np.ndarray) -> Any:
-        s = self.s
+        s = self.store
         return rosmsg.make(s, "geometry_msgs/msg/Pose",
                            position=rosmsg.point(s, pose[0], pose[1]),
                            orientation=rosmsg.yaw_quaternion(s, float(pose[2])))
 
     def _twist(self, command: np.ndarray) -> Any:
-        s = self.s
+        s = self.store
         return rosmsg.make(s, "geometry_msgs/msg/Twist",
                            linear=rosmsg.make(s, "geometry_msgs/msg/Vector3", x=float(command[0])),
                            angular=rosmsg.make(s, "geometry_msgs/msg/Vector3",
                                                z=float(command[1])))
 
     def _transform(self, when: Any, i: int, pose: np.ndarray) -> Any:
-        s = self.s
+        s = self.store
         return rosmsg.make(
             s, "geometry_msgs/msg/TransformStamped", header=rosmsg.header(s, when, "map"),
             child_frame_id=f"robot_{i}/base_link",
