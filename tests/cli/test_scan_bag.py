@@ -78,11 +78,6 @@ def test_a_fifo_is_refused_without_opening_it(tmp_path):
     fifo = tmp_path / "live.bag"
     os.mkfifo(fifo)
     refused(run(fifo, timeout=60), "not a pipe, FIFO, socket or device")
-    folder = tmp_path / "folder"
-    folder.mkdir()
-    (folder / "metadata.yaml").write_text("x")
-    os.mkfifo(folder / "x.db3")
-    refused(run(folder, timeout=60), "not a pipe, FIFO, socket or device")
 
 
 def test_out_bag_equal_to_the_input_is_refused(bag):
@@ -97,9 +92,7 @@ def test_capital_names_read_and_write(tmp_path, bag):
     assert run(bag, "--out-bag", big).returncode == 0
     proc = run(big, "--topic", "/scan")
     assert proc.returncode == 0, proc.stderr
-    upper = tmp_path / "B.BAG"
-    upper.write_bytes(bag.read_bytes())
-    assert run(upper).stdout == run(bag).stdout
+    assert proc.stdout.count("\n") == 3  # .BAG and .DB3 inputs: tests/ros/test_bags.py
 
 
 def test_without_rosbags_one_line_says_how_to_install(bag):
