@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import os
 import sys
 from collections import Counter
@@ -77,9 +78,15 @@ def cmd_episode(args: argparse.Namespace) -> int:
     config = SwarmConfig().replace(_overrides(args.set or []))
     if args.record:
         _check_writable("--record", args.record)
+    if args.bag:
+        from fftnav.ros.episode import EpisodeBag, check_episode_bag
+
+        check_episode_bag(args.bag)
+        _check_writable("--bag", args.bag)
     world = load_world(args.world)
-    result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui,
-                         record=bool(args.record))
+    with EpisodeBag(args.bag, world, config) if args.bag else contextlib.nullcontext() as bag:
+        result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui,
+                             record=bool(args.record), on_tick=bag)
     text = episode_csv(result.rows)
     if args.out:
         Path(args.out).parent.mkdir(parents=True, exist_ok=True)
@@ -114,6 +121,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--record", metavar="R.npz",
                    help="write the episode's recording to exactly this path (what every robot "
                    "saw, decided and sent per tick; view it with 'fftnav replay')")
+    p.add_argument("--bag", metavar="B.mcap",
+                   help="write the episode as a ROS bag (.mcap, .db3 or ROS 1 .bag; extra "
+                   "fftnav[ros]): /world, /tf, /robot_i/scan, odom, cmd_vel, messages")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a parameter, e.g. --set time_limit_s=60 or "
                    "--set comms.packet_loss=0.2 (repeatable; keys of docs/experiments.md)")

@@ -22,7 +22,13 @@ def cmd_scan(args: argparse.Namespace) -> int:
     from fftnav.observe.pipeline import Pipeline
     from fftnav.observe.safe import safe_sectors_rad
     from fftnav.observe.scanio import read_scans
+    from fftnav.ros import is_bag
 
+    if is_bag(args.file):
+        return _scan_bag(args)
+    if args.topic is not None or args.out_bag is not None:
+        raise ValueError(f"--topic and --out-bag need a bag (.bag, .db3, .mcap or a ROS 2 bag "
+                         f"folder), got {args.file!r}")
     data = read_scans(args.file, format=args.format)
     check_limit(f"{args.file}: beams per scan", data.ranges.shape[1], MAX_BEAMS)
     carmen = data.format == "carmen"
@@ -55,6 +61,22 @@ def cmd_scan(args: argparse.Namespace) -> int:
     return 0
 
 
+def _scan_bag(args: argparse.Namespace) -> int:
+    """``fftnav scan BAG``: the LaserScans of a topic (:func:`fftnav.ros.bags.scan_bag`); the
+    real robot by default, as for CARMEN logs, and R from each message's ``range_max``."""
+    from fftnav.observe.geometry import REAL_ROBOT, RobotGeometry
+    from fftnav.ros.bags import scan_bag
+
+    if args.fov is not None or args.format != "auto":
+        raise ValueError("--fov and --format do not apply to bags: each LaserScan gives its own "
+                         "field of view")
+    geometry = RobotGeometry(r0_m=REAL_ROBOT.r0_m if args.r0 is None else args.r0,
+                             r_m=REAL_ROBOT.r_m if args.r is None else args.r)
+    scan_bag(args.file, topic=args.topic, geometry=geometry, range_m=args.range,
+             write=sys.stdout.write, out_bag=args.out_bag)
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser(
         "scan",
@@ -62,15 +84,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         description=(
             "Run the FFT observation pipeline on every scan of FILE and print one JSON object "
             "per scan. Defaults: the paper's simulation robot (r0=0.15, r=0.3), R=3 m, 360 deg; "
-            "for CARMEN logs the real robot (r0=0.29, r=0.7), R=10 m, 180 deg."
+            "for CARMEN logs the real robot (r0=0.29, r=0.7), R=10 m, 180 deg; for ROS bags "
+            "the real robot, with R and the field of view of each LaserScan."
         ),
     )
     p.add_argument(
-        "file", metavar="FILE", help=".npy (M or K x M), .csv (one scan per row), .log[.gz]"
+        "file", metavar="FILE", help=".npy (M or K x M), .csv (one scan per row), .log[.gz], "
+        "or a ROS bag: .bag, .db3, .mcap or a ROS 2 bag folder (extra fftnav[ros])"
     )
     p.add_argument("--format", choices=("auto", "npy", "csv", "carmen"), default="auto")
     p.add_argument("--r0", type=float, metavar="M", help="lateral collision radius r0 (m)")
     p.add_argument("--r", type=float, metavar="M", help="protective radius r (m)")
     p.add_argument("--range", type=float, metavar="M", help="maximum range R (m)")
     p.add_argument("--fov", type=float, metavar="DEG", help="field of view (degrees)")
+    p.add_argument("--topic", metavar="T", help="bags: the LaserScan topic (default: the only one)")
+    p.add_argument("--out-bag", metavar="OUT",
+                   help="bags: write the bag again with /fftnav/safe_scan and "
+                   "/fftnav/safe_directions (docs/pipeline.md, \"Your robot's data\")")
     p.set_defaults(func=cmd_scan)

@@ -33,7 +33,12 @@ from fftnav.sim.swarm import Observation, SimConfig, SwarmSim
 from fftnav.validate import check_integer
 from fftnav.world.model import World
 
-__all__ = ["positions_by_tick", "run_episode"]
+__all__ = ["OnTick", "positions_by_tick", "run_episode"]
+
+#: ``on_tick(step, scans, commands, outgoing)`` of :func:`run_episode`: the swarm at a control
+#: tick, every robot's raw lidar ranges ``(N, M)`` (m; rows of robots not in ``step.active``
+#: are stale), the commands ``(N, 2)`` (v m/s, omega rad/s) and the messages sent, by robot.
+OnTick = Callable[[SwarmStep, np.ndarray, np.ndarray, dict[int, bytes]], None]
 
 
 def _seeds(seed: int) -> tuple[int, np.random.Generator]:
@@ -92,8 +97,9 @@ class _Onboard:
     """The robots' software: FFT pipeline, message channel and the controller."""
 
     def __init__(self, world: World, method: Resolved, config: SwarmConfig,
-                 rng: np.random.Generator, tape: Tape | None = None) -> None:
-        self.config, self.rng, self.tape = config, rng, tape
+                 rng: np.random.Generator, tape: Tape | None = None,
+                 on_tick: OnTick | None = None) -> None:
+        self.config, self.rng, self.tape, self.on_tick = config, rng, tape, on_tick
         self.pipe = config.pipeline()
         n = len(world.starts)
         self.goals = np.asarray(world.goals, dtype=np.float64)
@@ -148,6 +154,8 @@ class _Onboard:
                                    active=active)
         if self.tape is not None:
             self._record(step, commands, outgoing)
+        if self.on_tick is not None:
+            self.on_tick(step, obs.scans, commands, outgoing)
         return commands
 
     def _record(self, step: SwarmStep, commands: np.ndarray, outgoing: dict[int, bytes]
@@ -218,6 +226,7 @@ def run_episode(
     gui: bool = False,
     reference: tuple[np.ndarray, np.ndarray] | None = None,
     record: bool = False,
+    on_tick: OnTick | None = None,
 ) -> EpisodeResult:
     """Run every robot of ``world`` to its goal under decision ``policy``.
 
@@ -244,6 +253,10 @@ def run_episode(
     record : bool
         Keep the episode's recording (:mod:`fftnav.episode.recording`) in the result's
         ``tape``; the rows do not change.
+    on_tick : callable, optional
+        Called at every control tick, after the controller decided and before the simulator
+        advances (:data:`OnTick`); ``fftnav episode --bag`` writes the bag from it. The rows do
+        not change.
 
     Returns
     -------
@@ -272,7 +285,7 @@ def run_episode(
     method = resolve(policy)
     sim_seed, rng = _seeds(seed)
     tape = Tape(world, cfg, method.name, seed, cfg.pipeline().angles_rad) if record else None
-    onboard = _Onboard(world, method, cfg, rng, tape)
+    onboard = _Onboard(world, method, cfg, rng, tape, on_tick)
     optimal, geodesic = (_reference_lengths(world.to_json(), cfg.robot.r0_m)  # unreachable: fail
                          if reference is None else reference)
     with SwarmSim(world, config=SimConfig.for_swarm(cfg), gui=gui) as sim:
