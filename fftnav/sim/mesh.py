@@ -83,8 +83,8 @@ class Tile:
     meshes : tuple of numpy.ndarray
         The obstacle indices of each of its meshes (each below Bullet's limits).
     box : tuple of float
-        ``(xmin, ymin, xmax, ymax)`` (m) containing every obstacle of the tile's bounding
-        circle.
+        ``(xmin, ymin, xmax, ymax)`` (m): the smallest box holding the bounding circles of the
+        tile's obstacles (which may reach past its 10 m square).
     """
 
     meshes: tuple[np.ndarray, ...]

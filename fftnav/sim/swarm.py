@@ -232,7 +232,7 @@ class SwarmSim:
                                                (o.bounding_circle() for o in solids)],
                                        lazy=True) if fastrays.AVAILABLE else None
         #: Bullet shapes of each tile once made (per client), and the bodies of the built tiles.
-        self._tile_shapes: dict[int, list[tuple[int, int]]] = {}
+        self._tile_shapes: dict[int, list[tuple[int, ...]]] = {}
         self._tile_bodies: dict[int, list[tuple[int, int]]] = {}
         #: Tiles built before the first robot: those near the starts (all of a one-mesh world).
         self._reach_m = max(cfg.sensor.range_m,
@@ -246,7 +246,7 @@ class SwarmSim:
             self._build_tiles([0])
         else:
             self._build_near(self.world.starts[:, :2])
-        self._first_tiles = sorted(self._tile_bodies)
+        self._first_tiles = set(self._tile_bodies)
         self._robots = [self._add_robot(x, y, yaw) for x, y, yaw in self.world.starts]
         self._start_poses = [([x, y, cfg.robot.r0_m], p.getQuaternionFromEuler([0.0, 0.0, yaw]))
                              for x, y, yaw in self.world.starts]
@@ -380,8 +380,9 @@ class SwarmSim:
 
     @property
     def tiles_built(self) -> tuple[int, int]:
-        """Obstacle tiles built in Bullet so far, and all of them (1 and 1 unless the world is
-        beyond one mesh, :mod:`fftnav.sim.mesh`)."""
+        """Obstacle tiles built in Bullet so far, and all of them: a world that fits one mesh
+        is one tile, built at once; a larger one is cut into 10 m tiles, built when a robot
+        first comes near them (:mod:`fftnav.sim.mesh`)."""
         return len(self._tile_bodies), len(self._tiles)
 
     @property

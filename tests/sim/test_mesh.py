@@ -8,6 +8,7 @@ import numpy as np
 import pybullet as p
 import pytest
 
+from fftnav.config import RobotConfig
 from fftnav.sim.mesh import (
     MAX_MESH_INDICES,
     MAX_MESH_VERTICES,
@@ -127,7 +128,8 @@ def test_tiles_hold_every_obstacle_once_each_mesh_within_the_limits():
         assert len(cells) == 1  # one 10 m square holds the centres of a tile's obstacles
 
 
-def test_tiles_are_built_on_approach_and_episodes_repeat_bitwise():
+@pytest.mark.parametrize("embodiment", ["body", "wheeled"])
+def test_tiles_are_built_on_approach_and_episodes_repeat_bitwise(embodiment):
     """A tiled forest: only the tiles near the robots are built, driving builds more, and an
     episode repeats bit for bit in a fresh simulator and in one reused after a different
     episode (the tiles built during an episode are taken out again by reset)."""
@@ -137,7 +139,8 @@ def test_tiles_are_built_on_approach_and_episodes_repeat_bitwise():
     k = len(sx)
     world = World("forest", 0, (30.0, 30.0), trunks, np.c_[sx, np.full(k, 4.0), np.full(k, 1.57)],
                   np.c_[sx, np.full(k, 29.0)])
-    config = SimConfig(mesh_max_vertices=3000, mesh_max_indices=18000)  # 23 trunks a mesh
+    config = SimConfig(robot=RobotConfig(embodiment=embodiment), mesh_max_vertices=3000,
+                       mesh_max_indices=18000)  # 23 trunks a mesh
 
     def episode(sim, park=(), seed=3):
         rng = np.random.default_rng(seed)
