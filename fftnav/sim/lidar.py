@@ -260,7 +260,8 @@ class Lidar:
                             self._robot_radius_m,
                             fastrays.SPHERE_MARGIN_M, obstacle, obstacle_sure, robots,
                             robot_sure, cast_obstacle, cast_robot)
-        obstacles_only = self._mask & ~self._robot_mask  # (no robot in the static client)
+        # obstacles alone: in the static client, or in the full client (a tiled world's)
+        obstacles_only = self._mask & ~self._robot_mask
         for sure, hits, client, mask in (
                 (obstacle_sure, obstacle, self._static_client, obstacles_only),
                 (robot_sure, robots, self._client, self._robot_mask)):

@@ -234,7 +234,6 @@ class SwarmSim:
         #: Bullet shapes of each tile once made (per client), and the bodies of the built tiles.
         self._tile_shapes: dict[int, list[tuple[int, ...]]] = {}
         self._tile_bodies: dict[int, list[tuple[int, int]]] = {}
-        #: Tiles built before the first robot: those near the starts (all of a one-mesh world).
         self._reach_m = max(cfg.sensor.range_m,
                             cfg.robot.r0_m + cfg.robot.v_max_mps / cfg.control_hz) + _TILE_MARGIN_M
         #: Number of static obstacle meshes (1 unless Bullet's limits split the world).
@@ -246,6 +245,7 @@ class SwarmSim:
             self._build_tiles([0])
         else:
             self._build_near(self.world.starts[:, :2])
+        # tiles built before the first robot: those near the starts (all of a one-mesh world)
         self._first_tiles = set(self._tile_bodies)
         self._robots = [self._add_robot(x, y, yaw) for x, y, yaw in self.world.starts]
         self._start_poses = [([x, y, cfg.robot.r0_m], p.getQuaternionFromEuler([0.0, 0.0, yaw]))
@@ -314,7 +314,6 @@ class SwarmSim:
             self._tile_bodies[t] = bodies
         # the static client's broadphase holds the meshes' bounding boxes from the start
         p.performCollisionDetection(physicsClientId=self._static_client)
-
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client
