@@ -74,10 +74,12 @@ def check_input(path: str | os.PathLike[str]) -> Path:
 
 
 def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
-                 make_folder: bool = False) -> Path:
+                 make_folder: bool = False, image: bool = False) -> Path:
     """Refuse, before anything is computed, an output path that cannot be written: a folder,
     a FIFO, device or socket (a symbolic link is followed: its target is checked and written),
-    a file in a folder that does not exist (made with ``make_folder``) or is not writable.
+    a file in a folder that does not exist (made with ``make_folder``) or is not writable, and
+    with ``image`` a name without a suffix (the image's type, which plotting libraries would
+    otherwise append to the name).
 
     The message names the path as the user gave it (``--out='x'`` with ``flag="--out"``).
     Returns the path to write: the final target of a symbolic link, else ``path``.
@@ -87,12 +89,14 @@ def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
     target = Path(os.path.realpath(path)) if os.path.islink(path) else Path(path)
     try:
         mode = os.stat(target).st_mode
-    except FileNotFoundError:
+    except (FileNotFoundError, NotADirectoryError):  # checked as the folder below
         mode = None
     except OSError as exc:
         raise ValueError(f"{name} cannot be written, got {given} ({exc.strerror})") from None
     if mode is not None and not stat.S_ISREG(mode):
         raise ValueError(f"{name} must be a file path, not {_file_kind(mode)}, got {given}")
+    if image and not target.suffix:
+        raise ValueError(f"{name} must end in the image's type, e.g. .png or .svg, got {given}")
     folder = target.parent
     if make_folder:
         try:

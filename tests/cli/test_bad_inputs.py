@@ -103,7 +103,7 @@ def test_configs_are_refused_at_load_before_any_folder_exists(name, capsys, tmp_
      r"resolution_m must be a finite number in \(0, 8\], got resolution_m=1e\+300"),
     (["world", "grid", "{world}", "--resolution", "1e-6", "--out", "{tmp}/g.npy"],
      r"grid cells \(world size / resolution_m\): 64,000,000,000,000 estimated"),
-    (["world", "grid", "{world}", "--out", "{tmp}"], r"--out must be a file to write"),
+    (["world", "grid", "{world}", "--out", "{tmp}"], r"--out must be a file path, not a folder"),
     (["world", "scan", "{world}", "--pose", "1", "1", "0", "--beams", "100000000"],
      r"beams must be an integer in \[2, 100000\]"),
     (["figure", "depth3d", "--seed", "-1", "--out", "{tmp}/f"],

@@ -161,7 +161,7 @@ def test_a_huge_csv_line_is_refused_by_its_beams_before_it_is_parsed(tmp_path):
     with open(path, "wb") as fh:
         fh.write(b"1,2\n" + b"1," * 100_000_000 + b"1\n")
     code = ("import resource; resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30)); "
-            "from fftnav.cli import main; raise SystemExit(main(['scan', %r]))" % str(path))
+            f"from fftnav.cli import main; raise SystemExit(main(['scan', {str(path)!r}]))")
     proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
                           timeout=120)
     assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
