@@ -27,6 +27,7 @@ BAD = Path(__file__).resolve().parents[1] / "data" / "bad"
 SCANS = sorted(p.name for p in BAD.iterdir() if p.suffix in (".npy", ".csv", ".log", ".gz"))
 WORLDS = sorted(p.name for p in BAD.glob("*.json"))
 CONFIGS = sorted(p.name for p in BAD.glob("*.toml"))
+MAPS = sorted(p.name for p in BAD.glob("map_*.yaml"))
 GOOD_WORLD = Path(__file__).resolve().parents[2] / "worlds"  # presets (TOML), not world files
 
 
@@ -45,7 +46,7 @@ def _refused(capsys, argv: list[str], tmp_path: Path) -> str:
 
 
 def test_the_corpus_is_there():
-    assert len(SCANS) >= 15 and len(WORLDS) >= 6 and len(CONFIGS) >= 18
+    assert len(SCANS) >= 15 and len(WORLDS) >= 6 and len(CONFIGS) >= 18 and len(MAPS) >= 6
 
 
 @pytest.mark.parametrize("name", SCANS)
@@ -85,6 +86,22 @@ def test_configs_are_refused_at_load_before_any_folder_exists(name, capsys, tmp_
     line = _refused(capsys, ["run", str(BAD / name), "--out", str(out), "--quiet"], tmp_path)
     assert line.startswith("fftnav run: error: ") and name in line
     assert not out.exists()
+
+
+@pytest.mark.parametrize("name", MAPS)
+def test_ros_maps_are_refused_naming_the_file_before_any_pixel_is_read(name, capsys, tmp_path):
+    """Huge headers (100000 x 100000, 20000 x 20000 PGM; a 40000 x 40000 PNG bomb), garbage
+    and truncated PGMs, a resolution of 1e-300: one line naming the map or its image."""
+    from fftnav.world.rosmap import read_ros_map
+
+    image = (BAD / name).read_text().split()[1]  # "image: NAME"
+    named = rf"({name}|{image})".replace(".", r"\.")
+    with pytest.raises(ValueError, match=named):
+        read_ros_map(BAD / name)
+    line = _refused(capsys, ["world", "import", str(BAD / name), "--start", "0.1", "0.1", "0",
+                             "--goal", "0.2", "0.2", "--out", str(tmp_path / "w.json")],
+                    tmp_path)
+    assert line.startswith("fftnav world: error: ") and (name in line or image in line), line
 
 
 @pytest.mark.parametrize(("argv", "match"), [
