@@ -87,8 +87,8 @@ def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
     given = f"{flag}={str(path)!r}" if flag else repr(str(path))
     name = flag or "path"
     target = Path(os.path.realpath(path)) if os.path.islink(path) else Path(path)
-    try:
-        mode = os.stat(target).st_mode
+    try:  # the link itself followed: /proc/self/fd/1 may name a pipe that has no path
+        mode = os.stat(path).st_mode
     except (FileNotFoundError, NotADirectoryError):  # checked as the folder below
         mode = None
     except OSError as exc:

@@ -58,7 +58,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.config import SwarmConfig
-from fftnav.files import write_atomic
+from fftnav.files import check_input, write_atomic
 from fftnav.world.model import World
 
 __all__ = ["FORMAT", "SCAN_STEP_M", "STATUS", "VERSION", "Recording", "RecordingError",
@@ -269,6 +269,8 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
         ``path`` is not a recording (not an ``.npz``, damaged data, no ``meta``, another format
         or a newer version, a missing column or meta key, columns whose shapes disagree).
     """
+    if isinstance(path, (str, os.PathLike)):
+        check_input(path)  # a FIFO or device refused by stat, never opened
     try:
         with np.load(path, allow_pickle=False) as npz:
             cols = {key: npz[key] for key in npz.files}
