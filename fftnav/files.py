@@ -81,11 +81,12 @@ def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
     with ``image`` a name without a suffix (the image's type, which plotting libraries would
     otherwise append to the name).
 
-    The message names the path as the user gave it (``--out='x'`` with ``flag="--out"``).
+    The message names the path as the user gave it (``--out='x'`` with ``flag="--out"``, else
+    ``path='x'``).
     Returns the path to write: the final target of a symbolic link, else ``path``.
     """
-    given = f"{flag}={str(path)!r}" if flag else repr(str(path))
     name = flag or "path"
+    given = f"{name}={str(path)!r}"
     target = Path(os.path.realpath(path)) if os.path.islink(path) else Path(path)
     try:  # the link itself followed: /proc/self/fd/1 may name a pipe that has no path
         mode = os.stat(path).st_mode
@@ -199,13 +200,25 @@ def read_lines(path: str | Path, *, encoding: str = "utf-8") -> Iterator[str]:
 
 
 def json_depth(text: str | bytes) -> int:
-    """Nesting depth of a JSON document (brackets outside strings), without recursion."""
+    """Nesting depth of a JSON document (brackets outside strings), without recursion, counted
+    1 MiB at a time (a few bytes of memory per byte of a 1 MiB piece, whatever the size).
+
+    >>> json_depth('{"a": [1, {"b": "[[["}]}')
+    3
+    """
     data = text.encode() if isinstance(text, str) else text
     data = _STRING.sub(b'""', data)
-    codes = np.frombuffer(data, dtype=np.uint8)
-    step = (np.isin(codes, (ord("["), ord("{"))).astype(np.int64)
-            - np.isin(codes, (ord("]"), ord("}"))))
-    return int(np.cumsum(step).max(initial=0))
+    depth = deepest = 0
+    piece = 1 << 20
+    for start in range(0, len(data), piece):
+        codes = np.frombuffer(data, dtype=np.uint8, count=min(piece, len(data) - start),
+                              offset=start)
+        step = (np.isin(codes, (ord("["), ord("{"))).astype(np.int32)
+                - np.isin(codes, (ord("]"), ord("}"))))
+        levels = np.cumsum(step, dtype=np.int64) + depth
+        deepest = max(deepest, int(levels.max(initial=depth)))
+        depth = int(levels[-1]) if len(levels) else depth
+    return deepest
 
 
 def parse_json(text: str, *, where: str) -> Any:
@@ -319,7 +332,8 @@ def iter_npy_rows(path: str | Path, *, rows: int = 4096, values: int = CHUNK_VAL
         if fortran and k > 1:  # columns are contiguous: a row is m reads far apart
             data = np.load(path, mmap_mode="r", allow_pickle=False)
             for i in range(0, k, step):
-                yield np.array(data[i:i + step], dtype=np.float64, order="C")
+                with np.errstate(invalid="ignore"):
+                    yield np.array(data[i:i + step], dtype=np.float64, order="C")
             return
         for i in range(0, k, step):
             n = min(step, k - i)
@@ -328,7 +342,8 @@ def iter_npy_rows(path: str | Path, *, rows: int = 4096, values: int = CHUNK_VAL
                 end = i + len(chunk) // (m * dtype.itemsize)
                 raise ValueError(f"{path}: damaged .npy array: the file ends at row {end} of "
                                  f"the {k} its header claims")
-            yield np.frombuffer(chunk, dtype=dtype).reshape(n, m).astype(np.float64)
+            with np.errstate(invalid="ignore"):  # a signalling NaN reads as NaN, quietly
+                yield np.frombuffer(chunk, dtype=dtype).reshape(n, m).astype(np.float64)
 
 
 def iter_csv_rows(path: str | Path, *, rows: int = 4096, values: int = CHUNK_VALUES,

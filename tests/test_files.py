@@ -125,7 +125,7 @@ def test_output_paths_that_cannot_be_written_are_refused_naming_them(tmp_path, f
                                          r", got --out='.*p\.csv'$"):
         check_target(fifo("p.csv"), flag="--out")
     with pytest.raises(ValueError, match=r"path must be a file path, not a character device, "
-                                         r"got '/dev/full'$"):
+                                         r"got path='/dev/full'$"):
         write_atomic("/dev/full", "x")
     with pytest.raises(ValueError, match=r"--plot must end in the image's type, e\.g\. \.png"):
         check_target(tmp_path / "plot", flag="--plot", image=True)
@@ -137,7 +137,7 @@ def test_a_symbolic_link_is_written_through_and_kept(tmp_path, fifo):
     write_atomic(tmp_path / "link.csv", "new")
     assert (tmp_path / "link.csv").is_symlink() and (tmp_path / "real.csv").read_text() == "new"
     (tmp_path / "to_fifo").symlink_to(fifo("f"))
-    with pytest.raises(ValueError, match=r"not a named pipe \(FIFO\), got '.*to_fifo'"):
+    with pytest.raises(ValueError, match=r"not a named pipe \(FIFO\), got path='.*to_fifo'"):
         write_atomic(tmp_path / "to_fifo", "x")
     assert (tmp_path / "to_fifo").is_symlink() and Path(tmp_path / "f").is_fifo()
     assert sorted(p.name for p in tmp_path.iterdir()) == ["f", "link.csv", "real.csv", "to_fifo"]
@@ -273,3 +273,28 @@ def test_npy_rows_and_csv_rows_agree_with_the_whole_file_readers(tmp_path):
     (tmp_path / "s.csv").write_text("\n".join(",".join(map(repr, row.tolist())) for row in scans))
     np.testing.assert_array_equal(np.concatenate(list(iter_csv_rows(tmp_path / "s.csv",
                                                                     rows=4))), scans)
+
+
+def test_json_depth_is_counted_across_pieces_of_a_mebibyte():
+    from fftnav.files import json_depth
+
+    deep = "[" * 70 + " " * (1 << 20) + "]" * 70  # the deepest point spans two pieces
+    assert json_depth(deep) == 70 and json_depth('"[[[" ' + deep) == 70
+    assert json_depth("[" * 3 + "]" * 3 + " " * (1 << 21) + "{}") == 3 and json_depth("") == 0
+    with pytest.raises(ValueError, match=r"w\.json: JSON nested 70 levels deep, above the limit "
+                                         r"of 64"):
+        from fftnav.files import parse_json
+
+        parse_json(deep, where="w.json")
+
+
+def test_a_float32_signalling_nan_streams_as_nan_without_a_warning(tmp_path):
+    import warnings
+
+    scans = np.ones((2, 8), dtype=np.float32)
+    scans.view(np.uint32)[1, 3] = 0x7FA00000  # a signalling NaN
+    np.save(tmp_path / "s.npy", scans)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        rows = np.concatenate(list(iter_npy_rows(tmp_path / "s.npy")))
+    assert np.isnan(rows[1, 3]) and np.isnan(rows).sum() == 1
