@@ -227,6 +227,11 @@ def test_episode_outputs_on_a_full_disk_name_their_path(tmp_path, monkeypatch, c
     (["episode", "--world", "{w}", "--policy", "fusion", "--plot", "{tmp}/p"],
      "fftnav episode: error: --plot must end in the image's type, e.g. .png or .svg, got "
      "--plot='{tmp}/p'"),
+    (["fly3d", "--seeds", "1", "--out", "{tmp}"],
+     "fftnav fly3d: error: --out must be a file path, not a folder, got --out='{tmp}'"),
+    (["fly3d", "--seeds", "1", "--out", "{tmp}/f.csv", "--plot", "{tmp}/p"],
+     "fftnav fly3d: error: --plot must end in the image's type, e.g. .png or .svg, got "
+     "--plot='{tmp}/p'"),
     (["episode", "--world", "{w}", "--policy", "fusion", "--out", "/dev/full"],
      "fftnav episode: error: --out must be a file path, not a character device, got "
      "--out='/dev/full'"),
