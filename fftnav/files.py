@@ -130,8 +130,9 @@ def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> I
         os.replace(tmp, target)
     except OSError as exc:
         tmp.unlink(missing_ok=True)
-        if exc.errno is None:
-            raise
+        named = None if exc.filename is None else os.fspath(exc.filename)
+        if exc.errno is None or named not in (None, str(tmp), str(target)):
+            raise  # not the write: e.g. an input the block read
         raise OSError(exc.errno, f"cannot write {str(path)!r}: {exc.strerror}") from None
     except BaseException:
         tmp.unlink(missing_ok=True)

@@ -303,3 +303,12 @@ def test_a_float32_signalling_nan_streams_as_nan_without_a_warning(tmp_path):
         warnings.simplefilter("error")
         rows = np.concatenate(list(iter_npy_rows(tmp_path / "s.npy")))
     assert np.isnan(rows[1, 3]) and np.isnan(rows).sum() == 1
+
+
+def test_an_input_missing_inside_a_write_keeps_its_own_error(tmp_path):
+    """Only the write's own errors are renamed: a file the block reads keeps its name."""
+    with pytest.raises(FileNotFoundError, match=r"in\.csv"):
+        with atomic_path(tmp_path / "out.csv") as tmp:
+            tmp.write_text("x")
+            (tmp_path / "in.csv").read_text()
+    assert list(tmp_path.iterdir()) == []
