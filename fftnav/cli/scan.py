@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import math
 import sys
+from typing import Any
 
 import numpy as np
 
@@ -15,13 +17,17 @@ CARMEN_RANGE_M = 10.0
 SIM_RANGE_M = 3.0
 
 
+#: Scans per chunk streamed from the file (at most 4096 x 360 readings: wide scans come fewer).
+CHUNK_SCANS = 4096
+
+
 def cmd_scan(args: argparse.Namespace) -> int:
-    """Process every scan of ``args.file`` in one batch and print one JSON object per scan."""
+    """Process the scans of ``args.file`` a chunk at a time (:func:`fftnav.observe.scanio.
+    iter_scans`: bounded memory at any file size) and print one JSON object per scan."""
     from fftnav.limits import MAX_BEAMS, check_limit
     from fftnav.observe.geometry import REAL_ROBOT, SIM_ROBOT, RobotGeometry
     from fftnav.observe.pipeline import Pipeline
-    from fftnav.observe.safe import safe_sectors_rad
-    from fftnav.observe.scanio import read_scans
+    from fftnav.observe.scanio import iter_scans
     from fftnav.ros import is_bag
 
     if is_bag(args.file):
@@ -29,8 +35,10 @@ def cmd_scan(args: argparse.Namespace) -> int:
     if args.topic is not None or args.out_bag is not None:
         raise ValueError(f"--topic and --out-bag need a bag (.bag, .db3, .mcap or a ROS 2 bag "
                          f"folder), got {args.file!r}")
-    data = read_scans(args.file, format=args.format)
-    check_limit(f"{args.file}: beams per scan", data.ranges.shape[1], MAX_BEAMS)
+    data = iter_scans(args.file, format=args.format, rows=CHUNK_SCANS)
+    first = next(data.chunks)
+    beams = first.shape[1]
+    check_limit(f"{args.file}: beams per scan", beams, MAX_BEAMS)
     carmen = data.format == "carmen"
     default = REAL_ROBOT if carmen else SIM_ROBOT
     r0 = args.r0 if args.r0 is not None else default.r0_m
@@ -40,16 +48,24 @@ def cmd_scan(args: argparse.Namespace) -> int:
         fov = math.radians(args.fov)
     else:
         fov = data.fov_rad if data.fov_rad is not None else 2.0 * math.pi
-    pipe = Pipeline(
-        RobotGeometry(r0_m=r0, r_m=r), beams=data.ranges.shape[1], fov_rad=fov, range_m=range_m
-    )
-    res = pipe.process(data.ranges)
-    out = sys.stdout
+    pipe = Pipeline(RobotGeometry(r0_m=r0, r_m=r), beams=beams, fov_rad=fov, range_m=range_m)
+    index = 0
+    for chunk in itertools.chain([first], data.chunks):
+        sys.stdout.write("".join(_json_lines(pipe.process(chunk), fov, index)))
+        index += len(chunk)
+    return 0
+
+
+def _json_lines(res: Any, fov: float, start: int) -> list[str]:
+    """One JSON line per scan of a pipeline result, numbered from ``start``."""
+    from fftnav.observe.safe import safe_sectors_rad
+
+    lines = []
     for i, mask in enumerate(res.safe_mask):
         sig = res.sigma[i]
         sectors = np.degrees(safe_sectors_rad(mask, fov_rad=fov)).reshape(-1, 2)
         row = {
-            "index": i,
+            "index": start + i,
             "safe_mask": mask.astype(np.uint8).tolist(),
             "safe_sectors_deg": np.round(sectors, 3).tolist(),
             "extrema": np.round(np.column_stack([np.degrees(sig[:, 0]), sig[:, 1]]), 4).tolist(),
@@ -57,8 +73,8 @@ def cmd_scan(args: argparse.Namespace) -> int:
             "message_bytes": len(res.messages[i]),
             "p_left": round(float(res.p_s[i]), 6),
         }
-        out.write(json.dumps(row, separators=(",", ":")) + "\n")
-    return 0
+        lines.append(json.dumps(row, separators=(",", ":")) + "\n")
+    return lines
 
 
 def _scan_bag(args: argparse.Namespace) -> int:
