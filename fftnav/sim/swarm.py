@@ -180,10 +180,11 @@ class SwarmSim:
     Notes
     -----
     Deterministic: the same world, ``reset`` seed and commands give bitwise-equal poses. The
-    Bullet world is built once; ``reset`` puts every robot back at its stored start pose, at
-    rest (wheel joints too), and re-inserts it, parked or not, into the broadphase (dropping the
-    last episode's contact caches), so every episode starts from the same state as a freshly
-    built world. In a tiled world, the tiles first built during the last episode are taken out
+    Bullet world is built once; ``reset`` restores the Bullet state saved right after building
+    (a world of one tile) or puts every robot back at its stored start pose, at rest (wheel
+    joints too; a tiled world, whose state would be slow to save), and re-inserts every robot,
+    parked or not, into the broadphase (dropping the last episode's contact caches), so every
+    episode starts from the same state. In a tiled world, the tiles first built during the last episode are taken out
     again (their collision shapes are kept, so building them again is cheap), so that every
     episode builds them in the same order as a fresh world would. The episode seed only drives
     lidar noise and dropout.
@@ -209,6 +210,13 @@ class SwarmSim:
         # the obstacles alone, for the lidar's rays that cannot hit a robot (faster there)
         self._static_client = p.connect(p.DIRECT)
         self._build()
+        # A world of one tile keeps the Bullet state saved right after building and restores
+        # it at every reset: poses come back bit for bit as Bullet stored them (a pose set from
+        # a quaternion again may differ in its last bit, which can change an episode). Saving
+        # the state of a tiled world would take most of its building time, so its robots are
+        # put back at their start poses instead.
+        self._built_state = (p.saveState(physicsClientId=self._client)
+                             if len(self._tiles) == 1 else None)
         self._reset_state(np.random.default_rng(0))
 
     # ------------------------------------------------------------------ building
@@ -366,11 +374,16 @@ class SwarmSim:
         for t in [t for t in self._tile_bodies if t not in self._first_tiles]:
             for client, body in self._tile_bodies.pop(t):
                 p.removeBody(body, physicsClientId=client)
-        for body, (position, orientation) in zip(self._robots, self._start_poses, strict=True):
-            p.resetBasePositionAndOrientation(body, position, orientation, physicsClientId=cid)
-            p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
-            for joint in self._joints:
-                p.resetJointState(body, joint, 0.0, 0.0, physicsClientId=cid)
+        if self._built_state is not None:
+            p.restoreState(self._built_state, physicsClientId=cid)
+        else:
+            for body, (position, orientation) in zip(self._robots, self._start_poses,
+                                                      strict=True):
+                p.resetBasePositionAndOrientation(body, position, orientation,
+                                                  physicsClientId=cid)
+                p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
+                for joint in self._joints:
+                    p.resetJointState(body, joint, 0.0, 0.0, physicsClientId=cid)
         # Setting a body's collision filter re-inserts it into the broadphase: its bounding box
         # is recomputed at the start pose (rays use it) and the contact caches of the last
         # episode are dropped, as in a freshly built world. Robots are re-inserted in index
