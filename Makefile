@@ -12,7 +12,7 @@ install: $(STAMP)
 $(STAMP): pyproject.toml
 	test -x $(BIN)/python || $(PYTHON) -m venv $(VENV)
 	$(BIN)/python -m pip install --quiet --upgrade pip
-	$(BIN)/python -m pip install --quiet -e '.[test,marl,fast,video]'
+	$(BIN)/python -m pip install --quiet -e '.[test,marl,fast,video,ros]'
 	touch $(STAMP)
 
 # Headless Chromium from Debian's package, for the HTML replay player's browser test

@@ -36,7 +36,14 @@ from typing import Any, ClassVar
 from fftnav.limits import MAX_BEAMS, MAX_EPISODE_PHYSICS_STEPS, MAX_MAP_SIDE_M, check_limit
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.pipeline import Pipeline
-from fftnav.validate import Checked, check_multiple, choice_field, integer_field, number_field
+from fftnav.validate import (
+    Checked,
+    check_integer,
+    check_multiple,
+    choice_field,
+    integer_field,
+    number_field,
+)
 
 __all__ = ["CommsConfig", "EpisodeConfig", "RobotConfig", "SensorConfig", "SwarmConfig",
            "check_rates"]
@@ -202,20 +209,64 @@ class EpisodeConfig(_Section):
         check_limit("physics steps per episode (time_limit_s x physics_hz)",
                     self.time_limit_s * self.physics_hz, MAX_EPISODE_PHYSICS_STEPS,
                     hint="lower time_limit_s or physics_hz")
+        if self.max_ticks < 1:
+            raise ValueError(f"control_hz must give at least one control tick within "
+                             f"time_limit_s={self.time_limit_s!r} (time_limit_s x control_hz "
+                             f"rounds to 0), got control_hz={self.control_hz!r}")
+        self.check_departures(2)  # the first departure after the first robot's
 
     @property
     def max_ticks(self) -> int:
         """Control ticks in the time limit."""
         return int(round(self.time_limit_s * self.control_hz))
 
+    def last_departure_s(self, n_robots: int) -> float:
+        """When the last of ``n_robots`` robots departs (s after the start).
+
+        >>> EpisodeConfig(departure="waves", waves=3, wave_interval_s=15).last_departure_s(2)
+        15.0
+        """
+        n = check_integer("n_robots", n_robots, low=1)
+        if self.departure == "waves":
+            return (min(self.waves, n) - 1) * self.wave_interval_s
+        if self.departure == "staggered":
+            return (n - 1) * self.stagger_s
+        return 0.0
+
+    def check_departures(self, n_robots: int) -> None:
+        """Refuse departures that do not fit the physics-step limit: the episode of
+        ``n_robots`` robots runs until the last departs plus ``time_limit_s``, so
+        ``(last departure + time_limit_s) x physics_hz`` must be at most
+        :data:`~fftnav.limits.MAX_EPISODE_PHYSICS_STEPS` (ValueError naming the key).
+
+        >>> EpisodeConfig(departure="staggered", stagger_s=3e5).check_departures(3)
+        Traceback (most recent call last):
+        ...
+        ValueError: physics steps per episode ((last departure + time_limit_s) x physics_hz, \
+3 robots staggered by stagger_s=300000.0): 144,028,800 estimated, above the limit of \
+100,000,000; lower stagger_s
+        """
+        key = {"waves": "wave_interval_s", "staggered": "stagger_s"}.get(self.departure)
+        if key is None:
+            return
+        ticks = self.max_ticks + self.last_departure_s(n_robots) * self.control_hz
+        how = (f"in waves {self.wave_interval_s!r} s apart (waves={self.waves})"
+               if self.departure == "waves" else f"staggered by stagger_s={self.stagger_s!r}")
+        check_limit(f"physics steps per episode ((last departure + time_limit_s) x physics_hz, "
+                    f"{n_robots} robots {how})",
+                    ticks * round(self.physics_hz / self.control_hz), MAX_EPISODE_PHYSICS_STEPS,
+                    hint=f"lower {key}")
+
     def departure_ticks(self, n_robots: int) -> list[int]:
-        """The control tick at which each of ``n_robots`` robots departs.
+        """The control tick at which each of ``n_robots`` robots departs
+        (:meth:`check_departures` first).
 
         >>> EpisodeConfig(departure="waves", waves=2, wave_interval_s=1.5).departure_ticks(5)
         [0, 15, 0, 15, 0]
         >>> EpisodeConfig(departure="staggered", stagger_s=0.2).departure_ticks(3)
         [0, 2, 4]
         """
+        self.check_departures(n_robots)
         if self.departure == "waves":
             delays = [(i % self.waves) * self.wave_interval_s for i in range(n_robots)]
         elif self.departure == "staggered":

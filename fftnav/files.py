@@ -16,6 +16,7 @@ import io
 import json
 import os
 import re
+import stat
 import sys
 import zipfile
 import zlib
@@ -26,14 +27,15 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
-from fftnav.limits import MAX_INPUT_BYTES, MAX_JSON_DEPTH, check_limit
+from fftnav.limits import MAX_BEAMS, MAX_INPUT_BYTES, MAX_JSON_DEPTH, check_limit
 
 if sys.version_info >= (3, 11):
     import tomllib
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["atomic_writer", "json_depth", "load_npy", "load_npz", "parse_json", "read_csv_floats",
+__all__ = ["atomic_path", "atomic_writer", "check_input", "check_target", "iter_csv_rows",
+           "iter_npy_rows", "json_depth", "load_npy", "load_npz", "parse_json", "read_csv_floats",
            "read_json", "read_lines", "read_text", "read_toml", "remove_pending_temporaries",
            "write_atomic"]
 
@@ -44,22 +46,106 @@ _PENDING: set[Path] = set()
 _STRING = re.compile(rb'"(?:[^"\\]|\\.)*"', re.DOTALL)
 
 
-@contextmanager
-def atomic_writer(path: str | Path) -> Iterator[BinaryIO]:
-    """A binary file to write ``path`` through: a temporary file beside it, renamed over
-    ``path`` when the block ends, removed if it raises (see :func:`write_atomic`)."""
+#: Readings (scans x beams) of one chunk of a streamed scan file: 4,096 scans of 360 beams.
+CHUNK_VALUES = 4096 * 360
+#: Bytes of one line of a CSV scan file: 64 per beam at most (the longest float text is 24).
+MAX_CSV_LINE_BYTES = 64 * MAX_BEAMS
+
+
+def _file_kind(mode: int) -> str:
+    """What a ``stat`` mode that is not a regular file is, in words."""
+    for test, kind in ((stat.S_ISDIR, "a folder"), (stat.S_ISFIFO, "a named pipe (FIFO)"),
+                       (stat.S_ISCHR, "a character device"), (stat.S_ISBLK, "a block device"),
+                       (stat.S_ISSOCK, "a socket")):
+        if test(mode):
+            return kind
+    return "not a regular file"
+
+
+def check_input(path: str | os.PathLike[str]) -> Path:
+    """``path`` if it is a regular file (symbolic links followed); ValueError naming it if it
+    is a folder, a FIFO, a device or a socket. Decided by ``stat`` alone: a FIFO is never
+    opened, so a reader never blocks on one. A missing file raises FileNotFoundError."""
     path = Path(path)
-    tmp = path.with_name(f".{path.name}.{os.getpid()}.tmp")
+    mode = os.stat(path).st_mode
+    if not stat.S_ISREG(mode):
+        raise ValueError(f"{path}: is {_file_kind(mode)}, not a file; give a regular file")
+    return path
+
+
+def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
+                 make_folder: bool = False, image: bool = False) -> Path:
+    """Refuse, before anything is computed, an output path that cannot be written: a folder,
+    a FIFO, device or socket (a symbolic link is followed: its target is checked and written),
+    a file in a folder that does not exist (made with ``make_folder``) or is not writable, and
+    with ``image`` a name without a suffix (the image's type, which plotting libraries would
+    otherwise append to the name).
+
+    The message names the path as the user gave it (``--out='x'`` with ``flag="--out"``, else
+    ``path='x'``).
+    Returns the path to write: the final target of a symbolic link, else ``path``.
+    """
+    name = flag or "path"
+    given = f"{name}={str(path)!r}"
+    target = Path(os.path.realpath(path)) if os.path.islink(path) else Path(path)
+    try:  # the link itself followed: /proc/self/fd/1 may name a pipe that has no path
+        mode = os.stat(path).st_mode
+    except (FileNotFoundError, NotADirectoryError):  # checked as the folder below
+        mode = None
+    except OSError as exc:
+        raise ValueError(f"{name} cannot be written, got {given} ({exc.strerror})") from None
+    if mode is not None and not stat.S_ISREG(mode):
+        raise ValueError(f"{name} must be a file path, not {_file_kind(mode)}, got {given}")
+    if image and not target.suffix:
+        raise ValueError(f"{name} must end in the image's type, e.g. .png or .svg, got {given}")
+    folder = target.parent
+    if make_folder:
+        try:
+            folder.mkdir(parents=True, exist_ok=True)
+        except OSError as exc:
+            raise ValueError(f"{name} must be in a folder that can be made, got {given} "
+                             f"({exc.strerror})") from None
+    if not folder.is_dir():
+        raise ValueError(f"{name} must be in an existing folder, got {given} (no folder "
+                         f"{str(folder)!r})")
+    if not os.access(folder, os.W_OK | os.X_OK):
+        raise ValueError(f"{name} must be in a writable folder, got {given}")
+    return target
+
+
+@contextmanager
+def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> Iterator[Path]:
+    """A temporary path beside ``path`` (``.NAME.PID.tmp``, ending in ``path``'s suffix too with
+    ``keep_suffix``, for writers that choose the format by it) to write ``path`` through:
+    renamed over it when the block ends, removed if the block raises. A symbolic link is
+    written through (its target is replaced, the link kept); a FIFO, device, socket or folder
+    is refused, naming ``path`` (:func:`check_target`). An OSError while writing (a full
+    disk) names ``path``, never the temporary file."""
+    target = check_target(path)
+    tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp"
+                           + (target.suffix if keep_suffix else ""))
     _PENDING.add(tmp)
     try:
-        with open(tmp, "wb") as fh:
-            yield fh
-        os.replace(tmp, path)
+        yield tmp
+        os.replace(tmp, target)
+    except OSError as exc:
+        tmp.unlink(missing_ok=True)
+        named = None if exc.filename is None else os.fspath(exc.filename)
+        if exc.errno is None or named not in (None, str(tmp), str(target)):
+            raise  # not the write: e.g. an input the block read
+        raise OSError(exc.errno, f"cannot write {str(path)!r}: {exc.strerror}") from None
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise
     finally:
         _PENDING.discard(tmp)
+
+
+@contextmanager
+def atomic_writer(path: str | os.PathLike[str]) -> Iterator[BinaryIO]:
+    """A binary file to write ``path`` through (see :func:`atomic_path`)."""
+    with atomic_path(path) as tmp, open(tmp, "wb") as fh:
+        yield fh
 
 
 def write_atomic(path: str | Path, data: str | bytes) -> None:
@@ -100,7 +186,7 @@ def _damage(path: str | Path, what: str) -> Iterator[None]:
 def read_lines(path: str | Path, *, encoding: str = "utf-8") -> Iterator[str]:
     """Yield the lines of a text file (``.gz`` files decompressed on the fly); a damaged gzip
     stream or bytes that are not ``encoding`` raise ValueError naming the file and line."""
-    path = Path(path)
+    path = check_input(path)
     gz = path.name.lower().endswith(".gz")
     opener = gzip.open if gz else open
     lineno = 0
@@ -115,13 +201,25 @@ def read_lines(path: str | Path, *, encoding: str = "utf-8") -> Iterator[str]:
 
 
 def json_depth(text: str | bytes) -> int:
-    """Nesting depth of a JSON document (brackets outside strings), without recursion."""
+    """Nesting depth of a JSON document (brackets outside strings), without recursion, counted
+    1 MiB at a time (a few bytes of memory per byte of a 1 MiB piece, whatever the size).
+
+    >>> json_depth('{"a": [1, {"b": "[[["}]}')
+    3
+    """
     data = text.encode() if isinstance(text, str) else text
     data = _STRING.sub(b'""', data)
-    codes = np.frombuffer(data, dtype=np.uint8)
-    step = (np.isin(codes, (ord("["), ord("{"))).astype(np.int64)
-            - np.isin(codes, (ord("]"), ord("}"))))
-    return int(np.cumsum(step).max(initial=0))
+    depth = deepest = 0
+    piece = 1 << 20
+    for start in range(0, len(data), piece):
+        codes = np.frombuffer(data, dtype=np.uint8, count=min(piece, len(data) - start),
+                              offset=start)
+        step = (np.isin(codes, (ord("["), ord("{"))).astype(np.int32)
+                - np.isin(codes, (ord("]"), ord("}"))))
+        levels = np.cumsum(step, dtype=np.int64) + depth
+        deepest = max(deepest, int(levels.max(initial=depth)))
+        depth = int(levels[-1]) if len(levels) else depth
+    return deepest
 
 
 def parse_json(text: str, *, where: str) -> Any:
@@ -153,12 +251,18 @@ def read_toml(path: str | Path) -> tuple[dict[str, Any], str]:
 
 def _check_array_header(fh: Any, where: str) -> tuple[tuple[int, ...], np.dtype]:
     """Read a ``.npy`` header, refuse object arrays and sizes above MAX_INPUT_BYTES."""
+    return _read_array_header(fh, where)[:2]
+
+
+def _read_array_header(fh: Any, where: str) -> tuple[tuple[int, ...], np.dtype, bool]:
+    """Shape, dtype and Fortran order of a ``.npy`` header (``fh`` left at the data), checked
+    as in :func:`_check_array_header`."""
     try:
         major, _minor = np.lib.format.read_magic(fh)
         if major == 1:
-            shape, _fortran, dtype = np.lib.format.read_array_header_1_0(fh)
+            shape, fortran, dtype = np.lib.format.read_array_header_1_0(fh)
         else:
-            shape, _fortran, dtype = np.lib.format.read_array_header_2_0(fh)
+            shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh)
     except (ValueError, EOFError, OSError) as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
         raise ValueError(f"{where}: not a .npy array: {reason}") from None
@@ -167,13 +271,13 @@ def _check_array_header(fh: Any, where: str) -> tuple[tuple[int, ...], np.dtype]
     nbytes = float(np.prod([float(s) for s in shape])) * dtype.itemsize
     check_limit(f"{where}: array of shape {shape} and dtype {dtype}: bytes", nbytes,
                 MAX_INPUT_BYTES)
-    return shape, dtype
+    return shape, dtype, fortran
 
 
 def load_npy(path: str | Path) -> np.ndarray:
     """One array from a ``.npy`` file, its header checked first; an ``.npz`` archive, a
     truncated file or a header claiming a huge shape raise ValueError naming the file."""
-    path = Path(path)
+    path = check_input(path)
     with open(path, "rb") as fh:
         head = fh.read(4)
         if head.startswith(b"PK"):
@@ -191,7 +295,7 @@ def load_npy(path: str | Path) -> np.ndarray:
 def load_npz(path: str | Path) -> dict[str, np.ndarray]:
     """Every array of an ``.npz`` archive, each header checked first; ValueError naming the
     file (and the member) for any damage."""
-    path = Path(path)
+    path = check_input(path)
     out: dict[str, np.ndarray] = {}
     with _damage(path, ".npz archive"), zipfile.ZipFile(path) as archive:
         for member in archive.namelist():
@@ -207,18 +311,105 @@ def load_npz(path: str | Path) -> dict[str, np.ndarray]:
     return out
 
 
-def read_csv_floats(path: str | Path) -> np.ndarray:
-    """A ``(K, M)`` float array from a CSV of numbers, one row per line (blank lines and lines
-    starting with ``#`` skipped); ValueError naming the file, line and column of a bad cell or
-    a row of another length."""
-    path = Path(path)
+def iter_npy_rows(path: str | Path, *, rows: int = 4096, values: int = CHUNK_VALUES,
+                  max_width: int = MAX_BEAMS) -> Iterator[np.ndarray]:
+    """The rows of a numeric ``.npy`` array (shape ``(M,)``: one row; ``(K, M)``), as float64
+    arrays of at most ``rows`` rows and ``values`` numbers (at least one row), read a chunk at
+    a time: memory stays bounded whatever the file's size. Rows longer than ``max_width`` are
+    refused from the header. The same checks and messages as
+    :func:`load_npy`; a file shorter than its header claims raises ValueError naming it."""
+    path = check_input(path)
+    with open(path, "rb") as fh:
+        if fh.read(4).startswith(b"PK"):
+            raise ValueError(f"{path}: is a .npz archive, not one .npy array")
+        fh.seek(0)
+        shape, dtype, fortran = _read_array_header(fh, str(path))
+        if len(shape) not in (1, 2) or 0 in shape or dtype.kind not in "biuf":
+            raise ValueError(f"{str(path)!r} must hold a numeric (M,) or (K, M) array, got "
+                             f"shape={shape} dtype={dtype}")
+        k, m = (1, shape[0]) if len(shape) == 1 else shape
+        check_limit(f"{path}: values per row (beams)", m, max_width)
+        step = max(1, min(rows, values // m))
+        if fortran and k > 1:  # columns are contiguous: a row is m reads far apart
+            data = np.load(path, mmap_mode="r", allow_pickle=False)
+            for i in range(0, k, step):
+                with np.errstate(invalid="ignore"):
+                    yield np.array(data[i:i + step], dtype=np.float64, order="C")
+            return
+        for i in range(0, k, step):
+            n = min(step, k - i)
+            chunk = fh.read(n * m * dtype.itemsize)
+            if len(chunk) < n * m * dtype.itemsize:
+                end = i + len(chunk) // (m * dtype.itemsize)
+                raise ValueError(f"{path}: damaged .npy array: the file ends at row {end} of "
+                                 f"the {k} its header claims")
+            with np.errstate(invalid="ignore"):  # a signalling NaN reads as NaN, quietly
+                yield np.frombuffer(chunk, dtype=dtype).reshape(n, m).astype(np.float64)
+
+
+def iter_csv_rows(path: str | Path, *, rows: int = 4096, values: int = CHUNK_VALUES,
+                  max_width: int = MAX_BEAMS) -> Iterator[np.ndarray]:
+    """The rows of a CSV of numbers (one row per line; blank lines and lines starting with
+    ``#`` skipped; ``.gz`` decompressed), as float64 arrays of at most ``rows`` rows and
+    ``values`` numbers, parsed a chunk at a time: memory stays bounded whatever the file's
+    size. A line is read at most :data:`MAX_CSV_LINE_BYTES` at a time and its number of values
+    checked against ``max_width`` before it is parsed. ValueError naming the file, line and
+    column of a bad cell, a row of another length, a line too long or too wide."""
+    path = check_input(path)
     check_limit(f"{path}: bytes", float(path.stat().st_size), MAX_INPUT_BYTES)
+    gz = path.name.lower().endswith(".gz")
+    width = 0
+    lineno = 0
+    with _damage(path, "gzip stream" if gz else "text"), \
+            (gzip.open if gz else open)(path, "rb") as fh:
+        while True:
+            chunk: list[tuple[int, bytes]] = []
+            size = 0
+            while size < 16 * values and len(chunk) < (
+                    max(1, min(rows, values // width)) if width else 1):
+                line = fh.readline(MAX_CSV_LINE_BYTES + 1)
+                if not line:
+                    break
+                lineno += 1
+                beams = f"{path}:{lineno}: values on one line (beams)"
+                if len(line) > MAX_CSV_LINE_BYTES:  # its first bytes only: refused unparsed
+                    check_limit(beams, line.count(b",") + 1, max_width)
+                    raise ValueError(f"{path}:{lineno}: line longer than "
+                                     f"{MAX_CSV_LINE_BYTES:,} bytes")
+                text = line.strip()
+                if not text or text.startswith(b"#"):
+                    continue
+                cells = check_limit(beams, text.count(b",") + 1, max_width)
+                chunk.append((lineno, text))
+                size += len(text)
+                width = width or cells
+            if not chunk:
+                if not width:
+                    raise ValueError(f"{path}: holds no numbers")
+                return
+            block = _parse_csv_block(path, chunk)
+            if block.shape[1] != width:
+                raise ValueError(f"{path}:{chunk[0][0]}: {block.shape[1]} values, earlier rows "
+                                 f"have {width}")
+            yield block
+
+
+def _parse_csv_block(path: Path, chunk: list[tuple[int, bytes]]) -> np.ndarray:
+    """Parse numbered CSV lines into a 2-D float64 array: numpy's C parser, and on any error
+    the lines one by one with ``float``, for the message naming the line and column."""
+    try:
+        text = b"\n".join(line for _, line in chunk).decode("utf-8")
+        return np.loadtxt(io.StringIO(text), delimiter=",", dtype=np.float64, ndmin=2,
+                          comments=None)
+    except ValueError:
+        pass
     rows: list[list[float]] = []
-    for lineno, line in enumerate(read_lines(path), 1):
-        text = line.strip()
-        if not text or text.startswith("#"):
-            continue
-        cells = text.split(",")
+    for lineno, line in chunk:
+        try:
+            cells = line.decode("utf-8").split(",")
+        except UnicodeDecodeError as exc:
+            raise ValueError(f"{path}:{lineno}: not utf-8 text: byte "
+                             f"0x{exc.object[exc.start]:02x}") from None
         try:
             row = [float(c) for c in cells]
         except ValueError:
@@ -229,9 +420,13 @@ def read_csv_floats(path: str | Path) -> np.ndarray:
             raise ValueError(f"{path}:{lineno}: {len(row)} values, earlier rows have "
                              f"{len(rows[0])}")
         rows.append(row)
-    if not rows:
-        raise ValueError(f"{path}: holds no numbers")
     return np.array(rows, dtype=np.float64)
+
+
+def read_csv_floats(path: str | Path) -> np.ndarray:
+    """A ``(K, M)`` float array from a CSV of numbers, one row per line (the rows of
+    :func:`iter_csv_rows`, whose checks and messages it shares)."""
+    return np.concatenate(list(iter_csv_rows(path)))
 
 
 def _is_float(text: str) -> bool:

@@ -33,7 +33,9 @@ name (the first one imported is the one every plugin gets, as with any Python im
 contents ``fftnav run`` records to refuse resuming a folder after any of them changed.
 
 Every failure raises :class:`PluginError` (a ``ValueError``) with a one-line message naming the
-reference, so the CLI prints it and exits 2 before any episode starts.
+reference, so the CLI prints it and exits 2 before any episode starts. What a loaded plugin
+raises when it is called (:func:`plugin_call`, :class:`PluginProxy`) becomes a one-line
+:class:`PluginError` too, naming the plugin, the call and the plugin's own file and line.
 
 >>> load_reference("math:pi")
 3.141592653589793
@@ -47,18 +49,21 @@ cannot load 'math:nope': module 'math' has no attribute 'nope'
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
 import importlib
 import importlib.metadata
 import importlib.util
+import inspect
 import re
 import sys
-from collections.abc import Iterator
+import traceback
+from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
-__all__ = ["PluginError", "entry_points", "file_sha256", "is_reference", "load_reference",
-           "plugin_sources", "reference_file"]
+__all__ = ["PluginError", "PluginProxy", "entry_points", "file_sha256", "is_reference",
+           "load_reference", "plugin_call", "plugin_sources", "reference_file", "source_file"]
 
 _ATTR = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 #: Plugin file -> the files of the modules under its folder first imported while it was loaded.
@@ -206,3 +211,81 @@ def load_reference(text: str, *, group: str | None = None) -> Any:
         if not isinstance(exc, (AttributeError, FileNotFoundError)):
             message = f"{type(exc).__name__}: {message}"
         raise PluginError(f"cannot load {text!r}: {message}") from None
+
+
+def source_file(obj: Any) -> Path | None:
+    """The Python file that defines ``obj`` (a class or function), resolved; None if unknown."""
+    try:
+        file = inspect.getsourcefile(inspect.unwrap(obj))
+    except TypeError:
+        return None
+    return Path(file).resolve() if file else None
+
+
+def _where(exc: BaseException, source: Path | None, defined: Any) -> str:
+    """``file:line`` of the innermost frame of ``exc``'s traceback in the plugin's file
+    ``source``; else where ``defined`` (the plugin's function) is defined."""
+    for frame in reversed(traceback.extract_tb(exc.__traceback__)):
+        if source is not None and Path(frame.filename).resolve() == source:
+            return f"{frame.filename}:{frame.lineno}"
+    code = getattr(inspect.unwrap(getattr(defined, "__func__", defined)), "__code__", None)
+    return f"{code.co_filename}:{code.co_firstlineno}" if code is not None else "unknown file"
+
+
+def plugin_call(plugin: str, call: str, source: Path | None, fn: Callable[..., Any], /,
+                *args: Any, defined: Any = None, **kwargs: Any) -> Any:
+    """``fn(*args, **kwargs)``, a call into plugin ``plugin``; whatever it raises becomes a
+    :class:`PluginError` on one line naming the plugin, the call and the plugin's own file and
+    line (the innermost frame in ``source``; else where ``defined``, default ``fn``, is).
+
+    >>> def decide(ctx):
+    ...     return 1 / 0
+    >>> try:
+    ...     plugin_call("mine.py:decide", "decide", None, decide, None)
+    ... except PluginError as exc:
+    ...     print(str(exc).split(" (at ")[0])
+    plugin 'mine.py:decide': decide raised ZeroDivisionError: division by zero
+    """
+    try:
+        return fn(*args, **kwargs)
+    except PluginError:
+        raise
+    except Exception as exc:  # anything third-party code raises, on one line
+        message = " ".join(str(exc).split()) or "(no message)"
+        raise PluginError(f"plugin {plugin!r}: {call} raised {type(exc).__name__}: {message} "
+                          f"(at {_where(exc, source, fn if defined is None else defined)})"
+                          ) from exc
+
+
+class PluginProxy:
+    """A plugin's object whose method calls go through :func:`plugin_call` (attributes that
+    are not callable are passed through).
+
+    Parameters
+    ----------
+    obj : object
+        The plugin's object, e.g. a controller.
+    plugin : str
+        Its reference, as the user wrote it.
+    source : Path or None
+        Its Python file (:func:`source_file`).
+    calls : mapping, optional
+        Method name -> (the name to report, the function whose definition locates an error
+        raised outside the plugin's file), e.g. ``{"step": ("Mine.act", obj.act)}`` when the
+        method is inherited and calls the plugin's ``act``.
+    """
+
+    __slots__ = ("_obj", "_plugin", "_source", "_calls")
+
+    def __init__(self, obj: Any, plugin: str, source: Path | None,
+                 calls: Mapping[str, tuple[str, Any]] | None = None) -> None:
+        self._obj, self._plugin, self._source = obj, plugin, source
+        self._calls = dict(calls or {})
+
+    def __getattr__(self, name: str) -> Any:
+        value = getattr(self._obj, name)
+        if not callable(value):
+            return value
+        call, defined = self._calls.get(name, (f"{type(self._obj).__name__}.{name}", value))
+        return functools.partial(plugin_call, self._plugin, call, self._source, value,
+                                 defined=defined)

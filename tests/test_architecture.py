@@ -88,6 +88,17 @@ def test_only_sim_imports_pybullet_and_only_report_imports_matplotlib():
             assert top_level.isdisjoint({"pybullet", "matplotlib", "pandas"}), module
 
 
+def test_only_ros_imports_rosbags_and_only_inside_functions():
+    for module, path in MODULES.items():
+        tree = ast.parse(path.read_text())
+        for node in ast.walk(tree):
+            names = ([a.name for a in node.names] if isinstance(node, ast.Import)
+                     else [node.module or ""] if isinstance(node, ast.ImportFrom) else [])
+            if any(n.split(".")[0] == "rosbags" for n in names):
+                assert module.startswith("fftnav.ros"), module
+                assert node.col_offset > 0, f"{module}:{node.lineno} imports rosbags at top level"
+
+
 def test_module_level_imports_have_no_cycle():
     state: dict[str, int] = {}  # 1 on the stack, 2 done
 

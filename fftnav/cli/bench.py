@@ -93,16 +93,22 @@ def cmd_bench_planning(args: argparse.Namespace) -> int:
 
 
 def cmd_bench_worlds(args: argparse.Namespace) -> int:
-    """Large worlds: a 60 m x 60 m forest and a 10,000-obstacle forest run an episode."""
+    """Large worlds: time to the first scan (and a 5 s episode) in a 20,000-trunk world and in
+    the largest one the limits allow; with ``--against``, old against new side by side."""
     from fftnav.bench.pipeline import record_csv
-    from fftnav.bench.worlds import bench_worlds, format_worlds
+    from fftnav.bench.worlds import bench_worlds, format_worlds, side_by_side
 
-    results = bench_worlds(args.case or None, seed=args.seed, drive_s=args.drive,
-                           episode_s=args.episode)
+    if args.against:
+        results = side_by_side(args.against, case=(args.case or ["trunks-20k"])[0],
+                               repeats=args.repeats, seed=args.seed)
+        text = "\n".join(json.dumps(r) for r in results)
+    else:
+        results = bench_worlds(args.case or None, seed=args.seed)
+        text = format_worlds(results)
     for i, result in enumerate(results):
         if args.csv:
             record_csv(result, args.csv, append=args.append or i > 0)
-    print("\n".join(json.dumps(r) for r in results) if args.json else format_worlds(results))
+    print("\n".join(json.dumps(r) for r in results) if args.json else text)
     return 0
 
 
@@ -185,13 +191,14 @@ def _planning_parser(benches: argparse._SubParsersAction) -> None:
 
 
 def _worlds_parser(benches: argparse._SubParsersAction) -> None:
-    w = benches.add_parser("worlds", help="large worlds: build, speed, memory, one episode each")
+    w = benches.add_parser("worlds", help="large worlds: time to the first scan, an episode, "
+                                          "memory")
     w.add_argument("--case", action="append", metavar="NAME",
-                   help="forest-60m or forest-10k (repeatable; default: all)")
+                   help="trunks-20k or largest (repeatable; default: all)")
     w.add_argument("--seed", type=int, default=0)
-    w.add_argument("--drive", type=float, default=5.0,
-                   help="simulated seconds of random driving for the real-time factor")
-    w.add_argument("--episode", type=float, default=20.0,
-                   help="time limit of the fusion episode, simulated seconds (default 20)")
+    w.add_argument("--against", metavar="DIR",
+                   help="another fftnav source tree (e.g. git archive of an older commit): "
+                        "run it and this code alternately on the first case's world")
+    w.add_argument("--repeats", type=int, default=2, help="alternations with --against")
     _record_options(w)
     w.set_defaults(func=cmd_bench_worlds)

@@ -3,14 +3,15 @@
 from __future__ import annotations
 
 import argparse
-import os
+import contextlib
+import io
 import sys
 from collections import Counter
 from collections.abc import Sequence
-from pathlib import Path
 from typing import TYPE_CHECKING
 
 from fftnav.cli import CliError
+from fftnav.files import atomic_path, check_target, write_atomic
 from fftnav.navigation.resolve import registered_names, resolve
 
 if TYPE_CHECKING:
@@ -26,21 +27,6 @@ def _overrides(pairs: list[str]) -> dict[str, str]:
             raise CliError(f"--set expects KEY=VALUE, e.g. time_limit_s=60; got {pair!r}")
         out[key] = text
     return out
-
-
-def _check_writable(flag: str, path: str) -> None:
-    """Refuse, before the episode runs, a path that cannot be written: a folder, or a file in
-    a folder that cannot be made or written."""
-    target = Path(path)
-    if target.is_dir():
-        raise CliError(f"{flag} must be a file path, not a folder, got {flag}={path!r}")
-    try:
-        target.parent.mkdir(parents=True, exist_ok=True)
-    except OSError as exc:
-        raise CliError(f"{flag} must be in a folder that can be made, got {flag}={path!r} "
-                       f"({exc.strerror})") from None
-    if not os.access(target.parent, os.W_OK):
-        raise CliError(f"{flag} must be in a writable folder, got {flag}={path!r}")
 
 
 def outcome_line(rows: Sequence[EpisodeRow]) -> str:
@@ -75,15 +61,21 @@ def cmd_episode(args: argparse.Namespace) -> int:
 
     resolve(args.policy)  # an unknown name or a plugin that does not load: refused first
     config = SwarmConfig().replace(_overrides(args.set or []))
-    if args.record:
-        _check_writable("--record", args.record)
+    if args.bag:
+        from fftnav.ros.episode import EpisodeBag, check_episode_bag
+
+        check_episode_bag(args.bag)
+    for flag in ("--out", "--record", "--trajectories", "--plot", "--bag"):  # before the episode
+        if getattr(args, flag[2:]):
+            check_target(getattr(args, flag[2:]), flag=flag, make_folder=True,
+                         image=flag == "--plot")
     world = load_world(args.world)
-    result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui,
-                         record=bool(args.record))
+    with EpisodeBag(args.bag, world, config) if args.bag else contextlib.nullcontext() as bag:
+        result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui,
+                             record=bool(args.record), on_tick=bag)
     text = episode_csv(result.rows)
     if args.out:
-        Path(args.out).parent.mkdir(parents=True, exist_ok=True)
-        Path(args.out).write_text(text)
+        write_atomic(args.out, text)
     else:
         sys.stdout.write(text)
     if args.record:
@@ -91,11 +83,14 @@ def cmd_episode(args: argparse.Namespace) -> int:
 
         write_recording(args.record, result.recording())
     if args.trajectories:
-        np.savez_compressed(args.trajectories, *result.trajectories)
+        buffer = io.BytesIO()  # np.savez_compressed(path) would append .npz to another name
+        np.savez_compressed(buffer, *result.trajectories)
+        write_atomic(args.trajectories, buffer.getvalue())
     if args.plot:
         from fftnav.report.trajectories import plot_episode
 
-        plot_episode(world, result.trajectories, result.rows, args.plot, r0_m=config.robot.r0_m)
+        with atomic_path(args.plot, keep_suffix=True) as tmp:
+            plot_episode(world, result.trajectories, result.rows, tmp, r0_m=config.robot.r0_m)
     sys.stderr.write(outcome_line(result.rows) + "\n")
     return 0
 
@@ -114,6 +109,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--record", metavar="R.npz",
                    help="write the episode's recording to exactly this path (what every robot "
                    "saw, decided and sent per tick; view it with 'fftnav replay')")
+    p.add_argument("--bag", metavar="B.mcap",
+                   help="write the episode as a ROS bag (.mcap, .db3 or ROS 1 .bag; extra "
+                   "fftnav[ros]): /world, /tf, /robot_i/scan, odom, cmd_vel, messages")
     p.add_argument("--set", action="append", metavar="KEY=VALUE",
                    help="override a parameter, e.g. --set time_limit_s=60 or "
                    "--set comms.packet_loss=0.2 (repeatable; keys of docs/experiments.md)")

@@ -5,12 +5,12 @@ from __future__ import annotations
 import argparse
 import csv
 import json
-from pathlib import Path
 
 
 def cmd_fly3d(args: argparse.Namespace) -> int:
     """Fly seeds ``first .. first + seeds - 1``; write per-seed rows and print a JSON summary."""
     from fftnav.episode.flight3d import FLIGHT_COLUMNS, FlightConfig, fly, summarize
+    from fftnav.files import atomic_path, check_target
 
     if args.seeds < 1:
         raise ValueError(f"--seeds must be an integer >= 1, got --seeds={args.seeds}")
@@ -21,10 +21,12 @@ def cmd_fly3d(args: argparse.Namespace) -> int:
         raise ValueError(f"--plot-seed must be one of the flown seeds {seeds.start}.."
                          f"{seeds.stop - 1}, got --plot-seed={args.plot_seed}")
     config = FlightConfig(rows=args.rows, cols=args.cols)
-    out = Path(args.out)
-    out.parent.mkdir(parents=True, exist_ok=True)
+    for flag in ("--out", "--plot"):  # refused before any flight
+        if getattr(args, flag[2:]):
+            check_target(getattr(args, flag[2:]), flag=flag, make_folder=True,
+                         image=flag == "--plot")
     results = []
-    with out.open("w", newline="") as fh:
+    with atomic_path(args.out) as tmp, tmp.open("w", newline="") as fh:
         writer = csv.DictWriter(fh, fieldnames=FLIGHT_COLUMNS)
         writer.writeheader()
         for seed in seeds:
@@ -34,7 +36,8 @@ def cmd_fly3d(args: argparse.Namespace) -> int:
     if args.plot:
         from fftnav.report.depth3d import draw_flight_figure
 
-        draw_flight_figure(results[seeds.index(args.plot_seed)], Path(args.plot))
+        with atomic_path(args.plot, keep_suffix=True) as tmp:
+            draw_flight_figure(results[seeds.index(args.plot_seed)], tmp)
     print(json.dumps(summarize(results)))
     return 0
 

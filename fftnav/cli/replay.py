@@ -49,23 +49,27 @@ def _replay(args: argparse.Namespace) -> int:
     if suffix == ".png" and (args.start is not None or args.stop is not None):
         raise CliError("a .png is one frame: pick it with --at S")
     from fftnav.episode.recording import read_recording
+    from fftnav.files import atomic_path, check_target
     from fftnav.report import replay
+
+    check_target(args.out, flag="--out", make_folder=True)
 
     if suffix == ".html" and len(args.recording) > 1:
         raise CliError(f"an .html player shows one recording, got {len(args.recording)}; "
                        "side by side: --out X.gif, X.mp4 or X.png")
     rec, *beside = (read_recording(path) for path in args.recording)
-    if suffix == ".png":
-        out = replay.write_image(rec, args.out, at_s=args.at or 0.0, robot=args.robot,
-                                 beside=beside)
-    elif suffix == ".html":
-        from fftnav.report.replay_html import write_html
+    with atomic_path(args.out, keep_suffix=True) as tmp:  # no partial file on any failure
+        if suffix == ".png":
+            replay.write_image(rec, tmp, at_s=args.at or 0.0, robot=args.robot, beside=beside)
+        elif suffix == ".html":
+            from fftnav.report.replay_html import write_html
 
-        out = write_html(rec, args.out, robot=args.robot, from_s=args.start, to_s=args.stop,
-                         speed=args.speed)
-    else:
-        out = replay.write_video(rec, args.out, robot=args.robot, from_s=args.start,
-                                 to_s=args.stop, speed=args.speed, beside=beside)
+            write_html(rec, tmp, robot=args.robot, from_s=args.start, to_s=args.stop,
+                       speed=args.speed)
+        else:
+            replay.write_video(rec, tmp, robot=args.robot, from_s=args.start, to_s=args.stop,
+                               speed=args.speed, beside=beside)
+    out = Path(args.out)
     sys.stderr.write(f"{out}: {out.stat().st_size / 1e6:.2f} MB\n")
     return 0
 

@@ -3,9 +3,11 @@
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import math
 import sys
+from typing import Any
 
 import numpy as np
 
@@ -15,16 +17,28 @@ CARMEN_RANGE_M = 10.0
 SIM_RANGE_M = 3.0
 
 
+#: Scans per chunk streamed from the file (at most 4096 x 360 readings: wide scans come fewer).
+CHUNK_SCANS = 4096
+
+
 def cmd_scan(args: argparse.Namespace) -> int:
-    """Process every scan of ``args.file`` in one batch and print one JSON object per scan."""
+    """Process the scans of ``args.file`` a chunk at a time (:func:`fftnav.observe.scanio.
+    iter_scans`: bounded memory at any file size) and print one JSON object per scan."""
     from fftnav.limits import MAX_BEAMS, check_limit
     from fftnav.observe.geometry import REAL_ROBOT, SIM_ROBOT, RobotGeometry
     from fftnav.observe.pipeline import Pipeline
-    from fftnav.observe.safe import safe_sectors_rad
-    from fftnav.observe.scanio import read_scans
+    from fftnav.observe.scanio import iter_scans
+    from fftnav.ros import is_bag
 
-    data = read_scans(args.file, format=args.format)
-    check_limit(f"{args.file}: beams per scan", data.ranges.shape[1], MAX_BEAMS)
+    if is_bag(args.file):
+        return _scan_bag(args)
+    if args.topic is not None or args.out_bag is not None:
+        raise ValueError(f"--topic and --out-bag need a bag (.bag, .db3, .mcap or a ROS 2 bag "
+                         f"folder), got {args.file!r}")
+    data = iter_scans(args.file, format=args.format, rows=CHUNK_SCANS)
+    first = next(data.chunks)
+    beams = first.shape[1]
+    check_limit(f"{args.file}: beams per scan", beams, MAX_BEAMS)
     carmen = data.format == "carmen"
     default = REAL_ROBOT if carmen else SIM_ROBOT
     r0 = args.r0 if args.r0 is not None else default.r0_m
@@ -34,16 +48,24 @@ def cmd_scan(args: argparse.Namespace) -> int:
         fov = math.radians(args.fov)
     else:
         fov = data.fov_rad if data.fov_rad is not None else 2.0 * math.pi
-    pipe = Pipeline(
-        RobotGeometry(r0_m=r0, r_m=r), beams=data.ranges.shape[1], fov_rad=fov, range_m=range_m
-    )
-    res = pipe.process(data.ranges)
-    out = sys.stdout
+    pipe = Pipeline(RobotGeometry(r0_m=r0, r_m=r), beams=beams, fov_rad=fov, range_m=range_m)
+    index = 0
+    for chunk in itertools.chain([first], data.chunks):
+        sys.stdout.write("".join(_json_lines(pipe.process(chunk), fov, index)))
+        index += len(chunk)
+    return 0
+
+
+def _json_lines(res: Any, fov: float, start: int) -> list[str]:
+    """One JSON line per scan of a pipeline result, numbered from ``start``."""
+    from fftnav.observe.safe import safe_sectors_rad
+
+    lines = []
     for i, mask in enumerate(res.safe_mask):
         sig = res.sigma[i]
         sectors = np.degrees(safe_sectors_rad(mask, fov_rad=fov)).reshape(-1, 2)
         row = {
-            "index": i,
+            "index": start + i,
             "safe_mask": mask.astype(np.uint8).tolist(),
             "safe_sectors_deg": np.round(sectors, 3).tolist(),
             "extrema": np.round(np.column_stack([np.degrees(sig[:, 0]), sig[:, 1]]), 4).tolist(),
@@ -51,7 +73,23 @@ def cmd_scan(args: argparse.Namespace) -> int:
             "message_bytes": len(res.messages[i]),
             "p_left": round(float(res.p_s[i]), 6),
         }
-        out.write(json.dumps(row, separators=(",", ":")) + "\n")
+        lines.append(json.dumps(row, separators=(",", ":")) + "\n")
+    return lines
+
+
+def _scan_bag(args: argparse.Namespace) -> int:
+    """``fftnav scan BAG``: the LaserScans of a topic (:func:`fftnav.ros.bags.scan_bag`); the
+    real robot by default, as for CARMEN logs, and R from each message's ``range_max``."""
+    from fftnav.observe.geometry import REAL_ROBOT, RobotGeometry
+    from fftnav.ros.bags import scan_bag
+
+    if args.fov is not None or args.format != "auto":
+        raise ValueError("--fov and --format do not apply to bags: each LaserScan gives its own "
+                         "field of view")
+    geometry = RobotGeometry(r0_m=REAL_ROBOT.r0_m if args.r0 is None else args.r0,
+                             r_m=REAL_ROBOT.r_m if args.r is None else args.r)
+    scan_bag(args.file, topic=args.topic, geometry=geometry, range_m=args.range,
+             write=sys.stdout.write, out_bag=args.out_bag)
     return 0
 
 
@@ -62,15 +100,21 @@ def register(sub: argparse._SubParsersAction) -> None:
         description=(
             "Run the FFT observation pipeline on every scan of FILE and print one JSON object "
             "per scan. Defaults: the paper's simulation robot (r0=0.15, r=0.3), R=3 m, 360 deg; "
-            "for CARMEN logs the real robot (r0=0.29, r=0.7), R=10 m, 180 deg."
+            "for CARMEN logs the real robot (r0=0.29, r=0.7), R=10 m, 180 deg; for ROS bags "
+            "the real robot, with R and the field of view of each LaserScan."
         ),
     )
     p.add_argument(
-        "file", metavar="FILE", help=".npy (M or K x M), .csv (one scan per row), .log[.gz]"
+        "file", metavar="FILE", help=".npy (M or K x M), .csv (one scan per row), .log[.gz], "
+        "or a ROS bag: .bag, .db3, .mcap or a ROS 2 bag folder (extra fftnav[ros])"
     )
     p.add_argument("--format", choices=("auto", "npy", "csv", "carmen"), default="auto")
     p.add_argument("--r0", type=float, metavar="M", help="lateral collision radius r0 (m)")
     p.add_argument("--r", type=float, metavar="M", help="protective radius r (m)")
     p.add_argument("--range", type=float, metavar="M", help="maximum range R (m)")
     p.add_argument("--fov", type=float, metavar="DEG", help="field of view (degrees)")
+    p.add_argument("--topic", metavar="T", help="bags: the LaserScan topic (default: the only one)")
+    p.add_argument("--out-bag", metavar="OUT",
+                   help="bags: write the bag again with /fftnav/safe_scan and "
+                   "/fftnav/safe_directions (docs/pipeline.md, \"Your robot's data\")")
     p.set_defaults(func=cmd_scan)

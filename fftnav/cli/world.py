@@ -7,10 +7,10 @@ import argparse
 import io
 import json
 import math
-from pathlib import Path
 
 import numpy as np
 
+from fftnav.files import atomic_path, check_target
 from fftnav.world.kinds import world_kinds
 from fftnav.world.model import BOUNDARIES
 
@@ -19,6 +19,7 @@ def cmd_generate(args: argparse.Namespace) -> int:
     """Generate a seeded world and write its JSON file."""
     from fftnav.world import generate_world, load_preset, save_world
 
+    check_target(args.out, flag="--out")
     overrides = {}
     if args.size is not None:  # goals stay as far from the top edge as starts from the bottom
         overrides["size_m"] = list(args.size)
@@ -41,7 +42,10 @@ def cmd_render(args: argparse.Namespace) -> int:
     from fftnav.report.world_plot import render_world
     from fftnav.world import load_world
 
-    render_world(load_world(args.world), args.out)
+    check_target(args.out, flag="--out", image=True)
+    world = load_world(args.world)
+    with atomic_path(args.out, keep_suffix=True) as tmp:
+        render_world(world, tmp)
     print(args.out)
     return 0
 
@@ -52,9 +56,10 @@ def cmd_grid(args: argparse.Namespace) -> int:
     from fftnav.world import load_world
     from fftnav.world.grid import occupancy_grid, write_ros_map
 
-    out = Path(args.out)
-    if out.is_dir():
-        raise ValueError(f"--out must be a file to write, got --out={args.out!r}, a directory")
+    out = check_target(args.out, flag="--out")
+    if args.ros_map:
+        for suffix in (".pgm", ".yaml"):
+            check_target(args.ros_map + suffix, flag="--ros-map")
     og = occupancy_grid(load_world(args.world), resolution_m=args.resolution,
                         inflate_m=args.inflate)
     buffer = io.BytesIO()
@@ -74,6 +79,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     from fftnav.world import save_world
     from fftnav.world.rosmap import import_ros_map, map_extent_text, read_robots_toml
 
+    check_target(args.out, flag="--out")
     starts, goals = list(args.start or []), list(args.goal or [])
     if args.robots:
         s, g = read_robots_toml(args.robots)

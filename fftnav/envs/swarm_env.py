@@ -1,7 +1,11 @@
 """``SwarmNavEnv``: the fftnav swarm as a PettingZoo ``ParallelEnv`` for multi-agent learning.
 
 Agents ``robot_0 .. robot_{K-1}``, one per start of the world. Every step each live agent sends
-``(v_mps, w_radps)`` (a ``Box`` within the robot's limits) and receives a ``Dict`` observation:
+``(v_mps, w_radps)`` (a ``Box`` within the robot's limits) and receives a ``Dict`` observation.
+``step(actions)`` takes a dict mapping agents to finite arrays of shape ``(2,)`` (an agent
+without an action stands still); anything else, NaN or inf included, is a ``ValueError`` naming
+the agent. Finite values outside the ``Box`` are clipped to it, as the simulator clips commands
+to the robot's speed limits (Gymnasium's ``ClipAction``). The observation:
 
 ``scan``
     its lidar ranges (m, ``float32``, ``(M,)``; no return reads R, blind beams 0);
@@ -40,6 +44,7 @@ from __future__ import annotations
 import functools
 import math
 import warnings
+from collections.abc import Mapping
 from dataclasses import dataclass
 from typing import Any
 
@@ -220,15 +225,32 @@ class SwarmNavEnv(ParallelEnv):
     def _goal_distance(self) -> np.ndarray:
         return np.hypot(*(self._obs.poses[:, :2] - self._goals).T)
 
+    def _commands(self, actions: Mapping[str, Any]) -> np.ndarray:
+        """The agents' actions as commands ``(K, 2)`` (zero for an agent without one); a value
+        that is not a dict of agents to finite ``(2,)`` arrays is a ValueError naming it."""
+        if not isinstance(actions, Mapping):
+            raise ValueError(f"actions must be a dict mapping each agent to an array "
+                             f"(v_mps, w_radps) of shape (2,), got {type(actions).__name__}")
+        commands = np.zeros((len(self.possible_agents), 2))
+        for agent, action in actions.items():
+            check_choice("agent", agent, self.possible_agents)
+            try:
+                value = np.asarray(action, dtype=np.float64)
+            except (TypeError, ValueError):
+                value = None
+            if value is None or value.shape != (2,):
+                shape = "no number array" if value is None else f"shape {value.shape}"
+                raise ValueError(f"actions[{agent!r}] must be an array (v_mps, w_radps) of "
+                                 f"shape (2,), got {shape}: {action!r:.80}")
+            if not np.isfinite(value).all():
+                raise ValueError(f"actions[{agent!r}] must be finite, got {value.tolist()}")
+            commands[self._index[agent]] = value
+        return commands
+
     def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
         if self._sim is None or not self.agents:
             raise ValueError("step() needs a live episode: call reset() first")
-        k = len(self.possible_agents)
-        commands = np.zeros((k, 2))
-        for agent, action in actions.items():
-            check_choice("agent", agent, self.possible_agents)
-            commands[self._index[agent]] = np.asarray(action, dtype=np.float64).reshape(2)
-        commands = np.clip(commands, self._act_space.low, self._act_space.high)
+        commands = np.clip(self._commands(actions), self._act_space.low, self._act_space.high)
         live = self._live.copy()
         self._obs = self._sim.step(commands)
         self._tick += 1

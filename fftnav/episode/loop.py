@@ -11,6 +11,7 @@ applied to the trajectories.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -24,13 +25,20 @@ from fftnav.episode.record import EpisodeResult, EpisodeRow
 from fftnav.episode.recording import STATUS, Tape
 from fftnav.navigation.bugcontrol import BugController
 from fftnav.navigation.controllers import Controller, ControllerSetup, Packet, SwarmStep
-from fftnav.navigation.resolve import Resolved, resolve
+from fftnav.navigation.policies import Policy
+from fftnav.navigation.resolve import Resolved, registered_names, resolve
 from fftnav.optimal.reference import optimal_lengths
+from fftnav.plugins import PluginProxy, plugin_call, source_file
 from fftnav.sim.swarm import Observation, SimConfig, SwarmSim
 from fftnav.validate import check_integer
 from fftnav.world.model import World
 
-__all__ = ["positions_by_tick", "run_episode"]
+__all__ = ["OnTick", "positions_by_tick", "run_episode"]
+
+#: ``on_tick(step, scans, commands, outgoing)`` of :func:`run_episode`: the swarm at a control
+#: tick, every robot's raw lidar ranges ``(N, M)`` (m; rows of robots not in ``step.active``
+#: are stale), the commands ``(N, 2)`` (v m/s, omega rad/s) and the messages sent, by robot.
+OnTick = Callable[[SwarmStep, np.ndarray, np.ndarray, dict[int, bytes]], None]
 
 
 def _seeds(seed: int) -> tuple[int, np.random.Generator]:
@@ -89,8 +97,9 @@ class _Onboard:
     """The robots' software: FFT pipeline, message channel and the controller."""
 
     def __init__(self, world: World, method: Resolved, config: SwarmConfig,
-                 rng: np.random.Generator, tape: Tape | None = None) -> None:
-        self.config, self.rng, self.tape = config, rng, tape
+                 rng: np.random.Generator, tape: Tape | None = None,
+                 on_tick: OnTick | None = None) -> None:
+        self.config, self.rng, self.tape, self.on_tick = config, rng, tape, on_tick
         self.pipe = config.pipeline()
         n = len(world.starts)
         self.goals = np.asarray(world.goals, dtype=np.float64)
@@ -98,10 +107,14 @@ class _Onboard:
                                loss=config.comms.packet_loss,
                                delay_ticks=config.comms.delay_ticks, rng=rng)
         setup = ControllerSetup(n, config, rng)
+        plugin = method.reference not in registered_names()
         if method.policy is not None:
-            self.controller: Controller = BugController(setup, method.policy,
+            policy = _guarded_policy(method) if plugin else method.policy
+            self.controller: Controller = BugController(setup, policy,
                                                         full_circle=self.pipe.bank.full_circle,
                                                         area_m=world.size_m)
+        elif plugin:
+            self.controller = _guarded_controller(method, setup)
         else:
             assert method.controller is not None
             self.controller = method.controller(setup)
@@ -141,6 +154,8 @@ class _Onboard:
                                    active=active)
         if self.tape is not None:
             self._record(step, commands, outgoing)
+        if self.on_tick is not None:
+            self.on_tick(step, obs.scans, commands, outgoing)
         return commands
 
     def _record(self, step: SwarmStep, commands: np.ndarray, outgoing: dict[int, bytes]
@@ -179,6 +194,29 @@ class _Onboard:
         return obs
 
 
+def _guarded_policy(method: Resolved) -> Policy:
+    """A plugin's decision policy whose errors are one-line PluginErrors naming it."""
+    assert method.policy is not None
+    decide = method.policy.decide
+    name = getattr(decide, "__name__", "decide")
+    return dataclasses.replace(method.policy, decide=functools.partial(
+        plugin_call, method.reference, name, source_file(decide), decide))
+
+
+def _guarded_controller(method: Resolved, setup: ControllerSetup) -> Controller:
+    """A plugin's controller, made and then called through :class:`~fftnav.plugins.PluginProxy`
+    (what it raises, in ``__init__``, ``act`` or any other call, is a one-line PluginError
+    naming it, the call and its file and line)."""
+    cls = method.controller
+    assert cls is not None
+    source = source_file(cls)
+    controller = plugin_call(method.reference, f"{cls.__name__}.__init__", source, cls, setup,
+                             defined=cls.__init__)
+    calls = ({} if cls.step is not Controller.step  # the base's step calls act per robot
+             else {"step": (f"{cls.__name__}.act", controller.act)})
+    return PluginProxy(controller, method.reference, source, calls)  # type: ignore[return-value]
+
+
 def run_episode(
     world: World,
     policy: str,
@@ -188,6 +226,7 @@ def run_episode(
     gui: bool = False,
     reference: tuple[np.ndarray, np.ndarray] | None = None,
     record: bool = False,
+    on_tick: OnTick | None = None,
 ) -> EpisodeResult:
     """Run every robot of ``world`` to its goal under decision ``policy``.
 
@@ -214,6 +253,10 @@ def run_episode(
     record : bool
         Keep the episode's recording (:mod:`fftnav.episode.recording`) in the result's
         ``tape``; the rows do not change.
+    on_tick : callable, optional
+        Called at every control tick, after the controller decided and before the simulator
+        advances (:data:`OnTick`); ``fftnav episode --bag`` writes the bag from it. The rows do
+        not change.
 
     Returns
     -------
@@ -238,10 +281,11 @@ def run_episode(
     the robots still driving when the last tick ends).
     """
     cfg = config or SwarmConfig()
+    cfg.episode.check_departures(len(world.starts))
     method = resolve(policy)
     sim_seed, rng = _seeds(seed)
     tape = Tape(world, cfg, method.name, seed, cfg.pipeline().angles_rad) if record else None
-    onboard = _Onboard(world, method, cfg, rng, tape)
+    onboard = _Onboard(world, method, cfg, rng, tape, on_tick)
     optimal, geodesic = (_reference_lengths(world.to_json(), cfg.robot.r0_m)  # unreachable: fail
                          if reference is None else reference)
     with SwarmSim(world, config=SimConfig.for_swarm(cfg), gui=gui) as sim:

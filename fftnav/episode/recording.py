@@ -58,7 +58,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.config import SwarmConfig
-from fftnav.files import write_atomic
+from fftnav.files import check_input, check_target, write_atomic
 from fftnav.world.model import World
 
 __all__ = ["FORMAT", "SCAN_STEP_M", "STATUS", "VERSION", "Recording", "RecordingError",
@@ -249,14 +249,12 @@ def write_recording(path: str | os.PathLike[str], data: bytes) -> Path:
     Raises
     ------
     ValueError
-        ``path`` is a folder.
+        ``path`` cannot be written (:func:`fftnav.files.check_target`: a folder, a FIFO or a
+        device, a folder that cannot be made).
     """
-    path = Path(path)
-    if path.is_dir():
-        raise ValueError(f"path must be a file path, not a folder, got path={str(path)!r}")
-    path.parent.mkdir(parents=True, exist_ok=True)
+    check_target(path, make_folder=True)
     write_atomic(path, data)
-    return path
+    return Path(path)
 
 
 def read_recording(path: str | os.PathLike[str]) -> Recording:
@@ -269,6 +267,8 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
         ``path`` is not a recording (not an ``.npz``, damaged data, no ``meta``, another format
         or a newer version, a missing column or meta key, columns whose shapes disagree).
     """
+    if isinstance(path, (str, os.PathLike)):
+        check_input(path)  # a FIFO or device refused by stat, never opened
     try:
         with np.load(path, allow_pickle=False) as npz:
             cols = {key: npz[key] for key in npz.files}

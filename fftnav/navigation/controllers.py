@@ -273,11 +273,15 @@ class Controller:
             action = self.act(obs)
             if not isinstance(action, Action):
                 try:
+                    if isinstance(action, (str, bytes, Mapping)):
+                        raise TypeError
                     v, w = action
+                    action = Action(float(v), float(w))
                 except (TypeError, ValueError):
-                    raise ValueError(f"{type(self).__name__}.act must return (v_mps, w_radps) or "
-                                     f"an Action, got {action!r:.80} for robot {i}") from None
-                action = Action(float(v), float(w))
+                    raise ValueError(f"{type(self).__name__}.act must return a pair of numbers "
+                                     f"(v_mps, w_radps) or an Action, got "
+                                     f"{type(action).__name__} {action!r:.80} for robot {i}"
+                                     ) from None
             if not (math.isfinite(action.v_mps) and math.isfinite(action.w_radps)):
                 raise ValueError(f"{type(self).__name__}.act must return finite commands, got "
                                  f"({action.v_mps!r}, {action.w_radps!r}) for robot {i}")

@@ -28,10 +28,18 @@ _KEEP_BATCH_SIZES = 8
 
 
 def _cutoff_3db(h: np.ndarray) -> float:
-    """First frequency (cycles per beam) where ``|H|`` falls to -3 dB, from a dense FFT."""
+    """First frequency (cycles per beam) where ``|H|`` falls to -3 dB, from a dense FFT; the
+    Nyquist frequency 0.5 if it never does (a one-tap filter passes every frequency).
+
+    >>> _cutoff_3db(np.array([1.0]))
+    0.5
+    """
     n = 1 << 16
     mag = np.abs(np.fft.rfft(h, n))
-    k = int(np.argmax(mag < _MINUS_3DB * mag[0]))
+    below = mag < _MINUS_3DB * mag[0]
+    if not below.any():
+        return 0.5
+    k = int(np.argmax(below))
     # linear interpolation between bins k-1 and k
     m0, m1 = mag[k - 1] / mag[0], mag[k] / mag[0]
     return (k - 1 + (m0 - _MINUS_3DB) / (m0 - m1)) / n

@@ -11,6 +11,7 @@
 from __future__ import annotations
 
 import math
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from functools import partial
@@ -236,6 +237,14 @@ class _Workspaces:
                                  _CRC_HEADS)
 
 
+class _PerThread(threading.local):
+    """A pipeline's :class:`_Workspaces`, one set per thread: made when a thread first uses the
+    pipeline (``threading.local`` calls this with the same arguments in every thread)."""
+
+    def __init__(self, pipe: Pipeline, fft_in_kernel: bool, fused: bool) -> None:
+        self.w = _Workspaces(pipe, fft_in_kernel, fused)
+
+
 def _probe_scans(beams: int, range_m: float) -> np.ndarray:
     """Two deterministic scans ``(2, M)`` with open, blocked, invalid and arbitrary readings, on
     which the compiled paths must reproduce the numpy path bit for bit."""
@@ -265,9 +274,8 @@ class Pipeline:
 
     Notes
     -----
-    A compiled pipeline writes each scan into workspaces of its own: use one pipeline per
-    thread (a copy, ``copy.copy(pipe)``, gets workspaces of its own). Results never share
-    them.
+    A pipeline is safe to call from many threads at once: the compiled paths write each scan
+    into workspaces of the calling thread (``threading.local``), and results never share them.
     """
 
     def __init__(
@@ -304,10 +312,10 @@ class Pipeline:
         ``numpy.fft`` between the compiled steps."""
         if kernels.FFT_IN_KERNEL:
             for fused in (True, False):
-                self._w = _Workspaces(self, True, fused)
+                self._local = _PerThread(self, True, fused)
                 if self._reproduces_numpy_path():
                     return
-        self._w = _Workspaces(self, False, False)
+        self._local = _PerThread(self, False, False)
 
     def _reproduces_numpy_path(self) -> bool:
         """Whether the compiled paths, one scan and a batch, give the numpy path's masks,
@@ -327,13 +335,13 @@ class Pipeline:
     def fft_in_kernel(self) -> bool:
         """Whether this pipeline's compiled kernels run the FFT themselves (rocket-fft installed
         and bit-identical to ``numpy.fft`` here); False for the numpy path."""
-        return self.compiled and self._w.fft_in_kernel
+        return self.compiled and self._local.w.fft_in_kernel
 
     def __getstate__(self) -> dict:
         """Pickled and copied without the compiled paths' workspaces (rebuilt on arrival, its
         own)."""
         state = self.__dict__.copy()
-        state.pop("_w", None)
+        state.pop("_local", None)
         return state
 
     def __setstate__(self, state: dict) -> None:
@@ -396,7 +404,7 @@ class Pipeline:
         """The single-scan path: one C-contiguous float64 scan ``(M,)`` through one compiled
         call (:func:`fftnav.observe.kernels.scan`) into fresh outputs; without P_s, the result
         is a :class:`_OneScanResult` over them."""
-        w = self._w
+        w = self._local.w
         out, mask = _EMPTY(w.out_shape), _EMPTY(w.mask_shape, _BOOL)
         sigma, is_min = _EMPTY(w.sigma_shape), _EMPTY(w.m, _BOOL)
         n = w.run(ranges, out, mask, sigma, is_min)
@@ -417,7 +425,7 @@ class Pipeline:
     def _process_many(self, ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
         """The compiled path of a C-contiguous float64 batch ``(K, M)``: one compiled call
         (:func:`fftnav.observe.kernels.scan_batch`)."""
-        w, k = self._w, ranges.shape[0]
+        w, k = self._local.w, ranges.shape[0]
         work = np.zeros((2 * k, w.size))  # columns M.. stay 0: the zero padding
         spec, out = _EMPTY((2 * k, w.size // 2 + 1), complex), _EMPTY((2 * k, w.size))
         mask, offsets = _EMPTY((k, w.m), bool), _EMPTY(k + 1, np.int64)

@@ -7,16 +7,18 @@ format implies (CARMEN front lasers: 180 degrees; npy / csv: unknown, ``None``).
 from __future__ import annotations
 
 import math
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
-from fftnav.files import load_npy, read_csv_floats, read_lines
+from fftnav.files import iter_csv_rows, iter_npy_rows, load_npy, read_csv_floats, read_lines
 from fftnav.limits import MAX_BEAMS, MAX_INPUT_BYTES, check_limit
 from fftnav.validate import check_choice, check_number
 
-__all__ = ["FORMATS", "CARMEN_NO_RETURN_M", "ScanFile", "detect_format", "read_scans"]
+__all__ = ["FORMATS", "CARMEN_NO_RETURN_M", "ScanFile", "ScanStream", "detect_format",
+           "iter_scans", "read_scans"]
 
 FORMATS = ("auto", "npy", "csv", "carmen")
 #: CARMEN logs write "no return" as ~80-82 m (or the ``robot_front_laser_max`` PARAM): readings
@@ -39,6 +41,25 @@ class ScanFile:
     """
 
     ranges: np.ndarray
+    fov_rad: float | None
+    format: str
+
+
+@dataclass(frozen=True)
+class ScanStream:
+    """Scans of a file, read a chunk at a time (:func:`iter_scans`).
+
+    Attributes
+    ----------
+    chunks : iterator of ndarray, shape (k, M)
+        Consecutive scans, float64, every chunk with the same M.
+    fov_rad : float or None
+        Field of view implied by the format (CARMEN: pi), else None.
+    format : str
+        ``"npy"``, ``"csv"`` or ``"carmen"``.
+    """
+
+    chunks: Iterator[np.ndarray]
     fov_rad: float | None
     format: str
 
@@ -148,3 +169,20 @@ def read_scans(path: str | Path, *, format: str = "auto") -> ScanFile:
             f"dtype={ranges.dtype}"
         )
     return ScanFile(np.atleast_2d(ranges).astype(np.float64), None, fmt)
+
+
+def iter_scans(path: str | Path, *, format: str = "auto", rows: int = 4096) -> ScanStream:
+    """Read the scans of a file a chunk at a time: at most ``rows`` scans and 4096 x 360
+    readings per chunk (so very wide scans come fewer per chunk, at least one), so that memory
+    stays bounded whatever the file's size. ``.npy`` and ``.csv`` are streamed from the file;
+    CARMEN logs (small) are read whole and handed out in chunks. The same checks and messages
+    as :func:`read_scans`, raised when the chunk that holds the damage is read."""
+    check_choice("format", format, FORMATS)
+    path = Path(path)
+    fmt = detect_format(path) if format == "auto" else format
+    if fmt == "carmen":
+        ranges = _read_carmen(path)
+        return ScanStream(iter(np.array_split(ranges, range(rows, len(ranges), rows))),
+                          math.pi, fmt)
+    reader = iter_npy_rows if fmt == "npy" else iter_csv_rows
+    return ScanStream(reader(path, rows=rows), None, fmt)

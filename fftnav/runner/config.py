@@ -212,6 +212,10 @@ def parse_config(data: dict[str, Any], *, source: str = "",
     check_limit("lidar rays per control tick (experiment.robots x sensor.beams)",
                 scalars["robots"] * swarm.sensor.beams, MAX_RAYS_PER_TICK,
                 hint="lower sensor.beams")
+    try:
+        swarm.episode.check_departures(scalars["robots"])
+    except ValueError as exc:
+        raise ValueError(f"[episode] {exc}") from None
     common, by_env = _world_tables(_table(data, "world"), envs, world_files, scalars["robots"],
                                    swarm)
     record = _table(data, "record")

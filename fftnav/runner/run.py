@@ -13,7 +13,7 @@ Layout of the output folder ``DIR``:
   byte-identical whatever the completion order, the worker count or the executor;
 - ``.lock`` (one run at a time), ``.invocation-PID.json`` (the wall time of a killed run);
 - ``reference/<env>-<map_seed>.npy``: the map's reference lengths (grid A*, geodesic), computed
-  once per map before its episodes and shared by its policies;
+  once per map, 256 maps at a time just before their episodes, and shared by its policies;
 - ``maps.csv``: every map's difficulty measures per robot (:mod:`fftnav.runner.maps`), written
   when missing or not of the config's maps (a resume keeps it; real episodes only, not with
   an injected ``task_fn``);
@@ -72,6 +72,9 @@ CSV_COLUMNS: tuple[str, ...] = ("env", "map_seed", "policy", "episode_seed",
 #: Fixed float format so that CSVs are byte-identical across runs.
 FLOAT_FORMAT = "%.6f"
 ERROR_COLUMNS = ("env", "map_seed", "policy", "error_type", "message", "traceback")
+#: Maps whose reference lengths are computed together, just before their episodes: the first
+#: episodes start after 256 maps' lengths, however many maps the experiment has.
+REFERENCE_BATCH_MAPS = 256
 
 
 @dataclass
@@ -167,51 +170,72 @@ def _earlier_wall_time(out: Path) -> float:
 def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, executor: str,
                scheduler: str | None, task_fn: TaskFunction, progress: bool, fresh: bool,
                clock: InvocationClock) -> RunOutcome:
-    """Run the unfinished tasks (enumerated lazily, O(1) bookkeeping per finished episode);
-    ``episodes.csv`` is rebuilt now and then (at most ~5 % of the time) and at the end, even
-    on interruption."""
+    """Run the unfinished tasks, :data:`REFERENCE_BATCH_MAPS` maps at a time (enumerated
+    lazily, O(1) bookkeeping per finished episode): with real episodes, each batch's reference
+    lengths are computed just before its episodes. ``episodes.csv`` is rebuilt now and then
+    (at most ~5 % of the time) and at the end, even on interruption."""
     for sub in ("episodes", "trajectories", "records"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     write_atomic(out / "config.toml", config.source)
     real = task_fn is run_task  # real episodes: each map's reference lengths computed once
+    options = {"executor": executor, "workers": workers, "scheduler": scheduler}
     if real:
-        _compute_references(config, out, fresh=fresh, progress=progress, executor=executor,
-                            workers=workers, scheduler=scheduler)
+        _reference_folder(out, fresh=fresh)
     outcome = RunOutcome(total=task_count(config), skipped=0, completed=0)
     bar = tqdm(total=outcome.total, unit="episode", desc=config.name, file=sys.stderr,
                disable=not progress, dynamic_ncols=True)
-
-    def todo() -> Iterator[Task]:
-        for task in iter_tasks(config):
-            if not fresh and _trusted(out, config, task, records=real):
-                outcome.skipped += 1
-                bar.update()
-            else:
-                if fresh:  # an earlier run's recording would outlive an episode that now arrives
-                    record_path(out, task).unlink(missing_ok=True)
-                yield _with_reference(out, task) if real else task
-
     rebuilt = _EpisodesRebuild(out, config)
-    results = execute(task_fn, config, todo(), executor=executor, workers=workers,
-                      scheduler=scheduler)
     try:
-        for task, result in results:
-            if isinstance(result, TaskResult):
-                result = guarded(_save_task, out, task, result)
-            if isinstance(result, TaskError):
-                outcome.failed.append((task, result))
-                bar.set_postfix(failed=len(outcome.failed))
-            else:
-                outcome.completed += 1
-                clock.tick()
-                rebuilt.maybe()
-            bar.update()
+        for batch in _map_batches(config):
+            todo = []
+            for task in batch:
+                if not fresh and _trusted(out, config, task, records=real):
+                    outcome.skipped += 1
+                    bar.update()
+                else:
+                    if fresh:  # an earlier recording would outlive an episode that now arrives
+                        record_path(out, task).unlink(missing_ok=True)
+                    todo.append(task)
+            if real and todo:
+                bar.set_description(f"{config.name} (reference lengths)")
+                _compute_references(config, out, todo, **options)
+                bar.set_description(config.name)
+                todo = [_with_reference(out, task) for task in todo]
+            results = execute(task_fn, config, todo, **options)
+            try:
+                for task, result in results:
+                    if isinstance(result, TaskResult):
+                        result = guarded(_save_task, out, task, result)
+                    if isinstance(result, TaskError):
+                        outcome.failed.append((task, result))
+                        bar.set_postfix(failed=len(outcome.failed))
+                    else:
+                        outcome.completed += 1
+                        clock.tick()
+                        rebuilt.maybe()
+                    bar.update()
+            finally:
+                results.close()  # stops the workers now if interrupted
     finally:
-        results.close()  # stops the workers now if interrupted
         bar.close()
         clock.tick()
         rebuilt.now()
     return outcome
+
+
+def _map_batches(config: ExperimentConfig) -> Iterator[list[Task]]:
+    """The tasks of :func:`~fftnav.runner.tasks.iter_tasks` in lists of the tasks of
+    :data:`REFERENCE_BATCH_MAPS` maps (the last list may hold fewer), in task order."""
+    batch: list[Task] = []
+    maps = 0
+    for _, tasks in itertools.groupby(iter_tasks(config), key=lambda t: (t.env, t.map_seed)):
+        if maps == REFERENCE_BATCH_MAPS:
+            yield batch
+            batch, maps = [], 0
+        batch.extend(tasks)
+        maps += 1
+    if batch:
+        yield batch
 
 
 class _EpisodesRebuild:
@@ -314,43 +338,38 @@ def _reference_path(out: Path, env: str, map_seed: int) -> Path:
     return out / "reference" / f"{env}-{map_seed}.npy"
 
 
-def _compute_references(config: ExperimentConfig, out: Path, *, fresh: bool, progress: bool,
-                        **options: object) -> None:
-    """Compute every map's reference lengths that some unfinished task needs.
-
-    The grid A* and geodesic lengths of a map are the same for all its policies and cost about
-    as much as an episode: they are computed once per map, in parallel on the executor
-    (:func:`fftnav.runner.tasks.map_reference`), before the episodes, and kept in
-    ``reference/<env>-<map_seed>.npy`` (a resumed run reuses them; ``fresh`` recomputes them).
-    Maps are enumerated lazily. A map whose lengths fail (an unreachable goal) is left to its
-    episodes, which fail with the same error.
-    """
+def _reference_folder(out: Path, *, fresh: bool) -> None:
+    """Make ``reference/`` (emptied first if ``fresh``: every length is computed again)."""
     folder = out / "reference"
     if fresh and folder.exists():
         shutil.rmtree(folder)
     folder.mkdir(exist_ok=True)
 
-    def missing() -> Iterator[Task]:
-        for (env, map_seed), tasks in itertools.groupby(iter_tasks(config),
-                                                        key=lambda t: (t.env, t.map_seed)):
-            if _reference_path(out, env, map_seed).exists():
-                continue
-            if fresh or not all(_task_csv(out, t).exists() for t in tasks):
-                yield Task(env, map_seed, "", 0, False)
 
-    bar = tqdm(unit="map", desc="reference lengths", file=sys.stderr, disable=not progress,
-               dynamic_ncols=True)
-    results = execute(map_reference, config, missing(), **options)
+def _compute_references(config: ExperimentConfig, out: Path, tasks: list[Task],
+                        **options: object) -> None:
+    """Compute the reference lengths of the maps of ``tasks`` that ``reference/`` lacks.
+
+    The grid A* and geodesic lengths of a map are the same for all its policies and cost about
+    as much as an episode: they are computed once per map, in parallel on the executor
+    (:func:`fftnav.runner.tasks.map_reference`), just before the map's episodes, and kept in
+    ``reference/<env>-<map_seed>.npy`` (a resumed run reuses them). A map whose lengths fail
+    (an unreachable goal) is left to its episodes, which fail with the same error.
+    """
+    maps = dict.fromkeys((t.env, t.map_seed) for t in tasks)
+    missing = [Task(env, map_seed, "", 0, False) for env, map_seed in maps
+               if not _reference_path(out, env, map_seed).exists()]
+    if not missing:
+        return
+    results = execute(map_reference, config, missing, **options)  # type: ignore[arg-type]
     try:
         for task, result in results:
             if isinstance(result, np.ndarray):
                 buffer = io.BytesIO()
                 np.save(buffer, result)
                 write_atomic(_reference_path(out, task.env, task.map_seed), buffer.getvalue())
-            bar.update()
     finally:
         results.close()
-        bar.close()
 
 
 def _with_reference(out: Path, task: Task) -> Task:

@@ -42,6 +42,8 @@ MARGIN_M = 1e-3
 #: A hit counts as clear of its triangle's edges when every edge test exceeds ``CLEAR |n|^2``
 #: (about 1e-3 of the face's width from every edge); other hits are left to Bullet.
 CLEAR = 1e-3
+#: Obstacles whose triangles :class:`StaticMesh` sorts at a time.
+_CHUNK = 4096
 
 
 class StaticMesh:
@@ -53,15 +55,46 @@ class StaticMesh:
         Each obstacle's triangle mesh (``Obstacle.mesh()``).
     circles : ndarray, shape (N, 3)
         Each obstacle's bounding circle (x, y, radius), m.
+    lazy : bool, optional
+        Hold no obstacle's triangles until :meth:`add` names it (the simulator adds a tile's
+        obstacles when it builds the tile; an obstacle not added is never hit). Default: all.
     """
 
-    def __init__(self, meshes, circles: np.ndarray) -> None:
-        triangles, footprints, first = [], [], [0]
-        for vertices, indices in meshes:
-            tri = np.asarray(vertices, dtype=float)[np.asarray(indices).reshape(-1, 3)]
+    def __init__(self, meshes, circles: np.ndarray, *, lazy: bool = False) -> None:
+        self._meshes = meshes
+        self.circles = np.asarray(circles, dtype=float).reshape(-1, 3)
+        self._added = np.zeros(len(meshes), dtype=bool)
+        self._owner = np.zeros(0, dtype=np.int64)
+        self.triangles = np.zeros((0, 3, 3))
+        self.footprints = np.zeros((0, 5))
+        self._assemble()
+        if not lazy:
+            self.add(range(len(meshes)))
+
+    def add(self, obstacles) -> None:
+        """Hold the triangles of ``obstacles`` (indices) too, in obstacle order."""
+        todo = np.unique(np.asarray(list(obstacles), dtype=np.int64))
+        todo = todo[~self._added[todo]]
+        if not todo.size:
+            return
+        self._added[todo] = True
+        # (in chunks of obstacles, so that the cap triangles, a half of all, are never held
+        # for the whole world at once)
+        owners, triangles, footprints = [self._owner], [self.triangles], [self.footprints]
+        for start in range(0, len(todo), _CHUNK):
+            which = todo[start:start + _CHUNK]
+            chunk = [self._meshes[k] for k in which]
+            sizes = [np.size(i) // 3 for _, i in chunk]
+            offsets = np.cumsum([0] + [len(v) for v, _ in chunk[:-1]])
+            vertices = np.concatenate([np.asarray(v, dtype=float).reshape(-1, 3)
+                                       for v, _ in chunk])
+            indices = np.concatenate([np.asarray(i).ravel() + o
+                                      for (_, i), o in zip(chunk, offsets, strict=True)])
+            tri = vertices[indices.reshape(-1, 3)]
+            owner = np.repeat(which, sizes)
             z = tri[:, :, 2]
             side = ~np.all(z == z[:, :1], axis=1)  # caps lie in one horizontal plane
-            tri = tri[side]
+            tri, owner = tri[side], owner[side]
             xy = tri[:, :, :2]
             # footprint of a vertical triangle: the two farthest-apart of its 2D vertices
             d01 = np.hypot(*(xy[:, 0] - xy[:, 1]).T)
@@ -73,11 +106,18 @@ class StaticMesh:
             a, b = xy[rows, ends[:, 0]], xy[rows, ends[:, 1]]
             footprints.append(np.c_[a, b, np.hypot(*(b - a).T)])
             triangles.append(tri)
-            first.append(first[-1] + len(tri))
-        self.triangles = (np.concatenate(triangles) if triangles else np.zeros((0, 3, 3)))
-        self.footprints = (np.concatenate(footprints) if footprints else np.zeros((0, 5)))
-        self.first = np.array(first, dtype=np.int64)
-        self.circles = np.asarray(circles, dtype=float).reshape(-1, 3)
+            owners.append(owner)
+        owner = np.concatenate(owners)
+        order = np.argsort(owner, kind="stable")  # by obstacle, each in its mesh's order
+        self._owner = owner[order]
+        self.triangles = np.concatenate(triangles)[order]
+        self.footprints = np.concatenate(footprints)[order]
+        self._assemble()
+
+    def _assemble(self) -> None:
+        """``first`` (each obstacle's first triangle) and ``same_footprint``."""
+        counts = np.bincount(self._owner, minlength=len(self.circles))
+        self.first = np.concatenate([[0], np.cumsum(counts)]).astype(np.int64)
         #: Whether a triangle has the footprint of the one before it (of the same obstacle): the
         #: two triangles of a side face; the compiled scan tests that footprint once.
         self.same_footprint = np.zeros(len(self.footprints), dtype=bool)

@@ -31,7 +31,7 @@ from __future__ import annotations
 
 import math
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 import numpy as np
 
@@ -98,6 +98,9 @@ class Lidar:
         The robots are spheres of radius ``robot_radius_m`` (the "body" embodiment): with numba,
         ``cull``, ``static_mesh`` and ``robot_mask``, and given the spheres' centre heights
         (``scan(..., robot_z=...)``), the scan is :func:`fftnav.sim.fastrays.scan_swarm`.
+    prepare : callable, optional
+        Called with the robots' positions ``(K, 2)`` before each scan casts a ray (the
+        simulator builds the obstacle tiles within range of them there).
     """
 
     def __init__(self, client: int, *, beams: int, range_m: float, fov_deg: float,
@@ -106,8 +109,10 @@ class Lidar:
                  robot_radius_m: float = 0.0, cull: bool = True,
                  static_client: int | None = None,
                  static_mesh: fastrays.StaticMesh | None = None,
-                 robot_mask: int | None = None, robot_spheres: bool = False) -> None:
+                 robot_mask: int | None = None, robot_spheres: bool = False,
+                 prepare: Callable[[np.ndarray], None] | None = None) -> None:
         self._client = client
+        self._prepare = prepare
         self._static_client = static_client
         self.static_mesh = static_mesh if fastrays.AVAILABLE else None
         self._robot_mask = robot_mask
@@ -171,6 +176,8 @@ class Lidar:
         out = np.zeros((k, self.angles_rad.size))
         if k == 0:
             return out
+        if self._prepare is not None:
+            self._prepare(poses[:, :2])
         theta = poses[:, 2:3] + self.angles_rad[self.live]
         direction = np.stack([np.cos(theta), np.sin(theta), np.zeros_like(theta)], axis=-1)
         fractions = np.ones(theta.shape)
@@ -253,8 +260,10 @@ class Lidar:
                             self._robot_radius_m,
                             fastrays.SPHERE_MARGIN_M, obstacle, obstacle_sure, robots,
                             robot_sure, cast_obstacle, cast_robot)
+        # obstacles alone: in the static client, or in the full client (a tiled world's)
+        obstacles_only = self._mask & ~self._robot_mask
         for sure, hits, client, mask in (
-                (obstacle_sure, obstacle, self._static_client, self._mask),
+                (obstacle_sure, obstacle, self._static_client, obstacles_only),
                 (robot_sure, robots, self._client, self._robot_mask)):
             unsure = ~sure  # near a triangle's edge, or a cast out of steps: Bullet decides
             if unsure.any():

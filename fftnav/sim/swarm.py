@@ -3,9 +3,11 @@
 ``SwarmSim(world)`` builds the world's solids (obstacles and boundary walls) as one static
 triangle mesh of vertical prisms (rocks and walls over their polygons, trunks over 64-gons
 circumscribing their circles: Bullet ray-casts triangle meshes exactly and faster than convex
-hulls or capsules) and one robot per start pose (a planar sphere, or optionally a wheeled
-URDF). ``reset(seed=...)`` returns the first observation; ``step(commands)`` applies (v, w)
-commands for one control period. Only ``fftnav.sim`` imports pybullet.
+hulls or capsules), or, for a world beyond one mesh, as 10 m tiles built when a robot first
+comes near them (:mod:`fftnav.sim.mesh`), and one robot per start pose (a planar sphere, or
+optionally a wheeled URDF). ``reset(seed=...)`` returns the first observation;
+``step(commands)`` applies (v, w) commands for one control period. Only ``fftnav.sim``
+imports pybullet.
 """
 
 from __future__ import annotations
@@ -21,9 +23,16 @@ import pybullet as p
 
 from fftnav.config import RobotConfig, SensorConfig, SwarmConfig, check_rates
 from fftnav.limits import MAX_RAYS_PER_TICK, check_limit
+from fftnav.sim import fastrays
 from fftnav.sim.fastrays import StaticMesh
 from fftnav.sim.lidar import CULL_MARGIN_M, Lidar
-from fftnav.sim.mesh import MAX_MESH_INDICES, MAX_MESH_VERTICES, static_meshes
+from fftnav.sim.mesh import (
+    MAX_MESH_INDICES,
+    MAX_MESH_VERTICES,
+    join_meshes,
+    obstacle_meshes,
+    static_tiles,
+)
 from fftnav.validate import Checked, check_integer, integer_field, number_field
 from fftnav.world import World
 
@@ -34,12 +43,30 @@ __all__ = ["SimConfig", "Observation", "SwarmSim"]
 _RAYS, _OBSTACLE, _ROBOT, _GROUND = 1, 2, 4, 8
 _ROBOT_MASK = _GROUND | _OBSTACLE | _ROBOT | _RAYS
 _PARKED_XY = (-1000.0, -1000.0)
+#: A tile of obstacles is built once a robot comes within max(lidar range, r0 + one control
+#: period at full speed) plus this margin (m) of it: before a ray or a contact can reach it.
+_TILE_MARGIN_M = 1.0
 #: The wheeled robot: URDF built for r0 = _URDF_R0_M (scaled to r0 when loaded), wheel joints.
 _URDF = Path(__file__).with_name("wheeled.urdf")
 _URDF_R0_M = 0.15
 _WHEELS = (0, 1)  # left, right
 #: Maximum wheel motor torque (N m) of the velocity controllers.
 _WHEEL_TORQUE_NM = 0.5
+
+
+#: Robot-steps of planar velocities made at once (a control period of any length in bounded
+#: memory: a few hundred kB per block).
+_VELOCITY_BLOCK = 4096
+
+
+def _planar_velocities(yaw0: np.ndarray, v: np.ndarray, w: np.ndarray, first: int, steps: int,
+                       physics_hz: float) -> list[list[list[float]]]:
+    """The body robots' linear velocities (v cos(yaw), v sin(yaw), 0) during physics steps
+    ``first .. first + steps - 1`` of a control period, ``[step][robot]``: frictionless spheres
+    feel no contact torque, so the heading during step k is exactly ``yaw0 + k w / physics_hz``
+    and the velocities are known up front."""
+    yaw = yaw0 + np.outer(np.arange(first, first + steps) / physics_hz, w)
+    return np.stack([v * np.cos(yaw), v * np.sin(yaw), np.zeros_like(yaw)], axis=-1).tolist()
 
 
 @dataclass(frozen=True)
@@ -154,9 +181,13 @@ class SwarmSim:
     -----
     Deterministic: the same world, ``reset`` seed and commands give bitwise-equal poses. The
     Bullet world is built once; ``reset`` restores the Bullet state saved right after building
-    (``restoreState``: poses, velocities, joint states) and re-inserts every robot, parked or
-    not, into the broadphase (dropping the last episode's contact caches), so every episode
-    starts from the same state. The episode seed only drives lidar noise and dropout.
+    (a world of one tile) or puts every robot back at its stored start pose, at rest (wheel
+    joints too; a tiled world, whose state would be slow to save), and re-inserts every robot,
+    parked or not, into the broadphase (dropping the last episode's contact caches), so every
+    episode starts from the same state. In a tiled world, the tiles first built during the last
+    episode are taken out again (their collision shapes are kept, so building them again is
+    cheap), so that every episode builds them in the same order as a fresh world would. The episode seed only drives
+    lidar noise and dropout.
     """
 
     def __init__(self, world: World, *, config: SimConfig | None = None, gui: bool = False) -> None:
@@ -179,7 +210,13 @@ class SwarmSim:
         # the obstacles alone, for the lidar's rays that cannot hit a robot (faster there)
         self._static_client = p.connect(p.DIRECT)
         self._build()
-        self._built_state = p.saveState(physicsClientId=self._client)
+        # A world of one tile keeps the Bullet state saved right after building and restores
+        # it at every reset: poses come back bit for bit as Bullet stored them (a pose set from
+        # a quaternion again may differ in its last bit, which can change an episode). Saving
+        # the state of a tiled world would take most of its building time, so its robots are
+        # put back at their start poses instead.
+        self._built_state = (p.saveState(physicsClientId=self._client)
+                             if len(self._tiles) == 1 else None)
         self._reset_state(np.random.default_rng(0))
 
     # ------------------------------------------------------------------ building
@@ -201,24 +238,44 @@ class SwarmSim:
             p.changeDynamics(self._ground, -1, lateralFriction=1.0, physicsClientId=cid)
         # All obstacles form ONE static triangle mesh where Bullet's mesh limits allow (Bullet
         # updates every body's bounding box every step, so one body instead of 80 makes a
-        # physics step several times cheaper), else tiles of as few meshes as they need; the
-        # same meshes go into the static client, which the lidar uses for rays that cannot hit
-        # a robot (faster there).
-        meshes = static_meshes(self.world.solids, max_vertices=cfg.mesh_max_vertices,
-                               max_indices=cfg.mesh_max_indices)
-        #: Number of static obstacle meshes built (1 unless Bullet's limits split the world).
-        self.static_meshes = len(meshes)
-        for verts, triangles in meshes:
-            for client in (cid, self._static_client):
-                shape = p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
-                                               physicsClientId=client)
-                body = p.createMultiBody(0, shape, physicsClientId=client)
-                p.changeDynamics(body, -1, lateralFriction=0.0, physicsClientId=client)
-                p.setCollisionFilterGroupMask(body, -1, _OBSTACLE, _ROBOT | _RAYS,
-                                              physicsClientId=client)
-        # the static client's broadphase holds the meshes' bounding boxes from the start
-        p.performCollisionDetection(physicsClientId=self._static_client)
+        # physics step several times cheaper), else 10 m tiles of as few meshes as they need,
+        # each built when a robot first comes near it; the same meshes go into the static
+        # client, which the lidar uses for rays that cannot hit a robot (faster there), unless
+        # the world is tiled and the lidar's compiled scan (numba, sphere robots) leaves only a
+        # few rays to Bullet: those then go to the full client, with the obstacles' mask. Every
+        # obstacle's mesh is made once, here.
+        solids = self.world.solids
+        parts = obstacle_meshes(solids)
+        self._parts = parts
+        self._tiles = static_tiles(solids, parts=parts, max_vertices=cfg.mesh_max_vertices,
+                                   max_indices=cfg.mesh_max_indices)
+        self._tile_boxes = np.array([t.box for t in self._tiles]).reshape(-1, 4)
+        # the triangles of the compiled lidar, added tile by tile as the tiles are built
+        self._static_mesh = StaticMesh(parts, [(x, y, r + CULL_MARGIN_M) for x, y, r in
+                                               (o.bounding_circle() for o in solids)],
+                                       lazy=True) if fastrays.AVAILABLE else None
+        #: Bullet shapes of each tile once made (per client), and the bodies of the built tiles.
+        self._tile_shapes: dict[int, list[tuple[int, ...]]] = {}
+        self._tile_bodies: dict[int, list[tuple[int, int]]] = {}
+        self._reach_m = max(cfg.sensor.range_m,
+                            cfg.robot.r0_m + cfg.robot.v_max_mps / cfg.control_hz) + _TILE_MARGIN_M
+        #: Number of static obstacle meshes (1 unless Bullet's limits split the world).
+        self.static_meshes = sum(len(t.meshes) for t in self._tiles)
+        compiled = fastrays.AVAILABLE and not wheeled
+        self._mesh_clients = ((cid,) if len(self._tiles) > 1 and compiled
+                              else (cid, self._static_client))
+        if len(self._tiles) == 1:
+            self._build_tiles([0])
+        else:
+            self._build_near(self.world.starts[:, :2])
+        # tiles built before the first robot: those near the starts (all of a one-mesh world)
+        self._first_tiles = set(self._tile_bodies)
         self._robots = [self._add_robot(x, y, yaw) for x, y, yaw in self.world.starts]
+        self._start_poses = [([x, y, cfg.robot.r0_m], p.getQuaternionFromEuler([0.0, 0.0, yaw]))
+                             for x, y, yaw in self.world.starts]
+        self._joints = [j for j in range(p.getNumJoints(self._robots[0], physicsClientId=cid))
+                        if p.getJointInfo(self._robots[0], j, physicsClientId=cid)[2]
+                        != p.JOINT_FIXED] if self._robots else []
         if wheeled and self._robots:
             body = self._robots[0]
             joints = [p.getJointInfo(body, j, physicsClientId=cid) for j in _WHEELS]
@@ -232,12 +289,54 @@ class SwarmSim:
                             start_m=r0 + 0.005, mask=_OBSTACLE | _ROBOT,
                             bodies=[(o.bounding_circle(), o.cull_vertices())
                                     for o in self.world.solids],
-                            robot_radius_m=cfg.robot.r0_m, static_client=self._static_client,
-                            static_mesh=StaticMesh(
-                                [o.mesh() for o in self.world.solids],
-                                [(x, y, r + CULL_MARGIN_M) for x, y, r in
-                                 (o.bounding_circle() for o in self.world.solids)]),
-                            robot_mask=_ROBOT, robot_spheres=not wheeled)
+                            robot_radius_m=cfg.robot.r0_m,
+                            static_client=self._mesh_clients[-1] if len(self._mesh_clients) > 1
+                            else None,
+                            static_mesh=self._static_mesh,
+                            robot_mask=_ROBOT, robot_spheres=not wheeled,
+                            prepare=None if len(self._tiles) < 2 else self._build_near)
+        if len(self._tiles) < 2:
+            self._parts = []  # every mesh is built
+
+    def _build_near(self, xy: np.ndarray) -> None:
+        """Build every tile that lies within reach (``_reach_m``) of a point of ``xy`` (K, 2),
+        in tile order, unless it is built already."""
+        box = self._tile_boxes
+        xy = np.asarray(xy, dtype=float).reshape(-1, 1, 2)
+        dx = np.maximum(np.maximum(box[:, 0] - xy[..., 0], xy[..., 0] - box[:, 2]), 0.0)
+        dy = np.maximum(np.maximum(box[:, 1] - xy[..., 1], xy[..., 1] - box[:, 3]), 0.0)
+        near = np.flatnonzero((np.hypot(dx, dy) <= self._reach_m).any(axis=0))
+        self._build_tiles([int(t) for t in near if t not in self._tile_bodies])
+
+    def _build_tiles(self, tiles: list[int]) -> None:
+        """Create the static bodies of ``tiles`` in the clients that hold obstacles (their
+        shapes made once), and add their triangles to the compiled lidar's."""
+        if not tiles:
+            return
+        new = [t for t in tiles if t not in self._tile_shapes]
+        if new and self._static_mesh is not None:
+            self._static_mesh.add(np.concatenate([k for t in new for k in self._tiles[t].meshes]))
+        for t in tiles:
+            if t not in self._tile_shapes:
+                shapes = []
+                for mesh in self._tiles[t].meshes:
+                    verts, triangles = join_meshes([self._parts[k] for k in mesh])
+                    shapes.append(tuple(
+                        p.createCollisionShape(p.GEOM_MESH, vertices=verts, indices=triangles,
+                                               physicsClientId=client)
+                        for client in self._mesh_clients))
+                self._tile_shapes[t] = shapes
+            bodies = []
+            for pair in self._tile_shapes[t]:
+                for client, shape in zip(self._mesh_clients, pair, strict=True):
+                    body = p.createMultiBody(0, shape, physicsClientId=client)
+                    p.changeDynamics(body, -1, lateralFriction=0.0, physicsClientId=client)
+                    p.setCollisionFilterGroupMask(body, -1, _OBSTACLE, _ROBOT | _RAYS,
+                                                  physicsClientId=client)
+                    bodies.append((client, body))
+            self._tile_bodies[t] = bodies
+        # the static client's broadphase holds the meshes' bounding boxes from the start
+        p.performCollisionDetection(physicsClientId=self._static_client)
 
     def _add_robot(self, x: float, y: float, yaw: float) -> int:
         cfg, cid = self.config, self._client
@@ -270,9 +369,23 @@ class SwarmSim:
 
     def _reset_state(self, rng: np.random.Generator) -> None:
         cid = self._client
-        p.restoreState(self._built_state, physicsClientId=cid)
+        # the tiles built during the last episode go (a fresh world builds them later, after
+        # its robots, and Bullet orders its contact pairs by insertion)
+        for t in [t for t in self._tile_bodies if t not in self._first_tiles]:
+            for client, body in self._tile_bodies.pop(t):
+                p.removeBody(body, physicsClientId=client)
+        if self._built_state is not None:
+            p.restoreState(self._built_state, physicsClientId=cid)
+        else:
+            for body, (position, orientation) in zip(self._robots, self._start_poses,
+                                                      strict=True):
+                p.resetBasePositionAndOrientation(body, position, orientation,
+                                                  physicsClientId=cid)
+                p.resetBaseVelocity(body, [0.0, 0.0, 0.0], [0.0, 0.0, 0.0], physicsClientId=cid)
+                for joint in self._joints:
+                    p.resetJointState(body, joint, 0.0, 0.0, physicsClientId=cid)
         # Setting a body's collision filter re-inserts it into the broadphase: its bounding box
-        # is recomputed at the restored pose (rays use it) and the contact caches of the last
+        # is recomputed at the start pose (rays use it) and the contact caches of the last
         # episode are dropped, as in a freshly built world. Robots are re-inserted in index
         # order, which keeps Bullet's (deterministic) pair order that of a fresh world.
         for body in self._robots:
@@ -293,13 +406,20 @@ class SwarmSim:
         return len(self._robots)
 
     @property
+    def tiles_built(self) -> tuple[int, int]:
+        """Obstacle tiles built in Bullet so far, and all of them: a world that fits one mesh
+        is one tile, built at once; a larger one is cut into 10 m tiles, built when a robot
+        first comes near them (:mod:`fftnav.sim.mesh`)."""
+        return len(self._tile_bodies), len(self._tiles)
+
+    @property
     def lidar(self) -> Lidar:
         """The swarm's lidar model (beam angles, live beams, time spent scanning)."""
         return self._lidar
 
     def reset(self, *, seed: int) -> Observation:
-        """Put every robot back at its start, active, in the state saved after building the
-        world; ``seed`` drives sensor noise and dropout."""
+        """Put every robot back at its start, active and at rest, as in a freshly built world;
+        ``seed`` drives sensor noise and dropout."""
         self._reset_state(np.random.default_rng(seed))
         k = self.num_robots
         return self._observe(np.zeros(k, dtype=bool), np.zeros(k, dtype=bool))
@@ -321,6 +441,8 @@ class SwarmSim:
                              f"got shape={cmd.shape}")
         cfg, cid = self.config, self._client
         active = np.flatnonzero(self._active)
+        if len(self._tiles) > 1:
+            self._build_near(self._poses[active, :2])
         v = np.clip(cmd[active, 0], -cfg.robot.v_max_mps, cfg.robot.v_max_mps)
         w = np.clip(cmd[active, 1], -cfg.robot.w_max_radps, cfg.robot.w_max_radps)
         bodies = [self._robots[i] for i in active]
@@ -331,13 +453,10 @@ class SwarmSim:
                 p.setJointMotorControlArray(body, _WHEELS, p.VELOCITY_CONTROL,
                                             targetVelocities=[left, right],
                                             forces=[_WHEEL_TORQUE_NM] * 2, physicsClientId=cid)
-            linear, steered = [], set()
+            planar, steered = False, set()
         else:
-            # Frictionless spheres feel no contact torque, so the heading during physics step k
-            # is exactly yaw0 + k w dt: the planar velocities of the period are known up front.
-            yaw = self._poses[active, 2] + np.outer(np.arange(cfg.substeps) / cfg.physics_hz, w)
-            linear = np.stack([v * np.cos(yaw), v * np.sin(yaw), np.zeros_like(yaw)], axis=-1)
-            linear = linear.tolist()
+            planar, yaw0 = True, self._poses[active, 2]
+            block = max(1, _VELOCITY_BLOCK // max(1, len(active)))
             angular = [(0.0, 0.0, wi) for wi in w.tolist()]
             # Without gravity, damping or contact a body keeps its velocity bit for bit: after
             # the first step only robots on an arc (v and w != 0) and those that touched
@@ -355,8 +474,11 @@ class SwarmSim:
         steered_order = sorted(steered)
         touched = set(range(len(bodies)))  # every velocity is set before the first step
         for k in range(cfg.substeps):
-            if linear:
-                velocity = linear[k]
+            if planar:
+                if k % block == 0:
+                    linear = _planar_velocities(yaw0, v, w, k, min(block, cfg.substeps - k),
+                                                cfg.physics_hz)
+                velocity = linear[k % block]
                 for j in (touched | steered) if touched else steered_order:
                     reset_velocity(bodies[j], velocity[j], angular[j], cid)
             step_physics(cid)

@@ -15,6 +15,7 @@ from pathlib import Path
 import numpy as np
 from scipy import ndimage
 
+from fftnav.files import write_atomic
 from fftnav.limits import MAX_GRID_CELLS, check_limit, grid_cells
 from fftnav.validate import check_number
 from fftnav.world.model import World
@@ -117,9 +118,10 @@ def write_ros_map(grid: OccupancyGrid, prefix: str | Path) -> tuple[Path, Path]:
     pgm, yaml = prefix.with_name(prefix.name + ".pgm"), prefix.with_name(prefix.name + ".yaml")
     rows, cols = grid.grid.shape
     pixels = np.where(np.flipud(grid.grid), 0, 254).astype(np.uint8)
-    pgm.write_bytes(f"P5\n{cols} {rows}\n255\n".encode() + pixels.tobytes())
+    write_atomic(pgm, f"P5\n{cols} {rows}\n255\n".encode() + pixels.tobytes())
     ox, oy = grid.origin_m
-    yaml.write_text(
+    write_atomic(
+        yaml,
         f"image: {pgm.name}\nresolution: {grid.resolution_m}\norigin: [{ox}, {oy}, 0.0]\n"
         "negate: 0\noccupied_thresh: 0.65\nfree_thresh: 0.196\n"
     )

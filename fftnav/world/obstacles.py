@@ -26,6 +26,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from fftnav.limits import MAX_MAP_SIDE_M
 from fftnav.registry import Registry
 from fftnav.validate import check_number, check_vector
 
@@ -71,6 +72,14 @@ def combined_mesh(obstacles: Sequence[Obstacle]) -> tuple[list[list[float]], lis
         indices += (i + len(vertices)).tolist()
         vertices += v.tolist()
     return vertices, indices
+
+
+def _point(name: str, value: Any) -> tuple[float, float]:
+    """An (x, y) point of an obstacle: finite numbers within +-MAX_MAP_SIDE_M (farther points
+    lie outside every allowed world; bounded, the geometry cannot overflow)."""
+    x, y = check_vector(name, value, 2)
+    return (check_number(f"{name}[0]", x, low=-MAX_MAP_SIDE_M, high=MAX_MAP_SIDE_M),
+            check_number(f"{name}[1]", y, low=-MAX_MAP_SIDE_M, high=MAX_MAP_SIDE_M))
 
 
 def _cross(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -212,8 +221,9 @@ class Circle(Obstacle):
     def from_dict(cls, data: dict[str, Any], where: str) -> Circle:
         _keys(data, where, ("center", "radius", "height"))
         height = check_number(f"{where}.height", data["height"], low=0, low_open=True)
-        center = check_vector(f"{where}.center", data["center"], 2)
-        radius = check_number(f"{where}.radius", data["radius"], low=0, low_open=True)
+        center = _point(f"{where}.center", data["center"])
+        radius = check_number(f"{where}.radius", data["radius"], low=0, low_open=True,
+                              high=MAX_MAP_SIDE_M)
         return Circle(center, radius, height)  # type: ignore[arg-type]
 
 
@@ -279,7 +289,7 @@ class Polygon(Obstacle):
         if not isinstance(raw, list) or len(raw) < 3:
             raise ValueError(f"{where}.vertices must be a list of >= 3 [x, y] points, "
                              f"got {raw!r:.80}")
-        verts = np.array([check_vector(f"{where}.vertices[{i}]", v, 2) for i, v in enumerate(raw)])
+        verts = np.array([_point(f"{where}.vertices[{i}]", v) for i, v in enumerate(raw)])
         verts = convex_ccw(verts, f"{where}.vertices")
         return Polygon(tuple(map(tuple, verts.tolist())), height)
 

@@ -17,18 +17,26 @@ and rasterising the world at the map's resolution gives the map back. fftnav wor
 (0, 0): the world frame is the map frame shifted by ``-origin``; starts and goals are given in the
 map frame (as read off RViz) and shifted too.
 
-PGM (P2 and P5, 8 and 16 bit) is read with numpy; other image formats with Pillow.
+PGM (P2 and P5, 8 and 16 bit) is read with numpy; other image formats with Pillow. An image's
+size is checked against the grid-cell limit (:data:`fftnav.limits.MAX_GRID_CELLS`) from its
+header, before any pixel is read, and its pixels are classified ``BLOCK_ROWS`` rows at a time.
+Numbers in the YAML are read as map_server's yaml-cpp reads them (``resolution: 5e-2`` too).
 """
 
 from __future__ import annotations
 
+import math
 import re
 import sys
-from collections.abc import Mapping, Sequence
+import warnings
+from collections.abc import Iterator, Mapping, Sequence
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from fftnav.files import check_input, read_text
+from fftnav.limits import MAX_GRID_CELLS, MAX_INPUT_BYTES, MAX_MAP_SIDE_M, check_limit
 from fftnav.validate import check_choice, check_number, check_vector
 from fftnav.world.model import World
 from fftnav.world.obstacles import Polygon
@@ -59,46 +67,131 @@ class RosMap:
         return (self.occupancy == 1) | ((self.occupancy == -1) & (unknown == "occupied"))
 
 
-def read_pgm(path: str | Path) -> np.ndarray:
-    """A PGM image (``P5`` binary or ``P2`` text, maxval <= 65535) as ``(rows, cols)`` uint16,
-    first row = top of the image, values scaled to 0..255 if maxval is not 255."""
-    data = Path(path).read_bytes()
+#: Rows of a map image classified at a time: memory stays a few bytes per pixel of the map.
+BLOCK_ROWS = 1024
+#: Bytes of a PGM header read before its pixels (comments included).
+PGM_HEADER_BYTES = 65536
+#: Smallest ``resolution`` (m per pixel) of a map: a tenth of a millimetre.
+MIN_RESOLUTION_M = 1e-4
+_PGM_TOKEN = re.compile(rb"\s*(?:#[^\n]*\n\s*)*(\S+)")
+#: A number as YAML 1.2 (and map_server's yaml-cpp) reads it, e.g. ``5e-2``, ``.5``, ``+1``.
+_YAML_NUMBER = re.compile(r"[-+]?(?:\d+\.?\d*|\.\d+)(?:[eE][-+]?\d+)?")
+
+
+def _pgm_header(path: Path) -> tuple[bytes, int, int, int, int]:
+    """Magic, columns, rows, maxval and the pixels' offset of a PGM file, from its header
+    alone; ValueError naming the file for anything that is not a grey PGM header."""
+    with open(path, "rb") as fh:
+        head = fh.read(PGM_HEADER_BYTES)
     tokens: list[bytes] = []
     pos = 0
-    header = re.compile(rb"\s*(?:#[^\n]*\n\s*)*(\S+)")
     for _ in range(4):
-        m = header.match(data, pos)
+        m = _PGM_TOKEN.match(head, pos)
         if m is None:
             raise ValueError(f"{path}: not a PGM file (truncated header)")
         tokens.append(m.group(1))
         pos = m.end()
-    magic, cols, rows, maxval = tokens[0], *(int(t) for t in tokens[1:])
-    if magic not in (b"P5", b"P2") or not 0 < maxval < 65536:
-        raise ValueError(f"{path}: not a grey PGM (P2/P5), got magic {magic!r}, maxval {maxval}")
-    if magic == b"P5":
-        dtype = np.uint8 if maxval < 256 else np.dtype(">u2")
-        raw = np.frombuffer(data, dtype=dtype, count=rows * cols, offset=pos + 1)
-    else:
-        raw = np.array(data[pos:].split()[: rows * cols], dtype=np.int64)
-    if raw.size != rows * cols:
-        raise ValueError(f"{path}: PGM holds {raw.size} pixels, expected {rows} x {cols}")
-    pixels = raw.reshape(rows, cols).astype(np.float64)
-    return pixels if maxval == 255 else pixels * (255.0 / maxval)
+    magic = tokens[0]
+    if magic not in (b"P5", b"P2") or not all(t.isdigit() for t in tokens[1:]):
+        raise ValueError(f"{path}: not a grey PGM (P2/P5 magic, then width, height and maxval), "
+                         f"got {b' '.join(tokens)[:60]!r}")
+    cols, rows, maxval = (int(t) for t in tokens[1:])
+    if not 0 < maxval < 65536 or cols == 0 or rows == 0:
+        raise ValueError(f"{path}: not a grey PGM, got {cols} x {rows} pixels, maxval {maxval}")
+    return magic, cols, rows, maxval, pos + 1
 
 
-def _read_image(path: Path) -> np.ndarray:
-    """Grey values 0..255 of an image, ``(rows, cols)``, first row = top."""
+def _check_cells(path: Path, rows: int, cols: int) -> None:
+    check_limit(f"{path}: map cells ({cols} x {rows} pixels)", float(rows) * cols,
+                MAX_GRID_CELLS, hint="use a smaller map or a coarser image")
+
+
+def _pgm_blocks(path: Path) -> tuple[tuple[int, int], Iterator[np.ndarray]]:
+    """Shape of a PGM and its pixels (0..255, float64), ``BLOCK_ROWS`` rows at a time, top
+    first; the cells are checked against the grid limit from the header, before any pixel is
+    read, and a file shorter than its header claims is refused naming it."""
+    magic, cols, rows, maxval, offset = _pgm_header(path)
+    _check_cells(path, rows, cols)
+    scale = 1.0 if maxval == 255 else 255.0 / maxval
+    if magic == b"P2":  # text: small maps only in practice, read whole (within the limits)
+        check_limit(f"{path}: bytes", float(path.stat().st_size), MAX_INPUT_BYTES)
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore", DeprecationWarning)  # text that is not numbers
+            raw = np.fromstring(path.read_bytes()[offset:], dtype=np.int64, sep=" ")
+        if raw.size < rows * cols:
+            raise ValueError(f"{path}: PGM holds {raw.size} pixels, expected {rows} x {cols}")
+        pixels = raw[: rows * cols].reshape(rows, cols) * scale
+        return (rows, cols), iter([pixels[r:r + BLOCK_ROWS] for r in range(0, rows, BLOCK_ROWS)])
+    dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
+    size = path.stat().st_size - offset
+    if size < rows * cols * dtype.itemsize:
+        raise ValueError(f"{path}: PGM holds {max(size, 0) // dtype.itemsize} pixels, expected "
+                         f"{rows} x {cols} (truncated)")
+
+    def blocks() -> Iterator[np.ndarray]:
+        with open(path, "rb") as fh:
+            fh.seek(offset)
+            for r in range(0, rows, BLOCK_ROWS):
+                n = min(BLOCK_ROWS, rows - r)
+                block = np.fromfile(fh, dtype=dtype, count=n * cols).reshape(n, cols)
+                yield block * scale if scale != 1.0 else block.astype(np.float64)
+
+    return (rows, cols), blocks()
+
+
+def read_pgm(path: str | Path) -> np.ndarray:
+    """A PGM image (``P5`` binary or ``P2`` text, maxval <= 65535) as ``(rows, cols)`` float64,
+    first row = top of the image, values scaled to 0..255 if maxval is not 255. Its size is
+    checked against :data:`fftnav.limits.MAX_GRID_CELLS` from the header first."""
+    _, blocks = _pgm_blocks(check_input(path))
+    return np.concatenate(list(blocks))
+
+
+def _image_blocks(path: Path) -> tuple[tuple[int, int], Iterator[np.ndarray]]:
+    """Shape of an image and its grey values (0..255, float64, colour channels averaged as
+    map_server does, alpha ignored), ``BLOCK_ROWS`` rows at a time, top first; the size is
+    checked against the grid limit from the header before the pixels are decoded."""
+    check_input(path)
     if path.suffix.lower() == ".pgm":
-        return read_pgm(path)
+        return _pgm_blocks(path)
     from PIL import Image  # only for non-PGM images
 
-    with Image.open(path) as img:
-        pixels = np.asarray(img.convert("RGBA") if img.mode in ("P", "LA", "PA") else img,
-                            dtype=np.float64)
-    if pixels.ndim == 3:  # map_server averages the colour channels, ignoring alpha
-        channels = 3 if pixels.shape[2] >= 3 else 1
-        pixels = pixels[..., :channels].mean(axis=2)
-    return pixels
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", Image.DecompressionBombWarning)  # our limit applies
+        try:
+            img = Image.open(path)
+        except Image.DecompressionBombError as exc:  # too many pixels to even open
+            found = re.search(r"\((\d+) pixels\)", str(exc))
+            check_limit(f"{path}: map cells (image pixels)",
+                        float(found.group(1)) if found else math.inf, MAX_GRID_CELLS)
+            raise  # pragma: no cover - the count is always above the grid limit
+        except (OSError, SyntaxError, ValueError) as exc:
+            raise ValueError(f"{path}: not an image that can be read: {exc}") from None
+        with img:
+            cols, rows = img.size
+            _check_cells(path, rows, cols)
+            try:
+                pixels = np.asarray(img.convert("RGBA") if img.mode in ("P", "LA", "PA")
+                                    else img)
+            except (OSError, SyntaxError, ValueError) as exc:
+                raise ValueError(f"{path}: damaged image: {exc}") from None
+
+    def blocks() -> Iterator[np.ndarray]:
+        for r in range(0, rows, BLOCK_ROWS):
+            block = pixels[r:r + BLOCK_ROWS].astype(np.float64)
+            if block.ndim == 3:  # map_server averages the colour channels, ignoring alpha
+                block = block[..., :3 if block.shape[2] >= 3 else 1].mean(axis=2)
+            yield block
+
+    return (rows, cols), blocks()
+
+
+def _yaml_number(value: Any) -> Any:
+    """A YAML string that is a number (``5e-2``: PyYAML reads YAML 1.1, where it is a string;
+    map_server's yaml-cpp reads it as a number) as a float; anything else unchanged."""
+    if isinstance(value, str) and _YAML_NUMBER.fullmatch(value.strip()):
+        return float(value)
+    return value
 
 
 def read_ros_map(yaml_path: str | Path) -> RosMap:
@@ -113,7 +206,7 @@ def read_ros_map(yaml_path: str | Path) -> RosMap:
 
     yaml_path = Path(yaml_path)
     try:
-        meta = yaml.safe_load(yaml_path.read_text())
+        meta = yaml.safe_load(read_text(yaml_path))
     except yaml.YAMLError as exc:
         raise ValueError(f"{yaml_path}: invalid YAML: {' '.join(str(exc).split())}") from None
     if not isinstance(meta, Mapping):
@@ -121,28 +214,40 @@ def read_ros_map(yaml_path: str | Path) -> RosMap:
     for key in ("image", "resolution", "origin"):
         if key not in meta:
             raise ValueError(f"{yaml_path}: missing key {key!r}")
-    resolution = check_number("resolution", meta["resolution"], low=0, low_open=True)
-    origin = check_vector("origin", meta["origin"], 3)
-    if origin[2] != 0:
-        raise ValueError(f"origin yaw must be 0 (rotated maps are not supported), got "
-                         f"origin={list(meta['origin'])}")
-    negate = check_choice("negate", meta.get("negate", 0), (0, 1))
-    occ = check_number("occupied_thresh", meta.get("occupied_thresh", 0.65), low=0, high=1)
-    free = check_number("free_thresh", meta.get("free_thresh", 0.196), low=0, high=occ)
-    mode = check_choice("mode", meta.get("mode", "trinary"), ("trinary", "scale", "raw"))
+    try:  # each key's message names the file
+        meta = {k: _yaml_number(v) for k, v in meta.items()}
+        if isinstance(meta["origin"], list):
+            meta["origin"] = [_yaml_number(v) for v in meta["origin"]]
+        resolution = check_number("resolution", meta["resolution"], low=MIN_RESOLUTION_M,
+                                  high=MAX_MAP_SIDE_M)
+        origin = check_vector("origin", meta["origin"], 3)
+        if origin[2] != 0:
+            raise ValueError(f"origin yaw must be 0 (rotated maps are not supported), got "
+                             f"origin={list(meta['origin'])}")
+        negate = check_choice("negate", meta.get("negate", 0), (0, 1))
+        occ = check_number("occupied_thresh", meta.get("occupied_thresh", 0.65), low=0, high=1)
+        free = check_number("free_thresh", meta.get("free_thresh", 0.196), low=0, high=occ)
+        mode = check_choice("mode", meta.get("mode", "trinary"), ("trinary", "scale", "raw"))
+    except ValueError as exc:
+        raise ValueError(f"{yaml_path}: {exc}") from None
     image = Path(str(meta["image"]))
     image = image if image.is_absolute() else yaml_path.parent / image
-    grey = _read_image(image)
-    if mode == "raw":
-        p = grey / 100.0
-        unknown = grey > 100
-    else:
-        p = grey / 255.0 if negate else (255.0 - grey) / 255.0
-        unknown = np.zeros(grey.shape, dtype=bool)
-    occupancy = np.where(p > occ, 1, np.where(p < free, 0, -1))
-    occupancy[unknown] = -1
-    return RosMap(np.flipud(occupancy).astype(np.int8), float(resolution),
-                  (float(origin[0]), float(origin[1])))
+    (rows, cols), blocks = _image_blocks(image)
+    check_limit(f"{image}: map side ({max(rows, cols)} pixels x resolution {resolution:g} m)",
+                max(rows, cols) * resolution, MAX_MAP_SIDE_M)
+    occupancy = np.empty((rows, cols), dtype=np.int8)
+    top = rows  # image row 0 is the top of the map: stored last (row 0 = bottom)
+    for grey in blocks:
+        if mode == "raw":
+            p = grey / 100.0
+        else:
+            p = grey / 255.0 if negate else (255.0 - grey) / 255.0
+        block = np.where(p > occ, 1, np.where(p < free, 0, -1)).astype(np.int8)
+        if mode == "raw":
+            block[grey > 100] = -1
+        occupancy[top - len(grey):top] = block[::-1]
+        top -= len(grey)
+    return RosMap(occupancy, float(resolution), (float(origin[0]), float(origin[1])))
 
 
 def grid_rectangles(grid: np.ndarray) -> list[tuple[int, int, int, int]]:
@@ -176,7 +281,10 @@ def read_robots_toml(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
         start = [1.0, 2.0, 90.0]   # x m, y m, yaw degrees
         goal = [8.0, 2.0]          # x m, y m
     """
-    data = tomllib.loads(Path(path).read_text())
+    try:
+        data = tomllib.loads(read_text(path))
+    except tomllib.TOMLDecodeError as exc:
+        raise ValueError(f"{path}: invalid TOML: {exc}") from None
     unknown = [k for k in data if k != "robot"]
     if unknown or not isinstance(data.get("robot"), list) or not data["robot"]:
         raise ValueError(f"{path}: expected one or more [[robot]] tables with start and goal, "

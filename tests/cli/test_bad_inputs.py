@@ -27,6 +27,7 @@ BAD = Path(__file__).resolve().parents[1] / "data" / "bad"
 SCANS = sorted(p.name for p in BAD.iterdir() if p.suffix in (".npy", ".csv", ".log", ".gz"))
 WORLDS = sorted(p.name for p in BAD.glob("*.json"))
 CONFIGS = sorted(p.name for p in BAD.glob("*.toml"))
+MAPS = sorted(p.name for p in BAD.glob("map_*.yaml"))
 GOOD_WORLD = Path(__file__).resolve().parents[2] / "worlds"  # presets (TOML), not world files
 
 
@@ -45,7 +46,7 @@ def _refused(capsys, argv: list[str], tmp_path: Path) -> str:
 
 
 def test_the_corpus_is_there():
-    assert len(SCANS) >= 15 and len(WORLDS) >= 6 and len(CONFIGS) >= 18
+    assert len(SCANS) >= 15 and len(WORLDS) >= 6 and len(CONFIGS) >= 18 and len(MAPS) >= 6
 
 
 @pytest.mark.parametrize("name", SCANS)
@@ -87,6 +88,22 @@ def test_configs_are_refused_at_load_before_any_folder_exists(name, capsys, tmp_
     assert not out.exists()
 
 
+@pytest.mark.parametrize("name", MAPS)
+def test_ros_maps_are_refused_naming_the_file_before_any_pixel_is_read(name, capsys, tmp_path):
+    """Huge headers (100000 x 100000, 20000 x 20000 PGM; a 40000 x 40000 PNG bomb), garbage
+    and truncated PGMs, a resolution of 1e-300: one line naming the map or its image."""
+    from fftnav.world.rosmap import read_ros_map
+
+    image = (BAD / name).read_text().split()[1]  # "image: NAME"
+    named = rf"({name}|{image})".replace(".", r"\.")
+    with pytest.raises(ValueError, match=named):
+        read_ros_map(BAD / name)
+    line = _refused(capsys, ["world", "import", str(BAD / name), "--start", "0.1", "0.1", "0",
+                             "--goal", "0.2", "0.2", "--out", str(tmp_path / "w.json")],
+                    tmp_path)
+    assert line.startswith("fftnav world: error: ") and (name in line or image in line), line
+
+
 @pytest.mark.parametrize(("argv", "match"), [
     (["scan3d", "{bad}/truncated.npy", "--fov-el", "1e-9"], "truncated.npy"),
     (["scan3d", "{depth}", "--fov-el", "1e-9"], r"disc footprint cells .* above the limit"),
@@ -103,7 +120,7 @@ def test_configs_are_refused_at_load_before_any_folder_exists(name, capsys, tmp_
      r"resolution_m must be a finite number in \(0, 8\], got resolution_m=1e\+300"),
     (["world", "grid", "{world}", "--resolution", "1e-6", "--out", "{tmp}/g.npy"],
      r"grid cells \(world size / resolution_m\): 64,000,000,000,000 estimated"),
-    (["world", "grid", "{world}", "--out", "{tmp}"], r"--out must be a file to write"),
+    (["world", "grid", "{world}", "--out", "{tmp}"], r"--out must be a file path, not a folder"),
     (["world", "scan", "{world}", "--pose", "1", "1", "0", "--beams", "100000000"],
      r"beams must be an integer in \[2, 100000\]"),
     (["figure", "depth3d", "--seed", "-1", "--out", "{tmp}/f"],

@@ -155,3 +155,47 @@ def test_episode_runs_a_plugin_importing_its_neighbour_and_says_how_it_went(newc
     assert proc.stderr.splitlines()[-1] == (
         f"{arrived}/3 arrived, SPL {rows.spl.mean():.2f}, {collided} collided, "
         f"{3 - arrived - collided} timed out{why}")
+
+
+CRASHING = """\
+from fftnav.navigation.controllers import Controller
+
+
+class InInit(Controller):
+    def __init__(self, setup):
+        raise RuntimeError("cannot start")
+
+
+class InAct(Controller):
+    uses_pipeline = False
+
+    def act(self, obs):
+        return {"v": 0.1, "w": 0.0} if obs.robot else 1 / 0
+"""
+
+
+@pytest.mark.parametrize(("attr", "line", "what"), [
+    ("InInit", 6, "InInit.__init__ raised RuntimeError: cannot start"),
+    ("InAct", 13, "InAct.act raised ZeroDivisionError: division by zero"),
+])
+def test_what_a_plugin_raises_is_one_line_in_episode_and_in_run(tmp_path, attr, line, what):
+    """``fftnav episode``: that line and exit status 2; ``fftnav run``: one line per failed
+    episode and errors.csv, exit status 1."""
+    (tmp_path / "crash.py").write_text(CRASHING)
+    assert fftnav("world", "generate", "--env", "forest", "--seed", "3", "--size", "8", "8",
+                  "--robots", "3", "--out", "w.json", cwd=tmp_path).returncode == 0
+    expected = f"plugin 'crash.py:{attr}': {what} (at {tmp_path / 'crash.py'}:{line})"
+    proc = fftnav("episode", "--world", "w.json", "--policy", f"crash.py:{attr}",
+                  "--out", "e.csv", cwd=tmp_path)
+    assert (proc.returncode, proc.stdout) == (2, "")
+    assert proc.stderr == f"fftnav episode: error: {expected}\n"
+    assert not (tmp_path / "e.csv").exists()
+    (tmp_path / "crash.toml").write_text(NEWCOMER_CONFIG.replace(
+        '["own-only", "plugins/mine.py:mine", "bug-left"]', f'["crash.py:{attr}"]').replace(
+        '["rocky", "forest"]', '["forest"]'))
+    run = fftnav("run", "crash.toml", "--out", "res", "--quiet", cwd=tmp_path)
+    assert run.returncode == 1
+    expected = expected.replace("'crash.py:", f"'{tmp_path / 'crash.py'}:")  # from its config
+    assert run.stderr == f"fftnav run: forest-7-{attr} failed: PluginError: {expected}\n"
+    errors = pd.read_csv(tmp_path / "res" / "errors.csv")
+    assert list(errors.message) == [expected] and list(errors.error_type) == ["PluginError"]

@@ -96,3 +96,94 @@ def test_bad_input_exits_2_with_one_line(tmp_path, args, match):
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in proc.stderr, proc.stderr
     assert re.search(match, lines[0]), lines[0]
+
+
+def _whole_file_lines(path, fov=2 * math.pi):
+    """The JSON lines of every scan processed in one batch (the whole-file path)."""
+    from fftnav.cli.scan import _json_lines
+    from fftnav.observe.geometry import SIM_ROBOT
+    from fftnav.observe.pipeline import Pipeline
+
+    ranges = read_scans(path).ranges
+    pipe = Pipeline(SIM_ROBOT, beams=ranges.shape[1], fov_rad=fov, range_m=3.0)
+    return "".join(_json_lines(pipe.process(ranges), fov, 0))
+
+
+def _random_scans(k, m=360, seed=0):
+    rng = np.random.default_rng(seed)
+    scans = rng.uniform(0.1, 4.0, (k, m))
+    scans[rng.random((k, m)) < 0.05] = np.inf
+    return scans
+
+
+@pytest.mark.parametrize("suffix", [".npy", ".csv"])
+def test_streamed_chunks_print_the_whole_file_lines_byte_for_byte(tmp_path, suffix):
+    """10,000 scans: three chunks of at most 4,096 from the installed command, the same bytes
+    as one batch of the whole file."""
+    scans = _random_scans(10_000)
+    path = tmp_path / f"s{suffix}"
+    if suffix == ".npy":
+        np.save(path, scans.astype(np.float32))
+    else:
+        path.write_text("# ranges\n" + "\n".join(",".join(f"{v:.4f}" for v in row)
+                                                 for row in scans) + "\n\n")
+    proc = run(path)
+    assert proc.returncode == 0, proc.stderr
+    assert proc.stdout == _whole_file_lines(path)
+    assert len(proc.stdout.splitlines()) == 10_000
+
+
+@pytest.mark.parametrize("chunk", [1, 3, 7])
+def test_chunk_boundaries_do_not_change_a_line(tmp_path, monkeypatch, capsys, chunk):
+    from fftnav.cli import main
+
+    np.save(tmp_path / "s.npy", _random_scans(20, seed=chunk))
+    monkeypatch.setattr("fftnav.cli.scan.CHUNK_SCANS", chunk)
+    assert main(["scan", str(tmp_path / "s.npy")]) == 0
+    assert capsys.readouterr().out == _whole_file_lines(tmp_path / "s.npy")
+
+
+def test_chunks_hold_at_most_4096_by_360_readings(tmp_path):
+    from fftnav.observe.scanio import iter_scans
+
+    np.save(tmp_path / "wide.npy", np.ones((30, 100_000), dtype=np.float32))
+    sizes = [len(c) for c in iter_scans(tmp_path / "wide.npy").chunks]
+    assert sizes == [14, 14, 2]  # 4096 x 360 // 100,000 = 14 scans of 100,000 beams
+    (tmp_path / "wide.csv").write_text("\n".join([",".join(["1"] * 5000)] * 700))
+    sizes = [len(c) for c in iter_scans(tmp_path / "wide.csv").chunks]
+    assert sizes == [294, 294, 112]  # 4096 x 360 // 5000 = 294 scans of 5,000 beams
+
+
+def test_a_huge_csv_line_is_refused_by_its_beams_before_it_is_parsed(tmp_path):
+    """A 200 MB line of 100 million values: refused from its first bytes, under a 1 GB address
+    space limit that parsing it would exceed (no MemoryError)."""
+    path = tmp_path / "wide.csv"
+    with open(path, "wb") as fh:
+        fh.write(b"1,2\n" + b"1," * 100_000_000 + b"1\n")
+    code = ("import resource; resource.setrlimit(resource.RLIMIT_AS, (1 << 30, 1 << 30)); "
+            f"from fftnav.cli import main; raise SystemExit(main(['scan', {str(path)!r}]))")
+    proc = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True,
+                          timeout=120)
+    assert proc.returncode == 2 and "Traceback" not in proc.stderr, proc.stderr
+    assert re.fullmatch(r"fftnav scan: error: .*wide\.csv:2: values on one line \(beams\): "
+                        r"[\d,]+ estimated, above the limit of 100,000\n", proc.stderr)
+
+
+def test_a_truncated_npy_is_refused_when_its_chunk_is_read(tmp_path):
+    from fftnav.files import iter_npy_rows
+
+    np.save(tmp_path / "t.npy", np.ones((100, 360)))
+    data = (tmp_path / "t.npy").read_bytes()
+    (tmp_path / "t.npy").write_bytes(data[: len(data) - 360 * 8 * 10])
+    with pytest.raises(ValueError, match=r"t\.npy: damaged \.npy array: the file ends at row "
+                                         r"90 of the 100 its header claims"):
+        list(iter_npy_rows(tmp_path / "t.npy", rows=64))
+
+
+def test_fortran_ordered_npy_streams_the_same_rows(tmp_path):
+    from fftnav.files import iter_npy_rows
+
+    scans = _random_scans(50)
+    np.save(tmp_path / "f.npy", np.asfortranarray(scans))
+    np.testing.assert_array_equal(np.concatenate(list(iter_npy_rows(tmp_path / "f.npy",
+                                                                    rows=16))), scans)

@@ -146,3 +146,38 @@ def test_rewards_are_floats_and_a_step_names_an_unknown_agent():
                                          r"got agent='robot_9'"):
         env.step({"robot_9": [0.0, 0.0]})
     env.close()
+
+
+@pytest.mark.parametrize(("actions", "match"), [
+    ([[0.1, 0.0]] * 4, r"actions must be a dict mapping each agent to an array \(v_mps, "
+                       r"w_radps\) of shape \(2,\), got list"),
+    ({"robot_2": [math.nan, 0.0]}, r"actions\['robot_2'\] must be finite, got \[nan, 0\.0\]"),
+    ({"robot_1": np.array([0.1, -np.inf])},
+     r"actions\['robot_1'\] must be finite, got \[0\.1, -inf\]"),
+    ({"robot_0": [[0.1], [0.0]]}, r"actions\['robot_0'\] must be an array \(v_mps, w_radps\) "
+                                  r"of shape \(2,\), got shape \(2, 1\)"),
+    ({"robot_3": [0.1, 0.0, 0.0]}, r"actions\['robot_3'\] .* got shape \(3,\)"),
+    ({"robot_0": 0.1}, r"actions\['robot_0'\] .* got shape \(\)"),
+    ({"robot_0": {"v": 0.1}}, r"actions\['robot_0'\] .* got no number array: \{'v': 0\.1\}"),
+])
+def test_bad_actions_are_refused_naming_the_agent(actions, match):
+    env = _small()
+    env.reset(seed=1)
+    with pytest.raises(ValueError, match=match):
+        env.step(actions)
+    env.close()
+
+
+def test_finite_actions_outside_the_box_are_clipped_to_it():
+    """1e9 m/s and -1e9 rad/s drive exactly as the Box's limits do."""
+    poses = []
+    for v, w in ((1e9, -1e9), (0.5, -1.5)):
+        env = _small()
+        env.reset(seed=1)
+        high = env.action_space("robot_0").high
+        assert high.tolist() == [0.5, 1.5]
+        for _ in range(3):
+            obs = env.step({a: np.array([v, w]) for a in env.agents})[0]
+        poses.append([obs[a]["goal"] for a in sorted(obs)])  # the goal in each robot's frame
+        env.close()
+    assert np.array_equal(poses[0], poses[1]) and len(poses[0]) == 4

@@ -11,6 +11,7 @@ import pytest
 from fftnav.config import CommsConfig, EpisodeConfig, SwarmConfig
 from fftnav.episode import run_episode
 from fftnav.navigation.controllers import Action, Controller
+from fftnav.plugins import PluginError
 from fftnav.world import Circle, World
 
 UP = math.pi / 2
@@ -53,12 +54,63 @@ def test_messages_of_a_controller_travel_through_the_channel():
     assert {(r, s, p) for _, r, s, p in Talker.heard} == {(1, 0, b"hello")}
 
 
-def test_a_controller_returning_no_command_is_refused():
+class Dict(Controller):
+    uses_pipeline = False
+
+    def act(self, obs):
+        return {"v": 0.1, "w": 0.0}
+
+
+class CrashInInit(Controller):
+    def __init__(self, setup):
+        super().__init__(setup)
+        raise RuntimeError("no map\nat all")  # CrashInInit raises here
+
+
+class CrashInAct(Controller):
+    uses_pipeline = False
+
+    def act(self, obs):
+        return 0.1, 1 / (obs.tick - obs.tick)  # CrashInAct raises here
+
+
+def crash_in_decide(ctx):
+    raise KeyError("side")  # crash_in_decide raises here
+
+
+def _line(marker: str) -> int:
+    """The line of this file that holds ``marker``."""
+    lines = open(__file__).read().splitlines()
+    return next(i for i, text in enumerate(lines, 1) if marker in text and "lines" not in text)
+
+
+@pytest.mark.parametrize(("name", "match"), [
+    ("Wrong", r"Wrong\.act raised ValueError: Wrong\.act must return a pair of numbers "
+              r"\(v_mps, w_radps\) or an Action, got str 'fast' for robot 0"),
+    ("Dict", r"Dict\.act raised ValueError: Dict\.act must return a pair of numbers \(v_mps, "
+             r"w_radps\) or an Action, got dict \{'v': 0\.1, 'w': 0\.0\} for robot 0"),
+])
+def test_a_controller_returning_no_command_is_refused_saying_what_act_must_return(name, match):
     world = _world([], [[1, 1, UP]], [[1, 5]])
-    with pytest.raises(ValueError, match=r"Wrong\.act must return \(v_mps, w_radps\) or an "
-                                         r"Action, got 'fast' for robot 0"):
-        run_episode(world, f"{__name__}:Wrong", seed=0,
+    where = rf" \(at {__file__}:{_line(f'class {name}(') + 3}\)$"  # where its act is defined
+    with pytest.raises(PluginError, match=rf"^plugin '{__name__}:{name}': {match}{where}"):
+        run_episode(world, f"{__name__}:{name}", seed=0,
                     config=SwarmConfig(episode=EpisodeConfig(time_limit_s=1.0)))
+
+
+@pytest.mark.parametrize(("name", "call", "error"), [
+    ("CrashInInit", "CrashInInit.__init__", "RuntimeError: no map at all"),
+    ("CrashInAct", "CrashInAct.act", "ZeroDivisionError: division by zero"),
+    ("crash_in_decide", "crash_in_decide", "KeyError: 'side'"),
+])
+def test_what_a_plugin_raises_is_one_line_naming_it_the_call_and_its_line(name, call, error):
+    world = _world([Circle((1.0, 3.0), 0.3, 1.0)], [[1, 1, UP]], [[1, 5]])  # a trunk: bug decides
+    line = _line(f"# {name} raises here")
+    with pytest.raises(PluginError) as info:
+        run_episode(world, f"{__name__}:{name}", seed=0,
+                    config=SwarmConfig(episode=EpisodeConfig(time_limit_s=10.0)))
+    assert str(info.value) == (f"plugin '{__name__}:{name}': {call} raised {error} "
+                               f"(at {__file__}:{line})")
 
 
 class Straight(Controller):

@@ -39,6 +39,19 @@ def test_measured_cutoffs_are_minus_3db():
     assert 0.6 * b.fc < b.cutoff_3db_h2 < b.fc
 
 
+def test_a_one_tap_filter_cuts_off_at_nyquist_without_a_warning():
+    """Two beams over 360 degrees: alpha spans less than a beam, h1 and h2 are one tap (all
+    frequencies pass), so the -3 dB point is Nyquist (the dense FFT never falls below it)."""
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        b = FilterBank(SIM_ROBOT, beams=2)
+    assert np.count_nonzero(np.abs(b.h1) > 1e-12) == 1
+    assert b.cutoff_3db_h1 == b.cutoff_3db_h2 == 0.5
+    assert _dtft_gain(b.h1, 0.5) == pytest.approx(1.0)
+
+
 @pytest.mark.parametrize("beams", [360, 361, 100])
 def test_linear_filtering_equals_direct_convolution(beams):
     rng = np.random.default_rng(beams)

@@ -191,7 +191,7 @@ def test_the_pipeline_calls_compiled_entry_points():
     for name in WRAPPERS:
         assert type(kernels.entry(name)).__name__ == "builtin_function_or_method"
     fast = Pipeline(SIM_ROBOT, compiled=True)
-    for run in (fast._w.run, fast._w.run_batch):
+    for run in (fast._local.w.run, fast._local.w.run_batch):
         assert type(run.func).__name__ == "builtin_function_or_method"
     assert fast.fft_in_kernel is kernels.FFT_IN_KERNEL
     scans = trunk_scans(np.random.default_rng(2), 3)
@@ -216,7 +216,7 @@ def test_complex_product_is_numpys_and_the_pipeline_picks_numpys_rounding():
     b = rng.normal(size=(2, 271)) + 1j * rng.normal(size=(2, 271))
     expected = a.copy()
     np.multiply(expected, b, expected)  # in place, as the numpy path multiplies
-    fused = Pipeline(SIM_ROBOT, compiled=True)._w.run.args[3]
+    fused = Pipeline(SIM_ROBOT, compiled=True)._local.w.run.args[3]
     product = np.vectorize(kernels.complex_product, otypes=[complex])
     assert np.array_equal(product(a, b, fused), expected)
     assert not np.array_equal(product(a, b, not fused), expected)
@@ -301,9 +301,9 @@ def test_a_pipeline_pickles_and_copies_with_workspaces_of_its_own():
         return {id(w.message), id(work), id(spec)}
 
     for other in (pickle.loads(pickle.dumps(fast)), copy.copy(fast), copy.deepcopy(fast)):
-        assert other._w is not fast._w and "_w" in vars(other)
+        assert other._local.w is not fast._local.w and "_local" in vars(other)
         assert differences(other, SIM[1], scans) == []
-        assert not workspaces(fast._w) & workspaces(other._w)
+        assert not workspaces(fast._local.w) & workspaces(other._local.w)
 
 
 def test_a_compiled_pipelines_process_pickles_and_a_subclass_keeps_its_own():
@@ -333,3 +333,34 @@ def test_a_compiled_pipelines_process_pickles_and_a_subclass_keeps_its_own():
     counted = Counted(SIM_ROBOT, compiled=True)
     assert counted.process(scan, with_p_s=False).messages == expected
     assert Counted.calls == 1
+
+
+def test_one_compiled_pipeline_is_safe_from_four_threads_at_once():
+    """Four real threads share one compiled pipeline (its kernels release the GIL), each with
+    scans of its own, started together: every result equals the numpy path's, and each thread
+    wrote into workspaces of its own."""
+    import threading
+
+    fast, slow = Pipeline(SIM_ROBOT, compiled=True), SIM[1]
+    scans = [trunk_scans(np.random.default_rng(100 + t), 40) for t in range(4)]
+    expected = [[slow.process(s, with_p_s=False) for s in chunk] for chunk in scans]
+    start, found, used = threading.Barrier(4), [[] for _ in range(4)], [None] * 4
+
+    def work(t: int) -> None:
+        start.wait()
+        for _ in range(25):
+            for scan, want in zip(scans[t], expected[t], strict=True):
+                got = fast.process(scan, with_p_s=False)
+                if (got.messages != want.messages
+                        or not np.array_equal(got.safe_mask, want.safe_mask)
+                        or not np.array_equal(got.y1, want.y1)):
+                    found[t].append(scan)
+        used[t] = id(fast._local.w)
+
+    threads = [threading.Thread(target=work, args=(t,)) for t in range(4)]
+    for thread in threads:
+        thread.start()
+    for thread in threads:
+        thread.join()
+    assert [len(f) for f in found] == [0, 0, 0, 0]
+    assert len(set(used)) == 4 and id(fast._local.w) not in used

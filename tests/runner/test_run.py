@@ -201,3 +201,78 @@ def test_reference_lengths_are_computed_once_per_map_and_reused(tmp_path, monkey
     (tmp_path / "reference" / "forest-8.npy").unlink()
     run_experiment(config, tmp_path, workers=1, progress=False, fresh=True)
     assert files(tmp_path) == before and (tmp_path / "reference" / "forest-8.npy").exists()
+
+
+def _recorded_episodes(monkeypatch, events, *, stop_after=None, started=None):
+    """Real tasks (:func:`run_task`) with a fake episode and fake reference lengths, both
+    recorded in ``events`` in call order; the episode checks it got its map's lengths."""
+    import types
+
+    from fftnav.runner import run as run_module
+    from fftnav.runner import tasks as tasks_module
+
+    def lengths(task):
+        return np.full((2, 3), float(task.map_seed))
+
+    def reference(config, task):
+        events.append(("reference", task.env, task.map_seed))
+        return lengths(task)
+
+    def episode(world, policy, *, seed, config, reference, record):
+        env, map_seed = world
+        events.append(("episode", env, map_seed))
+        if started is not None:
+            started.append(time.perf_counter())
+        assert np.array_equal(np.array(reference), np.full((2, 3), float(map_seed)))
+        if stop_after is not None and sum(e[0] == "episode" for e in events) >= stop_after:
+            raise KeyboardInterrupt
+        rows = [EpisodeRow(**{**dict.fromkeys(EPISODE_COLUMNS, 1.0), "robot": r,
+                              "policy": policy, "arrived": True, "collided": False,
+                              "bytes_sent": 0, "failure": ""}) for r in range(3)]
+        return types.SimpleNamespace(rows=rows, trajectories=[np.zeros((2, 3))] * 3,
+                                     failed=False)
+
+    monkeypatch.setattr(run_module, "map_reference", reference)
+    monkeypatch.setattr(run_module, "write_maps_csv", lambda *a, **k: None)
+    monkeypatch.setattr(tasks_module, "task_world", lambda config, env, seed: (env, seed))
+    monkeypatch.setattr(tasks_module, "run_episode", episode)
+
+
+def test_reference_lengths_are_computed_a_batch_of_maps_just_before_its_episodes(
+        tmp_path, monkeypatch):
+    from fftnav.runner import run as run_module
+
+    events = []
+    _recorded_episodes(monkeypatch, events)
+    monkeypatch.setattr(run_module, "REFERENCE_BATCH_MAPS", 2)
+    outcome = run_experiment(CONFIG, tmp_path, workers=1, progress=False)
+    assert (outcome.completed, outcome.failed) == (N_TASKS, [])
+    maps = [("forest", 5), ("forest", 6), ("forest", 7), ("rocky", 5), ("rocky", 6),
+            ("rocky", 7)]
+    expected = []
+    for batch in (maps[:2], maps[2:4], maps[4:]):
+        expected += [("reference", *m) for m in batch]
+        expected += [("episode", *m) for m in batch for _ in range(3)]
+    assert events == expected
+    # a rerun skips every task and computes nothing
+    events.clear()
+    assert run_experiment(CONFIG, tmp_path, workers=1, progress=False).skipped == N_TASKS
+    assert events == []
+
+
+def test_many_maps_start_their_first_episodes_after_one_batch(tmp_path, monkeypatch):
+    """The first episodes of 10,000 maps wait for the reference lengths of 256 maps only (the
+    same holds for a million maps, where interrupting costs more: the rebuild of
+    episodes.csv checks every task's file)."""
+    events, started = [], []
+    _recorded_episodes(monkeypatch, events, stop_after=2, started=started)
+    config = parse_config({"experiment": {"name": "many", "envs": ["forest"],
+                                          "maps": 10_000, "map_seed": 0, "robots": 3,
+                                          "policies": ["bug-left", "fusion"]}})
+    start = time.perf_counter()
+    with pytest.raises(KeyboardInterrupt):
+        run_experiment(config, tmp_path, workers=1, progress=False)
+    assert started[0] - start < 30
+    references = [e for e in events if e[0] == "reference"]
+    assert references == [("reference", "forest", seed) for seed in range(256)]
+    assert events[256:] == [("episode", "forest", 0)] * 2

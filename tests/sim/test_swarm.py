@@ -199,3 +199,45 @@ def test_sim_config_checks_its_rates_without_an_episode_time_limit():
         SimConfig(physics_hz=float("nan"))
     assert SimConfig(lidar_height_m=None).lidar_height_m is None
     assert SimConfig(lidar_height_m=1).lidar_height_m == 1.0
+
+
+def test_a_long_control_period_runs_in_bounded_memory():
+    """1 MHz physics at 10 Hz control: 100,000 physics steps per tick. The planar velocities
+    are made 4,096 robot-steps at a time, so the tick's Python memory stays small (a table of
+    the whole period as lists takes tens of MB)."""
+    import tracemalloc
+
+    config = SimConfig(physics_hz=1_000_000, control_hz=10)
+    with SwarmSim(_open_world([[2.0, 2.0, 0.0], [5.0, 5.0, 0.0], [8.0, 8.0, 0.0]]),
+                  config=config) as sim:
+        sim.reset(seed=0)
+        tracemalloc.start()
+        try:
+            obs = sim.step([[0.5, 0.5], [0.3, -0.5], [0.5, 0.0]])  # two arcs, one line
+            peak = tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+    assert peak < 5e6, peak
+    assert obs.time_s == pytest.approx(0.1)
+    radius = 0.5 / 0.5  # robot 0: 0.05 m along an arc of radius 1 m, turning 0.05 rad left
+    np.testing.assert_allclose(obs.poses[0], [2.0 + radius * math.sin(0.05),
+                                              2.0 + radius * (1 - math.cos(0.05)), 0.05],
+                               atol=1e-6)
+    np.testing.assert_allclose(obs.poses[2], [8.05, 8.0, 0.0], atol=1e-9)
+
+
+def test_velocity_blocks_do_not_change_a_single_bit(monkeypatch):
+    """The same arcs with the velocities made 7 robot-steps at a time (blocks of 2 physics
+    steps for 3 robots) and all at once."""
+    import fftnav.sim.swarm as swarm
+
+    def drive() -> np.ndarray:
+        with SwarmSim(_open_world([[2.0, 2.0, 0.0], [5.0, 5.0, 1.0], [8.0, 8.0, 0.0]])) as sim:
+            sim.reset(seed=0)
+            for _ in range(5):
+                obs = sim.step([[0.5, 1.5], [0.3, -0.7], [0.5, 0.0]])
+            return obs.poses
+
+    whole = drive()
+    monkeypatch.setattr(swarm, "_VELOCITY_BLOCK", 7)
+    assert np.array_equal(drive(), whole)

@@ -39,7 +39,10 @@ def test_unknown_kind_and_bad_preset_path_are_refused():
 
 @pytest.mark.parametrize(("key", "value", "match"), [
     ("trunk_radius_m", [0.3, 0.1], r"trunk_radius_m\[1\] must be a finite number in \[0.3, "),
-    ("trunk_radius_m", [-0.1, 0.3], r"trunk_radius_m\[0\] must be a finite number > 0"),
+    ("trunk_radius_m", [-0.1, 0.3], r"trunk_radius_m\[0\] must be a finite number in \(0, "),
+    # both ends above what fits: the first end is named, with the bounds it must lie in
+    ("trunk_radius_m", [50, 100], r"trunk_radius_m\[0\] must be a finite number in "
+                                  r"\(0, 8\], got trunk_radius_m\[0\]=50$"),
 ])
 def test_kind_parameters_are_checked_by_the_kind(key, value, match):
     with pytest.raises(ValueError, match=match):
@@ -51,6 +54,12 @@ def test_rocky_parameters_are_checked_by_the_kind():
         generate_world("rocky", 0, rock_sides=[2, 5])
     with pytest.raises(ValueError, match=r"wall_fraction must be a finite number in \[0, 1\]"):
         generate_world("rocky", 0, wall_fraction=1.5)
+    with pytest.raises(ValueError, match=r"rock_aspect\[0\] must be a finite number in "
+                                         r"\(0, 1\], got rock_aspect\[0\]=5$"):
+        generate_world("rocky", 0, rock_aspect=[5, 10])
+    with pytest.raises(ValueError, match=r"rock_size_m\[0\] must be a finite number in "
+                                         r"\(0, 16\], got rock_size_m\[0\]=50$"):
+        generate_world("rocky", 0, rock_size_m=[50, 100])
 
 
 def test_a_kind_registered_from_outside_generates_worlds_and_appears_in_the_cli(monkeypatch):

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -142,7 +143,7 @@ def _with(path, value):
 @pytest.mark.parametrize(("path", "value", "message"), [
     (["starts"], KeyError, "world file is missing key 'starts'"),
     (["obstacles", 0, "radius"], KeyError, r"obstacles\[0\]: missing key 'radius'"),
-    (["obstacles", 0, "radius"], -0.2, r"obstacles\[0\].radius must be a finite number > 0, got obstacles\[0\].radius=-0.2"),
+    (["obstacles", 0, "radius"], -0.2, r"obstacles\[0\].radius must be a finite number in \(0, 1000\], got obstacles\[0\].radius=-0.2"),
     (["obstacles", 0, "center"], [9.9, 5], r"obstacles\[0\]: obstacle lies \(partly\) outside "
      r"the world \[0, 10\] x \[0, 10\]: it spans \[9.6, 10.2\] x \[4.7, 5.3\]"),
     (["obstacles", 0, "height"], KeyError, r"obstacles\[0\]: missing key 'height'"),
@@ -172,6 +173,22 @@ def test_malformed_world_files_are_refused(path, value, message):
     assert World.from_json(json.dumps(GOOD)).obstacles[0] == Circle((5.0, 5.0), 0.3, 2.0)
     with pytest.raises(ValueError, match=message):
         World.from_json(_with(path, value))
+
+
+@pytest.mark.parametrize(("path", "value", "message"), [
+    (["obstacles", 1, "vertices"], [[1e300, 1], [2, 1e300], [-1e300, -1e300]],
+     r"obstacles\[1\].vertices\[0\]\[0\] must be a finite number in \[-1000, 1000\], "
+     r"got obstacles\[1\].vertices\[0\]\[0\]=1e\+300$"),
+    (["obstacles", 0, "center"], [5, -1e308], r"obstacles\[0\].center\[1\] must be a finite "
+     r"number in \[-1000, 1000\]"),
+    (["obstacles", 0, "radius"], 1e308, r"obstacles\[0\].radius must be a finite number in "
+     r"\(0, 1000\]"),
+])
+def test_huge_coordinates_are_refused_in_one_line_without_a_warning(path, value, message):
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # an overflow warning would fail the test
+        with pytest.raises(ValueError, match=message):
+            World.from_json(_with(path, value))
 
 
 def test_not_json_and_clockwise_polygons():

@@ -113,7 +113,11 @@ def test_origin_shifts_the_map_into_the_world_frame(tmp_path):
 @pytest.mark.parametrize(("kwargs", "starts", "match"), [
     ({"origin": (0.0, 0.0, 0.5)}, [[1, 1, 0]], r"origin yaw must be 0"),
     ({"negate": 2}, [[1, 1, 0]], r"negate must be one of \[0, 1\], got negate=2"),
-    ({"resolution": -1}, [[1, 1, 0]], r"resolution must be a finite number > 0"),
+    ({"resolution": -1}, [[1, 1, 0]], r"resolution must be a finite number in \[0.0001, 1000\]"),
+    ({"resolution": "1e-300"}, [[1, 1, 0]],
+     r"resolution must be a finite number in \[0.0001, 1000\], got resolution=1e-300$"),
+    ({"resolution": "5e1"}, [[1, 1, 0]], r"m\.pgm: map side \(30 pixels x resolution 50 m\): "
+     r"1,500 estimated, above the limit of 1,000"),
     ({}, [[2.1, 1.8, 0]], r"starts\[0\] lies inside obstacles\[0\]"),
 ])
 def test_bad_maps_and_robots_are_refused(tmp_path, kwargs, starts, match):
@@ -209,3 +213,93 @@ def test_an_imported_map_runs_as_an_experiment_env(tmp_path):
         assert bad.returncode == 2 and bad.stderr.count("\n") == 1, bad.stderr
         assert re.search(match, bad.stderr), bad.stderr
         assert not (tmp_path / "bad").exists()
+
+
+def test_yaml_numbers_are_read_as_map_server_reads_them(tmp_path):
+    """PyYAML reads ``5e-2`` (YAML 1.1) as a string; map_server's yaml-cpp as a number."""
+    _pgm(tmp_path / "m.pgm", np.full((20, 30), 254))
+    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 5e-2\norigin: [-1e0, .5, 0]\n"
+                                     "occupied_thresh: 6.5e-1\n")
+    ros = read_ros_map(tmp_path / "m.yaml")
+    assert ros.resolution_m == 0.05 and ros.origin_m == (-1.0, 0.5)
+    (tmp_path / "m.yaml").write_text("image: m.pgm\nresolution: 5e-2x\norigin: [0, 0, 0]\n")
+    with pytest.raises(ValueError, match=r"resolution must be a finite number in \[0\.0001, "
+                                         r"1000\], got resolution='5e-2x'"):
+        read_ros_map(tmp_path / "m.yaml")
+
+
+def _pgm_header_only(path, cols, rows):
+    """A P5 header claiming cols x rows pixels, its pixels a sparse hole (no disk used)."""
+    header = f"P5\n{cols} {rows}\n255\n".encode()
+    with open(path, "wb") as fh:
+        fh.write(header)
+        fh.truncate(len(header) + cols * rows)
+    return path
+
+
+@pytest.mark.parametrize(("cols", "rows"), [(100_000, 100_000), (20_000, 20_000)])
+def test_huge_pgm_maps_are_refused_from_the_header(tmp_path, cols, rows):
+    """A 100000 x 100000 header and a 20000 x 20000 map (above the 100M-cell grid limit), both
+    sparse files as large as they claim: refused before any pixel is read."""
+    _pgm_header_only(tmp_path / "m.pgm", cols, rows)
+    _yaml(tmp_path / "m.yaml", "m.pgm", resolution=0.01)
+    with pytest.raises(ValueError, match=rf"m\.pgm: map cells \({cols} x {rows} pixels\): "
+                                         rf"{cols * rows:,} estimated, above the limit of "
+                                         r"100,000,000"):
+        read_ros_map(tmp_path / "m.yaml")
+
+
+def _png_header_only(path, cols, rows):
+    """An 8-bit grey PNG claiming cols x rows pixels, with a few bytes of pixel data."""
+    import struct
+    import zlib
+
+    def chunk(kind, data):
+        return struct.pack(">I", len(data)) + kind + data + struct.pack(">I", zlib.crc32(kind + data))
+
+    path.write_bytes(b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", cols, rows, 8, 0, 0, 0, 0))
+                     + chunk(b"IDAT", zlib.compress(bytes(64))) + chunk(b"IEND", b""))
+
+
+def test_a_png_bomb_is_refused_by_the_grid_limit(tmp_path):
+    """A 40000 x 40000 PNG header (1.6 billion pixels): Pillow's DecompressionBombError becomes
+    the grid limit's one line; 12000 x 12000 (under Pillow's own limit) is refused too."""
+    for name, side in (("bomb", 40_000), ("big", 12_000)):
+        _png_header_only(tmp_path / f"{name}.png", side, side)
+        _yaml(tmp_path / f"{name}.yaml", f"{name}.png", resolution=0.01)
+        with pytest.raises(ValueError, match=rf"{name}\.png: map cells .*: {side * side:,} "
+                                             r"estimated, above the limit of 100,000,000"):
+            read_ros_map(tmp_path / f"{name}.yaml")
+
+
+@pytest.mark.parametrize(("content", "match"), [
+    (b"", r"g\.pgm: not a PGM file \(truncated header\)"),
+    (b"P5\n30", r"g\.pgm: not a PGM file \(truncated header\)"),
+    (b"GIF89a garbage garbage garbage", r"g\.pgm: not a grey PGM \(P2/P5 magic"),
+    (b"P5\n30 x20\n255\n", r"g\.pgm: not a grey PGM \(P2/P5 magic, then width, height"),
+    (b"P5\n30 20\n255\n" + bytes(100), r"g\.pgm: PGM holds 100 pixels, expected 20 x 30 "
+     r"\(truncated\)"),
+    (b"P2\n3 2\n255\n1 2 3 4", r"g\.pgm: PGM holds 4 pixels, expected 2 x 3"),
+    (b"P5\n30 20\n0\n", r"g\.pgm: not a grey PGM, got 30 x 20 pixels, maxval 0"),
+])
+def test_garbage_or_truncated_pgm_is_refused_naming_the_file(tmp_path, content, match):
+    (tmp_path / "g.pgm").write_bytes(content)
+    with pytest.raises(ValueError, match=match):
+        read_ros_map(_yaml(tmp_path / "m.yaml", "g.pgm"))
+
+
+def test_blocks_of_rows_give_the_whole_image_map(tmp_path, monkeypatch):
+    """Classified 7 rows at a time, a 50-row map (PGM and PNG) is the same as in one block."""
+    from PIL import Image
+
+    pixels = np.random.default_rng(1).integers(0, 256, (50, 40))
+    _pgm(tmp_path / "m.pgm", pixels)
+    Image.fromarray(pixels.astype(np.uint8)).save(tmp_path / "m.png")
+    for image in ("m.pgm", "m.png"):
+        yaml = _yaml(tmp_path / f"{image}.yaml", image)
+        whole = read_ros_map(yaml).occupancy
+        monkeypatch.setattr("fftnav.world.rosmap.BLOCK_ROWS", 7)
+        assert np.array_equal(read_ros_map(yaml).occupancy, whole)
+        monkeypatch.undo()
+        p = (255 - pixels) / 255
+        assert np.array_equal(whole, np.flipud(np.where(p > 0.65, 1, np.where(p < 0.196, 0, -1))))

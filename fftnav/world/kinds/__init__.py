@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.files import check_input
 from fftnav.registry import Registry, first_line
 from fftnav.world.obstacles import Obstacle
 
@@ -105,7 +106,7 @@ def load_preset(env_or_path: str | Path) -> Params:
     if path.suffix != ".toml":
         raise ValueError(f"env_or_path must be one of {list(WORLD_KINDS)} or a .toml path, "
                          f"got env_or_path={str(env_or_path)!r}")
-    with path.open("rb") as fh:
+    with check_input(path).open("rb") as fh:
         return tomllib.load(fh)
 
 

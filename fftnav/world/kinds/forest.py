@@ -21,8 +21,9 @@ from fftnav.world.obstacles import Circle, Obstacle
 def check_trunks(params: Params) -> None:
     """``trunk_radius_m`` is a range of positive radii."""
     low, high = params["trunk_radius_m"]
-    check_number("trunk_radius_m[0]", low, low=0, low_open=True)
-    check_number("trunk_radius_m[1]", high, low=low, high=max_obstacle_radius(params))
+    fit = max_obstacle_radius(params)  # each end within the bounds first, then their order
+    check_number("trunk_radius_m[0]", low, low=0, low_open=True, high=fit)
+    check_number("trunk_radius_m[1]", high, low=low, high=fit)
 
 
 def trunk(params: Params, rng: np.random.Generator) -> tuple[Obstacle, float]:

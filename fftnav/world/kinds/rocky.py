@@ -20,12 +20,12 @@ def _check(params: Params) -> None:
     check_integer("rock_sides[0]", low, low=3)
     check_integer("rock_sides[1]", high, low=low)
     check_number("wall_fraction", params["wall_fraction"], low=0, high=1)
-    for key in ("rock_size_m", "rock_aspect", "wall_length_m", "wall_thickness_m"):
-        low, high = params[key]
-        check_number(f"{key}[0]", low, low=0, low_open=True)
-        check_number(f"{key}[1]", high, low=low, high=1.0 if key == "rock_aspect" else None)
     fit = max_obstacle_radius(params)
-    check_number("rock_size_m[1]", params["rock_size_m"][1], high=2 * fit)
+    tops = {"rock_size_m": 2 * fit, "rock_aspect": 1.0}
+    for key in ("rock_size_m", "rock_aspect", "wall_length_m", "wall_thickness_m"):
+        low, high = params[key]  # each end within the bounds first, then their order
+        check_number(f"{key}[0]", low, low=0, low_open=True, high=tops.get(key))
+        check_number(f"{key}[1]", high, low=low, high=tops.get(key))
     wall = math.hypot(params["wall_length_m"][1], params["wall_thickness_m"][1]) / 2
     if wall > fit:
         raise ValueError(f"wall_length_m[1] must leave walls (bounding radius {wall:g} m) "

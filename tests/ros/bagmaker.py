@@ -1,0 +1,79 @@
+"""Bags for the tests, written with rosbags' own writers (independent of fftnav.ros.bags)."""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Iterable, Sequence
+from pathlib import Path
+
+import numpy as np
+
+from fftnav.ros import messages as rosmsg
+
+LASERSCAN = "sensor_msgs/msg/LaserScan"
+
+
+def scan_msg(store, ranges, *, i=0, angle_min=-math.pi / 2, angle_max=math.pi / 2,
+             angle_increment=None, range_min=0.0, range_max=10.0, frame_id="laser",
+             stamp_ns=None):
+    ranges = np.asarray(ranges, dtype=np.float32)
+    if angle_increment is None:
+        angle_increment = (angle_max - angle_min) / (len(ranges) - 1)
+    ns = 1_000_000_000 + i * 100_000_000 if stamp_ns is None else stamp_ns
+    stamp = rosmsg.make(store, "builtin_interfaces/msg/Time", sec=ns // 10**9,
+                        nanosec=ns % 10**9)
+    return rosmsg.make(store, LASERSCAN, header=rosmsg.header(store, stamp, frame_id),
+                       angle_min=angle_min, angle_max=angle_max,
+                       angle_increment=angle_increment, range_min=range_min,
+                       range_max=range_max, ranges=ranges,
+                       intensities=np.full(len(ranges), 7.0, dtype=np.float32))
+
+
+def write_bag(path: Path, topics: dict[str, Sequence], *, kind: str | None = None) -> Path:
+    """Write ``{topic: [(msgtype, msg_or_callable(store)), ...]}`` to a bag of ``kind``
+    (``bag``, ``db3``, ``mcap``, ``db3-folder``, ``mcap-folder``; default: from the suffix);
+    messages are interleaved by index, 0.1 s apart. Returns the bag path (a file for single
+    files)."""
+    from rosbags.rosbag1 import Writer as Writer1
+    from rosbags.rosbag2 import StoragePlugin
+    from rosbags.rosbag2 import Writer as Writer2
+
+    kind = kind or path.suffix.lower().lstrip(".")
+    ros1 = kind == "bag"
+    store = rosmsg.typestore(ros1=ros1)
+    if ros1:
+        writer = Writer1(path)
+        target = path
+    else:
+        plugin = StoragePlugin.MCAP if kind.startswith("mcap") else StoragePlugin.SQLITE3
+        folder = path if kind.endswith("folder") else path.with_name(path.name + ".dir")
+        writer = Writer2(folder, version=8, storage_plugin=plugin)
+        target = path
+    with writer:
+        conns = {}
+        for topic, items in topics.items():
+            msgtype = items[0][0] if items else LASERSCAN
+            conns[topic] = writer.add_connection(topic, msgtype, typestore=store)
+        longest = max((len(v) for v in topics.values()), default=0)
+        for i in range(longest):
+            for topic, items in topics.items():
+                if i < len(items):
+                    msgtype, msg = items[i]
+                    msg = msg(store) if callable(msg) else msg
+                    data = (store.serialize_ros1(msg, msgtype) if ros1
+                            else store.serialize_cdr(msg, msgtype))
+                    writer.write(conns[topic], 1_000_000_000 + i * 100_000_000, data)
+    if not ros1 and not kind.endswith("folder"):
+        inner = folder / f"{folder.name}.{'mcap' if kind.startswith('mcap') else 'db3'}"
+        inner.rename(target)
+        for f in folder.iterdir():
+            f.unlink()
+        folder.rmdir()
+    return target
+
+
+def scans_bag(path: Path, scans: Iterable, *, topic="/scan", kind=None, **fields) -> Path:
+    """A bag of one LaserScan topic, a message per row of ``scans``."""
+    items = [(LASERSCAN, (lambda s, r=r, i=i: scan_msg(s, r, i=i, **fields)))
+             for i, r in enumerate(scans)]
+    return write_bag(path, {topic: items}, kind=kind)
