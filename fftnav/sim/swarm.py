@@ -186,8 +186,8 @@ class SwarmSim:
     parked or not, into the broadphase (dropping the last episode's contact caches), so every
     episode starts from the same state. In a tiled world, the tiles first built during the last
     episode are taken out again (their collision shapes are kept, so building them again is
-    cheap), so that every episode builds them in the same order as a fresh world would. The episode seed only drives
-    lidar noise and dropout.
+    cheap), so that every episode builds them in the same order as a fresh world would. The
+    episode seed only drives lidar noise and dropout.
     """
 
     def __init__(self, world: World, *, config: SimConfig | None = None, gui: bool = False) -> None:
