@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from fftnav.cli import CliError
-from fftnav.files import atomic_path, check_target, write_atomic
+from fftnav.files import check_target, write_atomic
 from fftnav.navigation.resolve import registered_names, resolve
 
 if TYPE_CHECKING:
@@ -89,8 +89,7 @@ def cmd_episode(args: argparse.Namespace) -> int:
     if args.plot:
         from fftnav.report.trajectories import plot_episode
 
-        with atomic_path(args.plot, keep_suffix=True) as tmp:
-            plot_episode(world, result.trajectories, result.rows, tmp, r0_m=config.robot.r0_m)
+        plot_episode(world, result.trajectories, result.rows, args.plot, r0_m=config.robot.r0_m)
     sys.stderr.write(outcome_line(result.rows) + "\n")
     return 0
 

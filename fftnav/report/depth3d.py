@@ -11,6 +11,7 @@ from matplotlib.patches import Circle, Rectangle
 
 from fftnav.episode.flight3d import FlightResult
 from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
+from fftnav.report import save_figure
 from fftnav.sim.drone import DroneSim, make_forest3d
 
 __all__ = ["draw_depth3d_figure", "draw_flight_figure"]
@@ -73,7 +74,7 @@ def draw_depth3d_figure(out_dir: Path, *, seed: int = 0) -> list[Path]:
         ax.set(xlabel="azimuth (deg, CCW from heading)", ylabel="elevation (deg)",
                title=title, xticks=np.arange(-180, 181, 45), yticks=[-45, 0, 45])
         path = out_dir / f"fig4_{name}.png"
-        fig.savefig(path, dpi=120)
+        save_figure(fig, path, dpi=120)
         plt.close(fig)
         paths.append(path)
     return paths
@@ -122,6 +123,6 @@ def draw_flight_figure(result: FlightResult, path: Path) -> Path:
     top.legend(loc="upper right", fontsize=8)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

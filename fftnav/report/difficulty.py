@@ -17,6 +17,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from fftnav.optimal.difficulty import MEASURES
+from fftnav.report import save_figure
 from fftnav.report.markdown import markdown_table
 from fftnav.runner.maps import map_spl, spearman_table
 
@@ -58,7 +59,7 @@ def draw_spl_vs_difficulty(per_map: pd.DataFrame, path: Path, *,
     axes[-1].legend(*axes[0].get_legend_handles_labels(), loc="center", fontsize=8,
                     title="policy, env", ncols=1 + len(policies) * len(envs) // 12)
     fig.suptitle("Per-map SPL against the map's difficulty (maps.csv, BARN's measures)")
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     return path
 
 

@@ -27,6 +27,7 @@ from matplotlib.figure import Figure
 
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow
 from fftnav.files import write_atomic
+from fftnav.report import save_figure
 from fftnav.report.difficulty import difficulty_lines
 from fftnav.report.failures import failure_lines
 from fftnav.report.markdown import markdown_table
@@ -228,7 +229,7 @@ def draw_trajectories(config: ExperimentConfig, out: Path, env: str, episodes: p
                      f"{int(rows.arrived.sum())}/{len(rows)} arrived")
     fig.suptitle(f"{env}, map seed {map_seed}: trajectories of {config.robots} robots")
     path = figures / f"trajectories_{env}.png"
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return path
 
 
@@ -254,7 +255,7 @@ def draw_metric_bars(summary: pd.DataFrame, path: Path) -> Path:
         ax.set_ylabel(label)
     fig.legend(*fig.axes[0].get_legend_handles_labels(), loc="outside upper center",
                ncols=len(policies) + 1, fontsize=8)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return path
 
 
@@ -275,7 +276,7 @@ def draw_path_lengths(episodes: pd.DataFrame, path: Path, *, envs: Sequence[str]
         ax.set_title(f"{env}: path length of the robots that arrived")
         ax.set_ylabel("path length (m)")
         ax.legend(fontsize=8)
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     return path
 
 

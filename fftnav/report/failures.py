@@ -21,6 +21,7 @@ from matplotlib.patches import Rectangle
 
 from fftnav.episode.recording import RecordingError, read_recording
 from fftnav.metrics import FAILURE_CAUSES
+from fftnav.report import save_figure
 from fftnav.report.markdown import markdown_table
 from fftnav.runner import run
 from fftnav.runner.config import ExperimentConfig
@@ -171,7 +172,7 @@ def draw_failure_positions(config: ExperimentConfig, positions: pd.DataFrame, pa
                      f"{mine['map_seed'].nunique()} map(s)")
         ax.legend(fontsize=7, loc="lower right", title="cause (grey: line to goal)",
                   title_fontsize=7)
-    fig.savefig(path, dpi=100)
+    save_figure(fig, path, dpi=100)
     return path
 
 

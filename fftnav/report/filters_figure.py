@@ -18,6 +18,7 @@ from fftnav.observe.compress import reconstruct
 from fftnav.observe.geometry import SIM_ROBOT
 from fftnav.observe.pipeline import Pipeline, PipelineResult
 from fftnav.observe.safe import nearest_safe_headings
+from fftnav.report import save_figure
 from fftnav.world.scenes import random_trunks, ray_cast_circles
 
 __all__ = ["draw_filter_figures", "SCENE_SEED", "TARGET_RAD"]
@@ -168,7 +169,7 @@ def _draw_fig3(scene: _Scene, path: Path) -> Path:
         f"Fig. 3: safe directions (M = {b.beams}, Tc = {b.tc}, window = "
         f"{b.window_beams} beams, fc = 1/{1 / b.fc:.0f}, N0 = {b.n0})"
     )
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path
 
@@ -213,6 +214,6 @@ def _draw_fig5(scene: _Scene, path: Path) -> Path:
         f"Fig. 5: dimension reduction (Blackman-windowed sinc, N2 = {b.n2}, "
         f"fc = 1/{1 / b.fc:.0f}); P_s = {res.p_s[0]:.3f}"
     )
-    fig.savefig(path, dpi=110)
+    save_figure(fig, path, dpi=110)
     plt.close(fig)
     return path

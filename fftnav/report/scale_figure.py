@@ -8,6 +8,8 @@ from typing import Any
 
 import matplotlib.pyplot as plt
 
+from fftnav.report import save_figure
+
 __all__ = ["draw_scale_figure"]
 
 
@@ -35,6 +37,6 @@ def draw_scale_figure(rows: Sequence[dict[str, Any]], path: str | Path) -> Path:
                      fontsize=9)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path, dpi=120)
+    save_figure(fig, path, dpi=120)
     plt.close(fig)
     return path

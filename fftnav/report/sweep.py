@@ -20,6 +20,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from fftnav.files import write_atomic
+from fftnav.report import save_figure
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.summary import gain_table, sweep_table
 
@@ -64,7 +65,7 @@ def _gain_figure(table: pd.DataFrame, axis: str, path: Path) -> Path:
     axes[0][0].legend(fontsize=7)
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(path)
+    save_figure(fig, path)
     return path
 
 

@@ -11,6 +11,7 @@ import numpy as np
 
 from fftnav.config import SwarmConfig
 from fftnav.episode.record import EpisodeRow
+from fftnav.report import save_figure
 from fftnav.report.frames import KINDS, SwarmFrame, draw_frame
 from fftnav.report.world_plot import draw_world
 from fftnav.world.model import World
@@ -70,7 +71,7 @@ def _save(fig: plt.Figure, path: str | Path) -> Path:
     """Write ``fig`` to ``path`` (its folder created), close it; returns the path."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, bbox_inches="tight")
+    save_figure(fig, out, bbox_inches="tight")
     plt.close(fig)
     return out
 

@@ -9,6 +9,7 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Polygon as PolygonPatch
 
+from fftnav.report import save_figure
 from fftnav.world import World
 
 __all__ = ["draw_world", "render_world"]
@@ -53,6 +54,6 @@ def render_world(world: World, path: str | Path) -> Path:
                  f"{len(world.starts)} robots", fontsize=9)
     ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
     fig.tight_layout()
-    fig.savefig(path)
+    save_figure(fig, path)
     plt.close(fig)
     return path
