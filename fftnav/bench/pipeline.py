@@ -14,6 +14,7 @@ from __future__ import annotations
 
 import csv
 import datetime
+import io
 import os
 import platform
 import socket
@@ -24,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fftnav.files import write_atomic
 from fftnav.observe.geometry import SIM_ROBOT
 from fftnav.observe.pipeline import Pipeline
 from fftnav.observe.safe import safe_mask, sliding_min_safe_mask
@@ -231,8 +233,10 @@ def record_csv(result: dict, path: str | Path, *, append: bool = False) -> None:
                 f"cannot append to {str(path)!r}: its columns {header} differ from {list(row)}"
             )
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("a" if exists else "w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(row))
-        if not exists:
-            writer.writeheader()
-        writer.writerow(row)
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=list(row))
+    if not exists:
+        writer.writeheader()
+    writer.writerow(row)
+    earlier = path.read_bytes() if exists else b""
+    write_atomic(path, earlier + text.getvalue().encode())  # the old file or the whole new one

@@ -11,11 +11,13 @@ is the figure of merit (constant = linear cost in N).
 from __future__ import annotations
 
 import csv
+import io
 from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 from fftnav.bench.sim import bench_sim
+from fftnav.files import write_atomic
 from fftnav.validate import check_integer
 
 __all__ = ["COLUMNS", "ROBOTS", "bench_scale", "growth", "write_scale_csv"]
@@ -52,10 +54,11 @@ def write_scale_csv(rows: Sequence[dict[str, Any]], path: str | Path) -> None:
     """Write the rows (``COLUMNS``) to ``path``."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    with path.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=list(COLUMNS))
-        writer.writeheader()
-        writer.writerows(rows)
+    text = io.StringIO()
+    writer = csv.DictWriter(text, fieldnames=list(COLUMNS))
+    writer.writeheader()
+    writer.writerows(rows)
+    write_atomic(path, text.getvalue())
 
 
 def format_scale(rows: Sequence[dict[str, Any]]) -> str:
