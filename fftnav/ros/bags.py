@@ -273,7 +273,7 @@ class _Batch:
     def _pipeline(self, scan: _Scan) -> Pipeline:
         """The pipeline of a scan's layout and range, made on first use."""
         lay = scan.layout
-        key = (lay.beams, lay.fov_rad, scan.range_m)
+        key = (lay.pipeline_beams, lay.fov_rad, scan.range_m)
         if key not in self.pipes:
             try:
                 self.pipes[key] = Pipeline(self.geometry, beams=key[0], fov_rad=key[1],

@@ -39,19 +39,37 @@ class Layout:
         ``angle_increment < 0``: the message's beams are reversed for the pipeline.
     offset_rad : float
         Angle in the message frame of the pipeline's 0 (its heading).
+    closing : bool
+        The last beam points where the first does (``M - 1`` increments make a turn, as
+        drivers that publish ``angle_min = -pi``, ``angle_max = pi`` do): the pipeline sees a
+        full circle of ``M - 1`` beams, the two readings of that direction merged into the
+        nearer (an obstacle either saw blocks it), and both beams get its result.
     """
 
     beams: int
     fov_rad: float
     clockwise: bool
     offset_rad: float
+    closing: bool = False
+
+    @property
+    def pipeline_beams(self) -> int:
+        """Beams of the pipeline: ``M``, or ``M - 1`` with a closing beam."""
+        return self.beams - self.closing
 
     def to_pipeline(self, ranges: np.ndarray) -> np.ndarray:
-        """A message's readings (last axis) in the pipeline's beam order (a view)."""
-        return ranges[..., ::-1] if self.clockwise else ranges
+        """A message's readings (last axis) in the pipeline's beam order."""
+        ordered = ranges[..., ::-1] if self.clockwise else ranges
+        if not self.closing:
+            return ordered
+        out = np.array(ordered[..., :-1])
+        out[..., 0] = np.minimum(ordered[..., 0], ordered[..., -1])
+        return out
 
     def from_pipeline(self, values: np.ndarray) -> np.ndarray:
         """Per-beam values of the pipeline (last axis) in the message's beam order."""
+        if self.closing:
+            values = np.concatenate([values, values[..., :1]], axis=-1)
         return values[..., ::-1] if self.clockwise else values
 
     def angles_rad(self, pipeline_angles_rad: np.ndarray) -> np.ndarray:
@@ -68,8 +86,9 @@ def layout_of(angle_min: float, angle_max: float, angle_increment: float, beams:
 
     The last beam must point at ``angle_max``: ``angle_min + (M - 1) angle_increment`` may
     differ from it by less than half an increment (the float32 fields round). ``M`` increments
-    within half an increment of a turn make a full circle; otherwise the beams must span less
-    than a turn. ``where`` names the message in the errors (ValueError).
+    within half an increment of a turn make a full circle, and so do ``M - 1`` (a closing beam,
+    :attr:`Layout.closing`); otherwise the beams must span less than a turn. ``where`` names
+    the message in the errors (ValueError).
 
     >>> lay = layout_of(-2.356194, 2.356194, 0.004363323, 1081, where="scan 0")
     >>> round(math.degrees(lay.fov_rad), 3), lay.clockwise, lay.offset_rad == 0.0
@@ -93,7 +112,8 @@ def layout_of(angle_min: float, angle_max: float, angle_increment: float, beams:
             f"{angle_max:.6g} rad (M = {beams}; {_show(values)})")
     clockwise = angle_increment < 0
     first = last if clockwise else angle_min  # the pipeline's beam 0, counter-clockwise order
-    if abs(beams * inc - FULL_CIRCLE_RAD) <= 0.5 * inc:
+    closing = abs((beams - 1) * inc - FULL_CIRCLE_RAD) <= 0.5 * inc
+    if closing or abs(beams * inc - FULL_CIRCLE_RAD) <= 0.5 * inc:
         fov = FULL_CIRCLE_RAD
     else:
         fov = (beams - 1) * inc
@@ -102,7 +122,8 @@ def layout_of(angle_min: float, angle_max: float, angle_increment: float, beams:
                              f"(M - 1) * |angle_increment| = {fov:.6g} rad (M = {beams})")
     # the pipeline's beams run from -pi (full circle) or -fov/2: where its 0 is in the message
     offset = (first + math.pi if fov == FULL_CIRCLE_RAD else 0.5 * (angle_min + angle_max))
-    return Layout(beams, fov, clockwise, 0.0 if abs(offset) < _FLOAT32_ANGLE_RAD else offset)
+    return Layout(beams, fov, clockwise, 0.0 if abs(offset) < _FLOAT32_ANGLE_RAD else offset,
+                  closing)
 
 
 def _show(values: dict[str, float]) -> str:

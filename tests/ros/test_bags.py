@@ -276,3 +276,27 @@ def test_out_bag_never_overwrites_the_input(tmp_path):
     fifo = tmp_path / "out.mcap"
     os.mkfifo(fifo)
     refused("--out-bag must be a regular file", single, out_bag=fifo)
+
+
+@pytest.mark.parametrize("clockwise", [False, True])
+def test_a_closing_beam_is_read_as_a_full_circle(tmp_path, clockwise):
+    """361 beams from -pi to pi inclusive (the last points where the first does, as some
+    drivers publish): the masks of the 360-beam full circle whose first reading is the nearer
+    of the two, against the sliding-window minimum, and the closing beam gets the first's."""
+    rng = np.random.default_rng(7)
+    scans = lidar_scans(rng, 4, 361, 10.0)
+    inc = 2 * math.pi / 360
+    lo, hi = (math.pi, -math.pi) if clockwise else (-math.pi, math.pi)
+    sent = scans[:, ::-1] if clockwise else scans  # message order
+    path = scans_bag(tmp_path / "c.mcap", sent, angle_min=lo, angle_max=hi,
+                     angle_increment=-inc if clockwise else inc, range_min=0.0, range_max=10.0)
+    got = masks(run(path, geometry=SIM_ROBOT))
+    got = got[:, ::-1] if clockwise else got  # counter-clockwise from -pi
+    d = rep117(scans.astype(np.float32).astype(float), 0.0, 10.0, 10.0)
+    circle = d[:, :360].copy()
+    circle[:, 0] = np.minimum(d[:, 0], d[:, 360])
+    expected = oracle_mask(circle, l_th=SIM_ROBOT.l_th_m, range_m=10.0,
+                           window=window(SIM_ROBOT, inc), circular=False)
+    np.testing.assert_array_equal(got[:, :360], expected)
+    np.testing.assert_array_equal(got[:, 360], got[:, 0])
+    assert 0.05 < expected.mean() < 0.95

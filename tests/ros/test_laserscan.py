@@ -67,3 +67,16 @@ def test_an_off_centre_scan_reports_angles_in_its_own_frame():
 def test_inconsistent_layouts_are_refused(args, match):
     with pytest.raises(ValueError, match=match):
         layout_of(*args, where="m")
+
+
+def test_a_closing_beam_makes_a_full_circle_of_one_beam_fewer():
+    lay = layout_of(-math.pi, math.pi, 2 * math.pi / 360, 361, where="scan 0")
+    assert lay.closing and lay.fov_rad == 2 * math.pi and lay.pipeline_beams == 360
+    ranges = np.arange(361.0)
+    ranges[0] = 400.0  # the first direction's nearer reading is the closing beam's
+    seen = lay.to_pipeline(ranges)
+    assert seen.shape == (360,) and seen[0] == 360.0 and seen[1] == 1.0
+    back = lay.from_pipeline(np.arange(360))
+    assert back.shape == (361,) and back[360] == back[0] == 0 and back[359] == 359
+    assert not layout_of(-math.pi, math.pi - 2 * math.pi / 360, 2 * math.pi / 360, 360,
+                         where="s").closing
