@@ -152,7 +152,7 @@ class InvocationClock:
             except (OSError, ValueError, KeyError, TypeError):
                 pass  # a damaged marker counts nothing
             marker.unlink(missing_ok=True)
-        self.path.write_text(json.dumps({"start": self.start}))
+        write_atomic(self.path, json.dumps({"start": self.start}))
         return earlier
 
     def tick(self) -> None:
