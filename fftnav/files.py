@@ -16,6 +16,7 @@ import io
 import json
 import os
 import re
+import shutil
 import stat
 import sys
 import zipfile
@@ -156,10 +157,23 @@ def write_atomic(path: str | Path, data: str | bytes) -> None:
         fh.write(data.encode() if isinstance(data, str) else data)
 
 
+def track_temporary(path: Path, *, done: bool = False) -> None:
+    """Count ``path`` (a temporary file or folder being written) among those
+    :func:`remove_pending_temporaries` deletes, or, with ``done``, no longer."""
+    if done:
+        _PENDING.discard(path)
+    else:
+        _PENDING.add(path)
+
+
 def remove_pending_temporaries() -> None:
     """Delete the temporary files this process is writing right now (for an exit that skips
-    the ``finally`` blocks, e.g. ``os._exit`` on a second Ctrl-C)."""
+    the ``finally`` blocks, e.g. ``os._exit`` on a second Ctrl-C); a folder (a bag being
+    written) with what it holds."""
     for tmp in list(_PENDING):
+        if tmp.is_dir() and not tmp.is_symlink():
+            shutil.rmtree(tmp, ignore_errors=True)
+            continue
         try:
             tmp.unlink()
         except OSError:

@@ -206,10 +206,14 @@ def side_by_side(against: str | os.PathLike[str], *, case: str = "trunks-20k",
         for repeat in range(repeats):
             for code, root in (("old", tree), ("new", ours)):
                 env = dict(os.environ, PYTHONPATH=str(root))
-                out = subprocess.run(
+                proc = subprocess.run(
                     [sys.executable, "-c", _PROBE, str(path), str(spec["episode_s"] or 5.0)],
-                    env=env, cwd=tmp, check=True, capture_output=True, text=True).stdout
-                row = json.loads(out.strip().splitlines()[-1])
+                    env=env, cwd=tmp, capture_output=True, text=True)
+                if proc.returncode != 0:
+                    last = (proc.stderr.strip().splitlines() or ["no message"])[-1]
+                    raise ValueError(f"the {code} tree {str(root)!r} could not run the "
+                                     f"{case!r} probe: {last}")
+                row = json.loads(proc.stdout.strip().splitlines()[-1])
                 rows.append({"bench": "worlds-side-by-side", "case": case, "code": code,
                              "repeat": repeat, **{k: (round(v, 2) if isinstance(v, float)
                                                       else v) for k, v in row.items()},

@@ -4,13 +4,14 @@ from __future__ import annotations
 
 import argparse
 import csv
+import io
 import json
 
 
 def cmd_fly3d(args: argparse.Namespace) -> int:
     """Fly seeds ``first .. first + seeds - 1``; write per-seed rows and print a JSON summary."""
     from fftnav.episode.flight3d import FLIGHT_COLUMNS, FlightConfig, fly, summarize
-    from fftnav.files import atomic_path, check_target
+    from fftnav.files import check_target, write_atomic
 
     if args.seeds < 1:
         raise ValueError(f"--seeds must be an integer >= 1, got --seeds={args.seeds}")
@@ -26,13 +27,16 @@ def cmd_fly3d(args: argparse.Namespace) -> int:
             check_target(getattr(args, flag[2:]), flag=flag, make_folder=True,
                          image=flag == "--plot")
     results = []
-    with atomic_path(args.out) as tmp, tmp.open("w", newline="") as fh:
-        writer = csv.DictWriter(fh, fieldnames=FLIGHT_COLUMNS)
-        writer.writeheader()
+    try:
         for seed in seeds:
             results.append(fly(seed, config))
-            writer.writerow(results[-1].row())
-            fh.flush()
+    finally:  # the flights finished are kept, also when a later one fails or is interrupted
+        if results:
+            text = io.StringIO()
+            writer = csv.DictWriter(text, fieldnames=FLIGHT_COLUMNS)
+            writer.writeheader()
+            writer.writerows(r.row() for r in results)
+            write_atomic(args.out, text.getvalue())
     if args.plot:
         from fftnav.report.depth3d import draw_flight_figure
 

@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.files import track_temporary
 from fftnav.limits import MAX_BEAMS, check_limit
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.pipeline import Pipeline
@@ -331,7 +332,7 @@ def scan_bag(path: str | Path, *, topic: str | None, geometry: RobotGeometry,
     count = 0
     with open_bag(path) as reader, contextlib.ExitStack() as stack:
         name = _topic(reader, path, topic)
-        conns = [c for c in reader.connections if c.topic == name]
+        conns = [c for c in reader.connections if c.topic == name and c.msgtype == LASERSCAN]
         writer = None
         if out_bag is not None:
             writer = stack.enter_context(AnnotatedBag(out_bag, reader, path))
@@ -353,7 +354,7 @@ def scan_bag(path: str | Path, *, topic: str | None, geometry: RobotGeometry,
             for conn, timestamp, raw in messages(
                     reader, path, reader.connections if writer is not None else conns):
                 scan = None
-                if conn.topic == name:
+                if conn.topic == name and conn.msgtype == LASERSCAN:
                     scan = _read_scan(deserialize(reader, path, raw, conn.msgtype), count,
                                       timestamp, path, range_m)
                     count += 1
@@ -406,13 +407,14 @@ class BagFile:
         self.tmp = self.out.parent / f".{self.out.name}.{os.getpid()}.tmp"
         shutil.rmtree(self.tmp, ignore_errors=True)
         self.tmp.mkdir(parents=True)
+        track_temporary(self.tmp)  # removed by a second Ctrl-C's exit too
         target = self.tmp / self.out.name
-        if ros1:
-            self.writer: Any = Writer1(target)
-        else:
-            plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
-            self.writer = Writer2(target, version=8, storage_plugin=plugin)
         try:
+            if ros1:
+                self.writer: Any = Writer1(target)
+            else:
+                plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
+                self.writer = Writer2(target, version=8, storage_plugin=plugin)
             self.writer.open()
         except BaseException:
             self.discard()
@@ -438,12 +440,14 @@ class BagFile:
             os.replace(target, self.out)
         finally:
             shutil.rmtree(self.tmp, ignore_errors=True)
+            track_temporary(self.tmp, done=True)
 
     def discard(self) -> None:
         """Drop the bag being written."""
         with contextlib.suppress(Exception):
             self.writer.close()
         shutil.rmtree(self.tmp, ignore_errors=True)
+        track_temporary(self.tmp, done=True)
 
 
 class BagWriter:
@@ -488,23 +492,25 @@ class AnnotatedBag(BagWriter):
     def __init__(self, out: str | Path, reader: Any, bag: Path) -> None:
         ros1, storage, single = _out_kind(Path(out), bag)
         super().__init__(out, ros1=ros1, storage=storage, single=single)
-        self.reader = reader
+        self.reader, self.source = reader, bag
 
     def setup(self) -> None:
         from rosbags.convert.converter import create_connections_converters
 
         copied = [c for c in self.reader.connections
                   if c.topic not in (SAFE_SCAN, SAFE_DIRECTIONS)]
-        with contextlib.redirect_stdout(io.StringIO()):  # rosbags prints what it migrates
+        with _damage(self.source), contextlib.redirect_stdout(io.StringIO()):  # it prints
             self.connmap, self.convmap = create_connections_converters(
                 copied, None, self.reader, self.file.writer)
         self.scan_conn = self.file.add(SAFE_SCAN, LASERSCAN)
         self.marker_conn = self.file.add(SAFE_DIRECTIONS, MARKER_ARRAY)
 
     def copy(self, conn: Any, timestamp: int, raw: bytes) -> None:
-        """Write an input message again."""
-        self.file.writer.write(self.connmap[(conn.id, conn.owner)], timestamp,
-                               self.convmap[conn.msgtype](raw))
+        """Write an input message again (a message rosbags cannot convert is a damaged input:
+        one ValueError naming the bag)."""
+        with _damage(self.source):
+            converted = self.convmap[conn.msgtype](raw)
+        self.file.writer.write(self.connmap[(conn.id, conn.owner)], timestamp, converted)
 
     def annotate(self, scan: _Scan) -> None:
         """Write a processed scan's ``/fftnav/safe_scan`` and ``/fftnav/safe_directions``."""

@@ -201,6 +201,8 @@ def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, exec
                 _compute_references(config, out, todo, **options)
                 bar.set_description(config.name)
                 todo = [_with_reference(out, task) for task in todo]
+            if not todo:  # a finished batch starts no workers
+                continue
             results = execute(task_fn, config, todo, **options)
             try:
                 for task, result in results:

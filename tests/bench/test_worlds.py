@@ -1,5 +1,5 @@
-"""``fftnav bench worlds``: the trunk fields, one case measured, old against new
-(fftnav.bench.worlds)."""
+"""``fftnav bench worlds``: the trunk fields, one case measured, another source tree
+against this one (fftnav.bench.worlds)."""
 
 from __future__ import annotations
 

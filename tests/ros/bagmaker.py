@@ -30,7 +30,8 @@ def scan_msg(store, ranges, *, i=0, angle_min=-math.pi / 2, angle_max=math.pi / 
 
 
 def write_bag(path: Path, topics: dict[str, Sequence], *, kind: str | None = None) -> Path:
-    """Write ``{topic: [(msgtype, msg_or_callable(store)), ...]}`` to a bag of ``kind``
+    """Write ``{topic: [(msgtype, msg_or_callable(store)), ...]}`` (one connection per topic
+    and message type) to a bag of ``kind``
     (``bag``, ``db3``, ``mcap``, ``db3-folder``, ``mcap-folder``; default: from the suffix);
     messages are interleaved by index, 0.1 s apart. Returns the bag path (a file for single
     files)."""
@@ -50,10 +51,10 @@ def write_bag(path: Path, topics: dict[str, Sequence], *, kind: str | None = Non
         writer = Writer2(folder, version=8, storage_plugin=plugin)
         target = path
     with writer:
-        conns = {}
+        conns = {}  # a connection per topic and type: the first type's made first
         for topic, items in topics.items():
             msgtype = items[0][0] if items else LASERSCAN
-            conns[topic] = writer.add_connection(topic, msgtype, typestore=store)
+            conns[topic, msgtype] = writer.add_connection(topic, msgtype, typestore=store)
         longest = max((len(v) for v in topics.values()), default=0)
         for i in range(longest):
             for topic, items in topics.items():
@@ -62,7 +63,10 @@ def write_bag(path: Path, topics: dict[str, Sequence], *, kind: str | None = Non
                     msg = msg(store) if callable(msg) else msg
                     data = (store.serialize_ros1(msg, msgtype) if ros1
                             else store.serialize_cdr(msg, msgtype))
-                    writer.write(conns[topic], 1_000_000_000 + i * 100_000_000, data)
+                    if (topic, msgtype) not in conns:
+                        conns[topic, msgtype] = writer.add_connection(topic, msgtype,
+                                                                      typestore=store)
+                    writer.write(conns[topic, msgtype], 1_000_000_000 + i * 100_000_000, data)
     if not ros1 and not kind.endswith("folder"):
         inner = folder / f"{folder.name}.{'mcap' if kind.startswith('mcap') else 'db3'}"
         inner.rename(target)

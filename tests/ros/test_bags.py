@@ -300,3 +300,39 @@ def test_a_closing_beam_is_read_as_a_full_circle(tmp_path, clockwise):
     np.testing.assert_array_equal(got[:, :360], expected)
     np.testing.assert_array_equal(got[:, 360], got[:, 0])
     assert 0.05 < expected.mean() < 0.95
+
+
+def test_other_types_on_the_scan_topic_are_copied_not_read_and_a_bad_copy_is_named(
+        tmp_path, monkeypatch):
+    """A String connection on /scan beside the LaserScans: the scans are read, the strings
+    only copied into the annotated bag. A message rosbags cannot convert while copying is a
+    damaged input: one ValueError naming the bag, and no bag or temporary folder is left."""
+    from rosbags.highlevel import AnyReader
+    from rosbags.serde import SerdeError
+
+    rng = np.random.default_rng(6)
+    scans = lidar_scans(rng, 3, 181, 10.0)
+    items = [(LASERSCAN, lambda s, r=r, i=i: scan_msg(s, r, i=i)) for i, r in enumerate(scans)]
+    items += [("std_msgs/msg/String", lambda s, i=i: s.types["std_msgs/msg/String"](f"m{i}"))
+              for i in range(2)]
+    src = write_bag(tmp_path / "in.mcap", {"/scan": items})
+    rows = run(src, topic="/scan", out_bag=tmp_path / "out.mcap")
+    assert len(rows) == 3
+    with AnyReader([tmp_path / "out.mcap"]) as reader:
+        counts = sorted((c.msgtype, c.msgcount) for c in reader.connections if c.topic == "/scan")
+    assert counts == [(LASERSCAN, 3), ("std_msgs/msg/String", 2)]
+
+    setup = bags.AnnotatedBag.setup
+
+    def damaged(self):
+        setup(self)
+
+        def fail(raw):
+            raise SerdeError("Invalid string length")
+
+        self.convmap = {k: fail for k in self.convmap}
+
+    monkeypatch.setattr(bags.AnnotatedBag, "setup", damaged)
+    refused("in.mcap: damaged or unreadable bag: Invalid string length", src,
+            topic="/scan", out_bag=tmp_path / "bad.mcap")
+    assert not (tmp_path / "bad.mcap").exists() and not list(tmp_path.glob(".*tmp"))

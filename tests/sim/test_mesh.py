@@ -1,6 +1,6 @@
 """Static obstacle meshes below Bullet's limits: every mesh made once and equal to the
-obstacle's own, tiling keeps the lidar bit-identical, a world beyond one mesh (the 60 m x 60 m
-forest's failure) builds, its tiles only near the robots, and episodes in it repeat bitwise."""
+obstacle's own, tiling keeps the lidar bit-identical, a world beyond one mesh (a 60 m x 60 m
+forest) builds, its tiles only near the robots, and episodes in it repeat bitwise."""
 
 from __future__ import annotations
 
