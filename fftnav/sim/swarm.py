@@ -440,9 +440,8 @@ class SwarmSim:
             raise ValueError(f"commands must be a finite array of shape ({self.num_robots}, 2), "
                              f"got shape={cmd.shape}")
         cfg, cid = self.config, self._client
+        # (a tiled world's tiles within reach of these poses were built by the last scan)
         active = np.flatnonzero(self._active)
-        if len(self._tiles) > 1:
-            self._build_near(self._poses[active, :2])
         v = np.clip(cmd[active, 0], -cfg.robot.v_max_mps, cfg.robot.v_max_mps)
         w = np.clip(cmd[active, 1], -cfg.robot.w_max_radps, cfg.robot.w_max_radps)
         bodies = [self._robots[i] for i in active]
