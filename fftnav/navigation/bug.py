@@ -111,6 +111,12 @@ class PlannerParams(Checked):
     map_resolution_m, map_clearance_m : float
         Cell size of the robots' own maps, and the distance from a seen obstacle within which
         the escape way may not pass.
+    map_squeeze_m, squeeze_after_s : float
+        A robot that has stayed within 2 r0 of one point for ``squeeze_after_s`` seconds and
+        whose own map leaves it no way at ``map_clearance_m`` (its pocket closed, as by another
+        robot standing beside it and seen as an obstacle) plans its way again with obstacles
+        widened by only ``map_squeeze_m`` (at most ``map_clearance_m``; :class:`OwnMaps`,
+        ``squeeze_m``): the narrower ways the clearance guard still lets it drive.
     map_margin_m : float
         The own maps cover the mission area, the swarm's starts and goals, and this margin
         around them.
@@ -145,6 +151,8 @@ class PlannerParams(Checked):
     memory_radius_m: float = _non_negative(1.0)
     map_resolution_m: float = _positive(0.2)
     map_clearance_m: float = _non_negative(0.3)
+    map_squeeze_m: float = _non_negative(0.2)
+    squeeze_after_s: float = _positive(10.0)
     map_margin_m: float = _non_negative(2.0)
     escape_lookahead_m: float = _positive(1.0)
     replan_s: float = _positive(1.0)
@@ -174,6 +182,8 @@ class _Memory:
     turn: int = 0  # escape: the side turned to while the way's bearing is unsafe (0: none)
     way_best_m: float = math.inf  # escape: the shortest planned way so far (m) ...
     way_best_s: float = 0.0  # ... and since when
+    still_xy: tuple[float, float] = (math.nan, math.nan)  # where it last moved 2 r0 from ...
+    still_s: float = 0.0  # ... and when
     #: Hit points: (x m, y m, goal distance m, side taken).
     hits: list[tuple[float, float, float, int]] = field(default_factory=list)
 
@@ -336,7 +346,8 @@ class BugPlanner:
             self.maps = OwnMaps(k, reach.min(axis=0) - p.map_margin_m,
                                 reach.max(axis=0) + p.map_margin_m,
                                 resolution_m=p.map_resolution_m, range_m=self.range_m,
-                                clearance_m=p.map_clearance_m)
+                                clearance_m=p.map_clearance_m,
+                                squeeze_m=min(p.map_squeeze_m, p.map_clearance_m))
         if self._tick % p.map_every == 0:
             self.maps.update(self._tick, np.flatnonzero(moving), poses, ranges_m, angles,
                              beam_step=2)
@@ -349,6 +360,9 @@ class BugPlanner:
             if not visible[i] and mem.mode == Mode.GO_TO_GOAL:
                 commands[i] = self._command(float(beta[i]))
                 continue
+            x, y = float(poses[i, 0]), float(poses[i, 1])
+            if not math.hypot(x - mem.still_xy[0], y - mem.still_xy[1]) <= 2 * self.r0_m:
+                mem.still_xy, mem.still_s = (x, y), time_s  # moved (NaN at first: starts here)
             view = _View(poses[i], goals[i], safe[i], float(dist[i]), bool(clear[i]), beta[i],
                          (left[i], right[i]))
             target = self._target(i, mem, time_s, view)
@@ -420,7 +434,8 @@ class BugPlanner:
         xy, yaw = view.pose[:2], float(view.pose[2])
         if t - mem.planned_s >= p.replan_s - 1e-9:
             mem.planned_s = t
-            maps.plan(i, xy, view.goal)
+            squeeze = t - mem.still_s >= p.squeeze_after_s - 1e-9
+            maps.plan(i, xy, view.goal, squeeze=squeeze)
             way = maps.way_length(i, xy)
             if way < mem.way_best_m - p.progress_m:
                 mem.way_best_m, mem.way_best_s = way, t
@@ -428,7 +443,7 @@ class BugPlanner:
                                                                           p.escape_block_m):
                 self.loop_flips[i] += 1  # the way leads nowhere: close it, plan another
                 mem.flips += 1
-                maps.plan(i, xy, view.goal)
+                maps.plan(i, xy, view.goal, squeeze=squeeze)
                 mem.way_best_m, mem.way_best_s, mem.turn = maps.way_length(i, xy), t, 0
         point = maps.waypoint(i, xy, p.escape_lookahead_m)
         if point is None:

@@ -58,13 +58,21 @@ class OwnMaps:
     clearance_m : float
         Cells within this distance of an occupied cell are closed to paths (the robot radius
         and a margin).
+    squeeze_m : float, optional
+        ``plan(..., squeeze=True)``: when no way leaves the robot's cell at ``clearance_m`` (its
+        pocket is closed, as by another robot standing next to it and seen as an obstacle), the
+        way is planned again with the occupied cells dilated only by ``squeeze_m`` (the
+        narrower ways that the planner's clearance guard still lets the robot drive). Default:
+        ``clearance_m`` (no second plan).
     """
 
     def __init__(self, n_robots: int, lo: np.ndarray, hi: np.ndarray, *, resolution_m: float,
-                 range_m: float, clearance_m: float) -> None:
+                 range_m: float, clearance_m: float, squeeze_m: float | None = None) -> None:
         for name, value in (("resolution_m", resolution_m), ("range_m", range_m)):
             check_number(name, value, low=0, low_open=True)
         check_number("clearance_m", clearance_m, low=0)
+        if squeeze_m is not None:
+            check_number("squeeze_m", squeeze_m, low=0, high=clearance_m)
         self.lo = np.asarray(lo, dtype=float)
         self.res, self.range_m = float(resolution_m), float(range_m)
         cols, rows = (np.ceil((np.asarray(hi, float) - self.lo) / self.res).astype(int) + 1)
@@ -74,13 +82,21 @@ class OwnMaps:
         self.last_free = np.full((n_robots, *self.shape), -1, dtype=np.int32)
         #: Control tick at which a neighbour's segment last marked a cell (:meth:`add_segments`).
         self.last_shared = np.full((n_robots, *self.shape), -1, dtype=np.int32)
-        reach = int(math.floor(clearance_m / self.res + 1e-9))
-        di, dj = np.mgrid[-reach:reach + 1, -reach:reach + 1]
-        self._disc = np.hypot(di, dj) * self.res <= clearance_m + 1e-9
+        self._disc = self._disc_of(clearance_m)
+        self._squeeze = (None if squeeze_m is None or squeeze_m == clearance_m
+                         else self._disc_of(squeeze_m))
+        #: Plans per robot that found no way at the clearance and planned again squeezed.
+        self.squeezes = np.zeros(n_robots, dtype=np.int64)
         #: Cells a robot closed itself: the ways of escapes that led nowhere (:meth:`block_way`).
         self.blocked = np.zeros((n_robots, *self.shape), dtype=bool)
         self._field: dict[int, np.ndarray] = {}
         self._closed = np.zeros(self.shape, dtype=bool)  # the closed cells of the last plan
+
+    def _disc_of(self, radius_m: float) -> np.ndarray:
+        """The cells within ``radius_m`` of a cell (a dilation structure)."""
+        reach = int(math.floor(radius_m / self.res + 1e-9))
+        di, dj = np.mgrid[-reach:reach + 1, -reach:reach + 1]
+        return np.hypot(di, dj) * self.res <= radius_m + 1e-9
 
     def cell(self, xy: np.ndarray) -> np.ndarray:
         """``(row, col)`` of points ``(..., 2)`` (may lie outside the grid)."""
@@ -150,23 +166,35 @@ class OwnMaps:
         closed the cell with :meth:`block_way`)."""
         return (self.last_hit[robot] > self.last_free[robot]) | self.blocked[robot]
 
-    def plan(self, robot: int, xy: np.ndarray, goal: np.ndarray) -> bool:
+    def plan(self, robot: int, xy: np.ndarray, goal: np.ndarray, *,
+             squeeze: bool = False) -> bool:
         """Recompute robot ``robot``'s distance field to ``goal`` (cells within the clearance
-        of an occupied cell are closed, except around the robot and the goal); False when the
-        robot or the goal lies outside the grid (no field)."""
+        of an occupied cell are closed, except around the robot and the goal; with ``squeeze``,
+        planned again at ``squeeze_m`` when that leaves the robot no way); False when the robot
+        or the goal lies outside the grid (no field)."""
         here, there = self.cell(xy), self.cell(goal)
         if not (self.inside(here) and self.inside(there)):
             self._field.pop(robot, None)
             return False
-        closed = binary_dilation(self.occupied(robot), structure=self._disc)
+        occupied = self.occupied(robot)
+        field = self._distances(occupied, self._disc, here, there)
+        if squeeze and self._squeeze is not None and not np.isfinite(field[tuple(here)]):
+            self.squeezes[robot] += 1
+            field = self._distances(occupied, self._squeeze, here, there)
+        self._field[robot] = field
+        return True
+
+    def _distances(self, occupied: np.ndarray, disc: np.ndarray, here: np.ndarray,
+                   there: np.ndarray) -> np.ndarray:
+        """Way lengths (cells) to cell ``there`` with ``occupied`` dilated by ``disc`` closed,
+        except the cells around ``here`` and ``there``."""
+        closed = binary_dilation(occupied, structure=disc)
         for r, c in (here, there):
             closed[max(r - 1, 0):r + 2, max(c - 1, 0):c + 2] = False
         self._closed = closed
         graph = grid_graph(closed, connectivity=8)
         goal_index = int(there[0] * self.shape[1] + there[1])
-        field = dijkstra(graph, directed=False, indices=goal_index)
-        self._field[robot] = field.reshape(self.shape)
-        return True
+        return dijkstra(graph, directed=False, indices=goal_index).reshape(self.shape)
 
     def side_costs(self, robot: int, xy: np.ndarray, goal: np.ndarray, *,
                    radius_m: float, shared_only: bool = False,

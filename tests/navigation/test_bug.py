@@ -261,3 +261,29 @@ def test_an_escape_whose_way_does_not_shorten_closes_it_and_plans_another():
         _step(moving, 0.1 * k, (x, 0, 0), (10, 0), _mask([(-30, 30)]))
     assert moving.memory[0].escape and moving.loop_flips[0] == 1
     assert not moving.maps.blocked[0].any()
+
+
+def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
+    """Fresh traps map 71 under collab, the paper's setting: robots 2 and 3 end side by side in
+    a trap's corner by a rock. Each maps the other as an obstacle, the clearance then closes
+    its pocket, and without the squeezed plan (map_squeeze_m = map_clearance_m) both turn on
+    the spot until the time limit: a jam. With the default squeeze, once they have stayed put
+    for squeeze_after_s, both plan a narrower way out and every robot arrives."""
+    from fftnav.episode import run_episode
+    from fftnav.navigation import bug
+    from fftnav.runner.tasks import episode_seed
+    from fftnav.world.generate import generate_world
+
+    world = generate_world("traps", 71, robots=15)
+    seed = episode_seed("traps", 71)
+    rows = run_episode(world, "collab", seed=seed).rows
+    assert all(r.arrived for r in rows)
+    for_swarm = bug.PlannerParams.for_swarm.__func__
+
+    def no_squeeze(cls, config, **constants):
+        return for_swarm(cls, config, map_squeeze_m=bug.PlannerParams().map_clearance_m,
+                         **constants)
+
+    monkeypatch.setattr(bug.PlannerParams, "for_swarm", classmethod(no_squeeze))
+    rows = run_episode(world, "collab", seed=seed).rows
+    assert [(r.robot, r.failure) for r in rows if not r.arrived] == [(2, "jam"), (3, "jam")]

@@ -6,7 +6,7 @@ import numpy as np
 import pytest
 
 from fftnav.navigation.ownmap import OwnMaps
-from fftnav.optimal.astar import astar
+from fftnav.optimal.astar import UnreachableGoalError, astar
 
 R = 3.0
 ANGLES = -math.pi + np.arange(360) * 2 * math.pi / 360
@@ -179,3 +179,44 @@ def test_way_length_and_blocking_the_way_ahead_make_the_next_plan_go_round():
     point = maps.waypoint(0, start, 1.0)
     assert point is not None and point[0] > start[0] + 0.5  # heads right, toward it
     assert maps.block_way(0, np.array([50.0, 0.0]), 1.0) == 0
+
+
+def test_a_pocket_closed_at_the_clearance_is_planned_again_squeezed():
+    """A diagonal corridor between two walls of cells (|row - col| = 3): at the clearance
+    (0.3 m) only its middle diagonal stays open, and a diagonal step may not cut the corners of
+    closed cells, so the robot inside has no way. Asked to squeeze, the plan is then made again
+    with the walls widened by squeeze_m (0.2 m): the way runs along the corridor and its length
+    is grid A*'s on the grid closed at 0.2 m. Not asked, without squeeze_m, or where a way
+    exists at the clearance, nothing is planned twice."""
+    kwargs = dict(resolution_m=0.2, range_m=R, clearance_m=0.3)
+    lo, hi = np.array([0.0, 0.0]), np.array([6.0, 6.0])
+    maps = OwnMaps(1, lo, hi, squeeze_m=0.2, **kwargs)
+    plain = OwnMaps(1, lo, hi, **kwargs)
+    rows, cols = np.indices(maps.shape)
+    occ = np.abs(rows - cols) == 3
+    for m in (maps, plain):
+        m.last_hit[0][occ] = 1
+    start, goal = lo + 3.5 * 0.2, lo + 27.5 * 0.2  # cells (3, 3) and (27, 27)
+    here, there = tuple(maps.cell(start)), tuple(maps.cell(goal))
+
+    def closed(clearance):  # as plan closes cells: all but those around the robot and goal
+        out = _closed_by_brute_force(occ, 0.2, clearance)
+        for r, c in (here, there):
+            out[r - 1:r + 2, c - 1:c + 2] = False
+        return out
+
+    with pytest.raises(UnreachableGoalError):
+        astar(closed(0.3), here, there)
+    assert plain.plan(0, start, goal, squeeze=True) and plain.way_length(0, start) == math.inf
+    assert plain.squeezes[0] == 0
+    assert maps.plan(0, start, goal) and maps.squeezes[0] == 0  # not asked to squeeze
+    assert maps.plan(0, start, goal, squeeze=True) and maps.squeezes[0] == 1
+    path = astar(closed(0.2), here, there)
+    assert path is not None
+    assert maps.way_length(0, start) == pytest.approx(path.length_cells * 0.2, abs=1e-9)
+    point = maps.waypoint(0, start, 1.0)
+    assert point is not None and np.all(point > start + 0.5)  # along the corridor
+    outside = np.array([5.0, 1.0])  # beside the corridor, goal beside it too: a way at 0.3 m
+    assert maps.plan(0, outside, np.array([5.5, 0.5]), squeeze=True) and maps.squeezes[0] == 1
+    with pytest.raises(ValueError, match="squeeze_m must be"):
+        OwnMaps(1, lo, hi, squeeze_m=0.5, **kwargs)
