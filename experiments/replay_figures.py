@@ -7,9 +7,12 @@
   checked against ``results/table1/episodes.csv`` first.
 - ``results/figures/causes/<cause>.png`` (docs/analysis.md): one frame per cause of failure,
   the failed robot picked, at the last tick of its episode, from the first
-  recording with that cause in ``results/table1/records`` or ``results/collab/core/records``.
+  recording with that cause in the ``records`` of ``results/table1``, ``results/collab/core``
+  and ``results/collab/fresh``.
   No committed result has a ``collision`` (the planner's clearance guard keeps the robots off
-  the obstacles), so its frame is of a scripted robot driving straight at a rock.
+  the obstacles), so its frame is of a scripted robot driving straight at a rock. Where none
+  has a ``jam`` either (the squeezed plan parts them, docs/planner.md), its frame is of fresh
+  traps map 71 under ``collab`` with the squeeze switched off, where robots 2 and 3 jam.
 
 Run from the repository root: ``python experiments/replay_figures.py``.
 """
@@ -19,6 +22,7 @@ from __future__ import annotations
 import math
 import tempfile
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pandas as pd
@@ -68,6 +72,26 @@ def _collision_recording(folder: Path) -> Path:
     return write_recording(folder / "collision.npz", result.recording())
 
 
+def _jam_recording(folder: Path) -> Path:
+    from fftnav.navigation import bug
+    from fftnav.runner.tasks import episode_seed
+    from fftnav.world.generate import generate_world
+
+    for_swarm = vars(bug.PlannerParams)["for_swarm"].__func__
+    clearance = bug.PlannerParams().map_clearance_m
+
+    def no_squeeze(cls, config, **constants):
+        return for_swarm(cls, config, map_squeeze_m=clearance, **constants)
+
+    with mock.patch.object(bug.PlannerParams, "for_swarm", classmethod(no_squeeze)):
+        result = run_episode(generate_world("traps", 71, robots=15), "collab",
+                             seed=episode_seed("traps", 71), record=True)
+    jammed = [(r.robot, r.failure) for r in result.rows if not r.arrived]
+    if jammed != [(2, "jam"), (3, "jam")]:
+        raise RuntimeError(f"fresh traps map 71 without the squeeze no longer jams: {jammed}")
+    return write_recording(folder / "jam.npz", result.recording())
+
+
 def cause_frames(folder: Path) -> list[Path]:
     """One PNG per registered cause, in the registry's order."""
     folder.mkdir(parents=True, exist_ok=True)
@@ -81,6 +105,8 @@ def cause_frames(folder: Path) -> list[Path]:
     with tempfile.TemporaryDirectory() as tmp:
         if "collision" not in found:
             found["collision"] = (_collision_recording(Path(tmp)), 0)
+        if "jam" not in found:
+            found["jam"] = (_jam_recording(Path(tmp)), 2)
         for cause in FAILURE_CAUSES:
             path, robot = found[cause]
             rec = read_recording(path)

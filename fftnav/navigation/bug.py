@@ -116,7 +116,8 @@ class PlannerParams(Checked):
         whose own map leaves it no way at ``map_clearance_m`` (its pocket closed, as by another
         robot standing beside it and seen as an obstacle) plans its way again with obstacles
         widened by only ``map_squeeze_m`` (at most ``map_clearance_m``; :class:`OwnMaps`,
-        ``squeeze_m``): the narrower ways the clearance guard still lets it drive.
+        ``squeeze_m``): narrower ways, on which the clearance guard still keeps it off what its
+        scan sees.
     map_margin_m : float
         The own maps cover the mission area, the swarm's starts and goals, and this margin
         around them.
@@ -160,6 +161,11 @@ class PlannerParams(Checked):
     escape_block_m: float = _positive(1.0)
     map_every: int = integer_field(2, low=1)
 
+    def _check_together(self) -> None:
+        if self.map_squeeze_m > self.map_clearance_m:
+            raise ValueError(f"map_squeeze_m must be <= map_clearance_m={self.map_clearance_m!r}, "
+                             f"got map_squeeze_m={self.map_squeeze_m!r}")
+
     @classmethod
     def for_swarm(cls, config: SwarmConfig, **constants: float) -> PlannerParams:
         """The speed limits and control rate of a swarm configuration; ``constants`` override
@@ -182,8 +188,10 @@ class _Memory:
     turn: int = 0  # escape: the side turned to while the way's bearing is unsafe (0: none)
     way_best_m: float = math.inf  # escape: the shortest planned way so far (m) ...
     way_best_s: float = 0.0  # ... and since when
-    still_xy: tuple[float, float] = (math.nan, math.nan)  # where it last moved 2 r0 from ...
-    still_s: float = 0.0  # ... and when
+    #: Where the robot was when it last got more than 2 r0 from the previous such point, and
+    #: when (the squeezed plan's timer).
+    still_xy: tuple[float, float] = (math.nan, math.nan)
+    still_s: float = 0.0
     #: Hit points: (x m, y m, goal distance m, side taken).
     hits: list[tuple[float, float, float, int]] = field(default_factory=list)
 
@@ -347,7 +355,7 @@ class BugPlanner:
                                 reach.max(axis=0) + p.map_margin_m,
                                 resolution_m=p.map_resolution_m, range_m=self.range_m,
                                 clearance_m=p.map_clearance_m,
-                                squeeze_m=min(p.map_squeeze_m, p.map_clearance_m))
+                                squeeze_m=p.map_squeeze_m)
         if self._tick % p.map_every == 0:
             self.maps.update(self._tick, np.flatnonzero(moving), poses, ranges_m, angles,
                              beam_step=2)

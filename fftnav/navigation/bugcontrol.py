@@ -72,6 +72,9 @@ class BugController(Controller):
         #: whether a robot's own scans have shown a wall longer than R (``walls``' gate).
         self.held: list[list[tuple[int, np.ndarray]]] = [[] for _ in range(n)]
         self.long_wall_seen = np.zeros(n, dtype=bool)
+        #: Per robot, each neighbour's position and tick from its last message that arrived:
+        #: ``{sender: (x_m, y_m, tick)}``.
+        self.neighbours: list[dict[int, tuple[float, float, int]]] = [{} for _ in range(n)]
         self.poses = np.zeros((n, 3))
         self.goals = np.zeros((n, 2))
         self.planner = BugPlanner.for_swarm(

@@ -13,7 +13,10 @@ A receiver reads its neighbours' segments only once one of its own scans has sho
 than the sensing range R (:func:`long_wall`): only there can the wall's far side lie beyond what
 the robot sees, so only there can its neighbours tell it something it cannot see. Until then it
 holds what arrives and decides as ``own-only`` does; the held segments are drawn at their
-arrival ticks when the gate opens.
+arrival ticks when the gate opens. From then on its map also knows where its neighbours stood
+when they sent (every message carries its sender's pose): its own scans of them are not walls
+(:meth:`fftnav.navigation.ownmap.OwnMaps.set_robots`), so two robots meeting in a corridor pass
+each other instead of each planning the way round the other.
 
 At a decision ``collab`` compares the two sides by the length of the way to the goal through
 that map (:meth:`fftnav.navigation.ownmap.OwnMaps.side_costs`) and takes the clearly shorter one
@@ -31,6 +34,7 @@ import numpy as np
 __all__ = [
     "MAX_MESSAGE_BYTES",
     "MAX_SEGMENTS_PER_MESSAGE",
+    "NEIGHBOUR_AGE_TICKS",
     "PERIOD_TICKS",
     "decode_segments",
     "encode_segments",
@@ -50,6 +54,9 @@ CHAIN_GAP_M = 0.35
 FIT_TOLERANCE_M = 0.08
 #: A robot broadcasts its segments every this many control ticks (once a second at 10 Hz).
 PERIOD_TICKS = 10
+#: A receiver takes a neighbour to stand where its last message was sent from for this many
+#: control ticks after that message arrived (one period and a half).
+NEIGHBOUR_AGE_TICKS = 15
 
 
 def encode_segments(segments: np.ndarray) -> bytes:

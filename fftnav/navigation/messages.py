@@ -16,7 +16,9 @@ tick, to :meth:`~MessageKind.receive` what arrived (before the planner decides) 
     receiver's own map (:meth:`fftnav.navigation.ownmap.OwnMaps.add_segments`) when it arrives,
     once the receiver has itself seen a wall longer than R
     (:func:`~fftnav.navigation.collab.long_wall`); until then packets are held, and drawn at
-    their arrival ticks when that happens.
+    their arrival ticks when that happens. From then on the receiver's map also knows where its
+    neighbours stood when they sent (:meth:`~fftnav.navigation.ownmap.OwnMaps.set_robots`):
+    a robot is not a wall.
 
 A new kind is a :class:`MessageKind` subclass registered with :func:`register_message_kind`.
 """
@@ -30,6 +32,7 @@ import numpy as np
 
 from fftnav.navigation.collab import (
     MAX_SEGMENTS_PER_MESSAGE,
+    NEIGHBOUR_AGE_TICKS,
     PERIOD_TICKS,
     decode_segments,
     encode_segments,
@@ -104,7 +107,8 @@ class Observations(MessageKind):
 @register_message_kind("walls")
 class Walls(MessageKind):
     """Wall segments fitted to the scan, every PERIOD_TICKS ticks, drawn into the receivers'
-    own maps once they have seen a wall longer than R."""
+    own maps once they have seen a wall longer than R (and where the senders stand is then
+    not a wall in those maps)."""
 
     def receive(self, control: BugController, swarm: SwarmStep, present: np.ndarray) -> None:
         maps = control.planner.maps
@@ -113,8 +117,13 @@ class Walls(MessageKind):
         for r in np.flatnonzero(present).tolist():
             for pkt in swarm.arrived(r):
                 control.held[r].append((swarm.tick, decode_segments(pkt.payload)))
+                x, y = pkt.sender_pose[0], pkt.sender_pose[1]
+                control.neighbours[r][pkt.sender] = (float(x), float(y), swarm.tick)
             if control.long_wall_seen[r]:
                 self._draw(control, r)
+                maps.set_robots(r, np.array(
+                    [(x, y) for x, y, tick in control.neighbours[r].values()
+                     if swarm.tick - tick <= NEIGHBOUR_AGE_TICKS]))
 
     @staticmethod
     def _draw(control: BugController, robot: int) -> None:

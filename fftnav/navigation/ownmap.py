@@ -58,18 +58,23 @@ class OwnMaps:
     clearance_m : float
         Cells within this distance of an occupied cell are closed to paths (the robot radius
         and a margin).
+    robot_radius_m : float
+        :meth:`set_robots`: cells within this distance of where other robots are known to stand
+        are not occupied (default 0.45 m: a robot's radius and half a second of its travel).
     squeeze_m : float, optional
         ``plan(..., squeeze=True)``: when no way leaves the robot's cell at ``clearance_m`` (its
         pocket is closed, as by another robot standing next to it and seen as an obstacle), the
         way is planned again with the occupied cells dilated only by ``squeeze_m`` (the
-        narrower ways that the planner's clearance guard still lets the robot drive). Default:
-        ``clearance_m`` (no second plan).
+        narrower ways). Default: ``clearance_m``; no second plan where ``squeeze_m`` closes the
+        same cells as ``clearance_m``.
     """
 
     def __init__(self, n_robots: int, lo: np.ndarray, hi: np.ndarray, *, resolution_m: float,
-                 range_m: float, clearance_m: float, squeeze_m: float | None = None) -> None:
+                 range_m: float, clearance_m: float, squeeze_m: float | None = None,
+                 robot_radius_m: float = 0.45) -> None:
         for name, value in (("resolution_m", resolution_m), ("range_m", range_m)):
             check_number(name, value, low=0, low_open=True)
+        check_number("robot_radius_m", robot_radius_m, low=0)
         check_number("clearance_m", clearance_m, low=0)
         if squeeze_m is not None:
             check_number("squeeze_m", squeeze_m, low=0, high=clearance_m)
@@ -83,8 +88,12 @@ class OwnMaps:
         #: Control tick at which a neighbour's segment last marked a cell (:meth:`add_segments`).
         self.last_shared = np.full((n_robots, *self.shape), -1, dtype=np.int32)
         self._disc = self._disc_of(clearance_m)
-        self._squeeze = (None if squeeze_m is None or squeeze_m == clearance_m
-                         else self._disc_of(squeeze_m))
+        squeezed = self._disc_of(clearance_m if squeeze_m is None else squeeze_m)
+        same = squeezed.shape == self._disc.shape and bool(np.all(squeezed == self._disc))
+        self._squeeze = None if same else squeezed  # None: no narrower way to try
+        self.robot_radius_m = float(robot_radius_m)
+        #: Per robot, where it knows other robots stand (:meth:`set_robots`), (n, 2) m.
+        self.robots: dict[int, np.ndarray] = {}
         #: Plans per robot that found no way at the clearance and planned again squeezed.
         self.squeezes = np.zeros(n_robots, dtype=np.int64)
         #: Cells a robot closed itself: the ways of escapes that led nowhere (:meth:`block_way`).
@@ -161,10 +170,34 @@ class OwnMaps:
                 layer[robot, cells[:, 0], cells[:, 1]] = np.maximum(
                     layer[robot, cells[:, 0], cells[:, 1]], tick)
 
+    def set_robots(self, robot: int, xy: np.ndarray) -> None:
+        """Tell robot ``robot``'s map where other robots stand, ``(n, 2)`` m (from their
+        messages): from now on its cells within ``robot_radius_m`` of these points are not
+        occupied, unless a neighbour's wall segment marked them (:meth:`add_segments`), so
+        the way to the goal may pass where a robot stands and a wall never is."""
+        self.robots[robot] = np.asarray(xy, dtype=float).reshape(-1, 2)
+
     def occupied(self, robot: int) -> np.ndarray:
         """Robot ``robot``'s occupancy grid (True: its last look at the cell was a hit, or it
-        closed the cell with :meth:`block_way`)."""
-        return (self.last_hit[robot] > self.last_free[robot]) | self.blocked[robot]
+        closed the cell with :meth:`block_way`; but not where :meth:`set_robots` says other
+        robots stand)."""
+        occupied = (self.last_hit[robot] > self.last_free[robot]) | self.blocked[robot]
+        robots = self.robots.get(robot)
+        if robots is None or not len(robots):
+            return occupied
+        reach = int(math.ceil(self.robot_radius_m / self.res)) + 1
+        for rc, (x, y) in zip(self.cell(robots), robots, strict=True):
+            r0, c0 = max(rc[0] - reach, 0), max(rc[1] - reach, 0)
+            r1 = min(rc[0] + reach + 1, self.shape[0])
+            c1 = min(rc[1] + reach + 1, self.shape[1])
+            if r0 >= r1 or c0 >= c1:
+                continue  # outside the map
+            rows, cols = np.mgrid[r0:r1, c0:c1]
+            near = (np.hypot(self.lo[0] + (cols + 0.5) * self.res - x,
+                             self.lo[1] + (rows + 0.5) * self.res - y) <= self.robot_radius_m)
+            near &= self.last_shared[robot, r0:r1, c0:c1] < 0
+            occupied[r0:r1, c0:c1] &= ~near
+        return occupied
 
     def plan(self, robot: int, xy: np.ndarray, goal: np.ndarray, *,
              squeeze: bool = False) -> bool:

@@ -271,13 +271,23 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
     for squeeze_after_s, both plan a narrower way out and every robot arrives."""
     from fftnav.episode import run_episode
     from fftnav.navigation import bug
+    from fftnav.navigation.ownmap import OwnMaps
     from fftnav.runner.tasks import episode_seed
     from fftnav.world.generate import generate_world
 
+    maps = []
+    init = OwnMaps.__init__
+
+    def keep(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        maps.append(self)
+
+    monkeypatch.setattr(OwnMaps, "__init__", keep)
     world = generate_world("traps", 71, robots=15)
     seed = episode_seed("traps", 71)
     rows = run_episode(world, "collab", seed=seed).rows
     assert all(r.arrived for r in rows)
+    assert maps[0].squeezes[2] > 0 and maps[0].squeezes[3] > 0
     for_swarm = bug.PlannerParams.for_swarm.__func__
 
     def no_squeeze(cls, config, **constants):

@@ -196,3 +196,33 @@ def test_long_wall_is_longer_than_the_range():
     assert not long_wall(np.zeros((0, 2, 2)), range_m=R)
     assert not long_wall(np.array([[[0.0, 0.0], [3.0, 0.0]]]), range_m=R)
     assert long_wall(np.array([[[0.0, 0.0], [1.0, 0.0]], [[0.0, 1.0], [2.2, 3.2]]]), range_m=R)
+
+
+def _headon(width_m):
+    """A 6 m corridor ``width_m`` wide, open at both ends; one robot starts at each end, its
+    goal 2 m beyond the other end (experiments/headon.py)."""
+    half = width_m / 2.0
+
+    def box(x0, y0, x1, y1):
+        return Polygon(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), 1.0)
+
+    return World("headon", 0, (12.0, 8.0),
+                 (box(3.0, 4.0 + half, 9.0, 4.2 + half), box(3.0, 3.8 - half, 9.0, 4.0 - half)),
+                 np.array([[3.5, 4.0, 0.0], [8.5, 4.0, math.pi]]),
+                 np.array([[11.0, 4.0], [1.0, 4.0]]))
+
+
+def test_two_collab_robots_meeting_head_on_in_a_corridor_pass_each_other(monkeypatch):
+    """A corridor 1.2 m wide, longer than R (collab's gate opens): the two robots meet in its
+    middle and pass each other, as own-only's do, because each one's map knows where the other
+    stands (its messages) and does not take it for a wall. With OwnMaps.set_robots switched
+    off, each maps the other as a wall across the corridor and both go back and round it."""
+    world = _headon(1.2)
+    own = run_episode(world, "own-only", seed=0).rows
+    collab = run_episode(world, "collab", seed=0).rows
+    assert all(r.arrived for r in own + collab)
+    assert [r.time_s for r in collab] == pytest.approx([r.time_s for r in own], abs=1.0)
+    assert max(r.time_s for r in own) < 20.0
+    monkeypatch.setattr(OwnMaps, "set_robots", lambda self, robot, xy: None)
+    blind = run_episode(world, "collab", seed=0).rows
+    assert min(r.time_s for r in blind) > 3 * max(r.time_s for r in own)

@@ -5,6 +5,7 @@ import math
 import numpy as np
 import pytest
 
+from fftnav.navigation.bug import PlannerParams
 from fftnav.navigation.ownmap import OwnMaps
 from fftnav.optimal.astar import UnreachableGoalError, astar
 
@@ -218,5 +219,45 @@ def test_a_pocket_closed_at_the_clearance_is_planned_again_squeezed():
     assert point is not None and np.all(point > start + 0.5)  # along the corridor
     outside = np.array([5.0, 1.0])  # beside the corridor, goal beside it too: a way at 0.3 m
     assert maps.plan(0, outside, np.array([5.5, 0.5]), squeeze=True) and maps.squeezes[0] == 1
+    same = OwnMaps(1, lo, hi, squeeze_m=0.29, **kwargs)  # closes the cells 0.3 m closes
+    same.last_hit[0][occ] = 1
+    assert same.plan(0, start, goal, squeeze=True) and same.squeezes[0] == 0
     with pytest.raises(ValueError, match="squeeze_m must be"):
         OwnMaps(1, lo, hi, squeeze_m=0.5, **kwargs)
+    with pytest.raises(ValueError, match="map_squeeze_m must be <= map_clearance_m"):
+        PlannerParams(map_squeeze_m=0.5)
+
+
+def test_where_other_robots_stand_is_not_occupied_but_a_shared_wall_is():
+    """A corridor four cells (0.8 m) wide: a robot's hits (a 2 x 2 blob) in its middle close
+    it, so the way runs round the corridor. Told where that robot stands (set_robots), the map frees the
+    cells within robot_radius_m of it and the way runs through, as long as grid A*'s on the
+    grid with those cells free; a cell a neighbour's wall segment marked stays occupied."""
+    maps = _maps(lo=(0.0, 0.0), hi=(8.0, 4.0))
+    occ = np.zeros(maps.shape, dtype=bool)
+    occ[8, 5:36] = occ[13, 5:36] = True  # the corridor's walls, rows 9-12 between them
+    occ[10:12, 20:22] = True  # the other robot
+    maps.last_hit[0][occ] = 1
+    start = maps.lo + (np.array([6, 10]) + 0.5) * 0.2
+    goal = maps.lo + (np.array([34, 10]) + 0.5) * 0.2
+    here, there = tuple(maps.cell(start)), tuple(maps.cell(goal))
+    assert maps.plan(0, start, goal)
+    round_about = maps.way_length(0, start)
+    assert round_about == pytest.approx(
+        astar(_closed_by_brute_force(occ, 0.2, 0.3), here, there).length_cells * 0.2, abs=1e-9)
+    robot_xy = maps.lo + np.array([21.0, 11.0]) * 0.2  # the blob's centre
+    maps.set_robots(0, robot_xy[None, :])
+    rows, cols = np.indices(maps.shape)
+    near = np.hypot(maps.lo[0] + (cols + 0.5) * 0.2 - robot_xy[0],
+                    maps.lo[1] + (rows + 0.5) * 0.2 - robot_xy[1]) <= maps.robot_radius_m
+    assert not (maps.occupied(0) & near).any()
+    assert np.array_equal(maps.occupied(0), occ & ~near)
+    assert maps.plan(0, start, goal)
+    through = astar(_closed_by_brute_force(occ & ~near, 0.2, 0.3), here, there).length_cells * 0.2
+    assert maps.way_length(0, start) == pytest.approx(through, abs=1e-9)
+    assert through < round_about - 1.0
+    maps.add_segments(0, 2, np.array([[robot_xy - [0.3, 0.0], robot_xy + [0.3, 0.0]]]))
+    marked = maps.last_shared[0] >= 0
+    assert marked.any() and maps.occupied(0)[marked].all()
+    maps.set_robots(0, np.zeros((0, 2)))
+    assert maps.occupied(0)[occ].all()

@@ -1,0 +1,70 @@
+"""Two robots meeting head-on in a corridor: where ``collab`` still costs.
+
+A 6 m corridor (two walls 0.2 m thick, open at both ends) in a 12 m x 8 m world; one robot
+starts at each end, 0.5 m inside, and its goal lies 2 m beyond the other end. The corridor's
+walls are longer than the sensing range R, so ``collab``'s gate opens: each robot reads the
+other's wall segments, and its own map holds the other robot as an obstacle, like a wall.
+Widths 0.8 m (too narrow for the two to pass) and 1.2 m (wide enough). Every policy runs the
+same two episodes (seed 0, the paper's setting otherwise).
+
+Run from the repository root: ``python experiments/headon.py`` -> ``results/collab/headon.csv``
+(one row per width, policy and robot: arrived, time and path length) and
+``results/collab/figures/headon_<width>_<policy>.png`` (the trajectories).
+"""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from fftnav.episode import run_episode
+from fftnav.config import SwarmConfig
+from fftnav.report.trajectories import plot_episode
+from fftnav.world import Polygon, World
+
+ROOT = Path(__file__).resolve().parents[1]
+POLICIES = ("own-only", "fusion", "collab")
+
+
+def corridor(width_m: float) -> World:
+    """The head-on world with a corridor ``width_m`` wide (between the walls' faces)."""
+    half = width_m / 2.0
+
+    def box(x0: float, y0: float, x1: float, y1: float) -> Polygon:
+        return Polygon(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), 1.0)
+
+    walls = (box(3.0, 4.0 + half, 9.0, 4.2 + half), box(3.0, 3.8 - half, 9.0, 4.0 - half))
+    starts = np.array([[3.5, 4.0, 0.0], [8.5, 4.0, math.pi]])
+    goals = np.array([[11.0, 4.0], [1.0, 4.0]])
+    return World("headon", 0, (12.0, 8.0), walls, starts, goals)
+
+
+def main() -> pd.DataFrame:
+    rows = []
+    figures = ROOT / "results" / "collab" / "figures"
+    for width in (0.8, 1.2):
+        world = corridor(width)
+        for policy in POLICIES:
+            result = run_episode(world, policy, seed=0)
+            plot_episode(world, result.trajectories, result.rows,
+                         figures / f"headon_{width:.1f}_{policy}.png",
+                         r0_m=SwarmConfig().robot.r0_m)
+            for row in result.rows:
+                rows.append({"width_m": width, "policy": policy, "robot": row.robot,
+                             "arrived": row.arrived, "time_s": round(row.time_s, 2),
+                             "path_length_m": round(row.path_length_m, 3),
+                             "optimal_length_m": round(row.optimal_length_m, 3),
+                             "spl": round(row.spl, 4)})
+    table = pd.DataFrame(rows)
+    out = ROOT / "results" / "collab" / "headon.csv"
+    table.to_csv(out, index=False)
+    print(table.to_string(index=False))
+    print(f"-> {out.relative_to(ROOT)}")
+    return table
+
+
+if __name__ == "__main__":
+    main()
