@@ -3,9 +3,11 @@
 A 6 m corridor (two walls 0.2 m thick, open at both ends) in a 12 m x 8 m world; one robot
 starts at each end, 0.5 m inside, and its goal lies 2 m beyond the other end. The corridor's
 walls are longer than the sensing range R, so ``collab``'s gate opens: each robot reads the
-other's wall segments, and its own map holds the other robot as an obstacle, like a wall.
-Widths 0.8 m (too narrow for the two to pass) and 1.2 m (wide enough). Every policy runs the
-same two episodes (seed 0, the paper's setting otherwise).
+other's wall segments and, from its messages, knows where it stands
+(:meth:`fftnav.navigation.ownmap.OwnMaps.set_robots`). Widths 0.8 m (too narrow for the two
+to pass) and 1.2 m (wide enough). Every policy runs the same two episodes (seed 0, the paper's
+setting otherwise), and ``collab`` once more with ``set_robots`` switched off (``collab,
+robots as walls``: each map holds the other robot as an obstacle, like a wall).
 
 Run from the repository root: ``python experiments/headon.py`` -> ``results/collab/headon.csv``
 (one row per width, policy and robot: arrived, time and path length) and
@@ -16,17 +18,21 @@ from __future__ import annotations
 
 import math
 from pathlib import Path
+from unittest import mock
 
 import numpy as np
 import pandas as pd
 
-from fftnav.episode import run_episode
 from fftnav.config import SwarmConfig
+from fftnav.episode import run_episode
+from fftnav.navigation.ownmap import OwnMaps
 from fftnav.report.trajectories import plot_episode
 from fftnav.world import Polygon, World
 
 ROOT = Path(__file__).resolve().parents[1]
-POLICIES = ("own-only", "fusion", "collab")
+#: (label, policy, whether OwnMaps.set_robots works)
+RUNS = (("own-only", "own-only", True), ("fusion", "fusion", True), ("collab", "collab", True),
+        ("collab, robots as walls", "collab", False))
 
 
 def corridor(width_m: float) -> World:
@@ -47,13 +53,17 @@ def main() -> pd.DataFrame:
     figures = ROOT / "results" / "collab" / "figures"
     for width in (0.8, 1.2):
         world = corridor(width)
-        for policy in POLICIES:
-            result = run_episode(world, policy, seed=0)
+        for label, policy, robots_known in RUNS:
+            with mock.patch.object(OwnMaps, "set_robots",
+                                   OwnMaps.set_robots if robots_known else lambda *a: None):
+                result = run_episode(world, policy, seed=0)
+            name = label.replace(", ", "_").replace(" ", "_")
             plot_episode(world, result.trajectories, result.rows,
-                         figures / f"headon_{width:.1f}_{policy}.png",
+                         figures / f"headon_{width:.1f}_{name}.png",
+                         title=f"{label}, corridor {width:.1f} m",
                          r0_m=SwarmConfig().robot.r0_m)
             for row in result.rows:
-                rows.append({"width_m": width, "policy": policy, "robot": row.robot,
+                rows.append({"width_m": width, "run": label, "robot": row.robot,
                              "arrived": row.arrived, "time_s": round(row.time_s, 2),
                              "path_length_m": round(row.path_length_m, 3),
                              "optimal_length_m": round(row.optimal_length_m, 3),

@@ -264,11 +264,12 @@ def test_an_escape_whose_way_does_not_shorten_closes_it_and_plans_another():
 
 
 def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
-    """Fresh traps map 71 under collab, the paper's setting: robots 2 and 3 end side by side in
-    a trap's corner by a rock. Each maps the other as an obstacle, the clearance then closes
-    its pocket, and without the squeezed plan (map_squeeze_m = map_clearance_m) both turn on
-    the spot until the time limit: a jam. With the default squeeze, once they have stayed put
-    for squeeze_after_s, both plan a narrower way out and every robot arrives."""
+    """Fresh traps map 71 under collab, the paper's setting, with its robots mapping each other
+    as obstacles (OwnMaps.set_robots switched off: as own-only's and fusion's robots always
+    do): robots 2 and 3 end side by side in a trap's corner by a rock, and the clearance
+    closes each one's pocket. Without the squeezed plan (map_squeeze_m = map_clearance_m) both
+    turn on the spot until the time limit: a jam. With the default squeeze, once they have
+    stayed put for squeeze_after_s, both plan a narrower way out and every robot arrives."""
     from fftnav.episode import run_episode
     from fftnav.navigation import bug
     from fftnav.navigation.ownmap import OwnMaps
@@ -283,6 +284,7 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
         maps.append(self)
 
     monkeypatch.setattr(OwnMaps, "__init__", keep)
+    monkeypatch.setattr(OwnMaps, "set_robots", lambda self, robot, xy: None)
     world = generate_world("traps", 71, robots=15)
     seed = episode_seed("traps", 71)
     rows = run_episode(world, "collab", seed=seed).rows
