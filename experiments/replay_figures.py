@@ -11,9 +11,10 @@
   and ``results/collab/fresh``.
   No committed result has a ``collision`` (the planner's clearance guard keeps the robots off
   the obstacles), so its frame is of a scripted robot driving straight at a rock. Where none
-  has a ``jam`` either (the squeezed plan parts them, docs/planner.md), its frame is of fresh
-  traps map 71 under ``collab`` with the squeeze switched off and its robots mapping each other
-  as obstacles (``OwnMaps.set_robots`` switched off), where robots 2 and 3 jam.
+  of those recordings has a ``jam`` (the squeezed plan parts them, docs/planner.md), its
+  frame is of fresh traps map 71 under ``collab`` with the squeeze switched off and its robots
+  mapping each other as obstacles (``OwnMaps.set_robots`` switched off), where robots 2 and 3
+  jam.
 
 Run from the repository root: ``python experiments/replay_figures.py``.
 """
