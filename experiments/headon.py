@@ -11,7 +11,8 @@ robots as walls``: each map holds the other robot as an obstacle, like a wall).
 
 Run from the repository root: ``python experiments/headon.py`` -> ``results/collab/headon.csv``
 (one row per width, policy and robot: arrived, time and path length) and
-``results/collab/figures/headon_<width>_<policy>.png`` (the trajectories).
+``results/collab/figures/headon_<width>_<run>.png`` (the trajectories; ``<run>`` the label
+with its spaces and commas as underscores).
 """
 
 from __future__ import annotations

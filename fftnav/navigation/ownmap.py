@@ -88,8 +88,8 @@ class OwnMaps:
         #: Control tick at which a neighbour's segment last marked a cell (:meth:`add_segments`).
         self.last_shared = np.full((n_robots, *self.shape), -1, dtype=np.int32)
         self._disc = self._disc_of(clearance_m)
-        squeezed = self._disc_of(clearance_m if squeeze_m is None else squeeze_m)
-        same = squeezed.shape == self._disc.shape and bool(np.all(squeezed == self._disc))
+        squeezed = None if squeeze_m is None else self._disc_of(squeeze_m)
+        same = squeezed is None or np.array_equal(squeezed, self._disc)
         self._squeeze = None if same else squeezed  # None: no narrower way to try
         self.robot_radius_m = float(robot_radius_m)
         #: Per robot, where it knows other robots stand (:meth:`set_robots`), (n, 2) m.
