@@ -129,6 +129,10 @@ class PlannerParams(Checked):
         shorter than its best for ``escape_bound_s`` seconds, the robot closes the next
         ``escape_block_m`` of that way in its own map (:meth:`OwnMaps.block_way`) and plans
         another (a loop detection, counted in ``loop_flips``).
+    give_way_s : float
+        Right of way: a robot heading for its goal whose goal direction is blocked, and which
+        goes before the robots in its way (the planner's ``wait``), waits for them to clear
+        the way instead of taking a side, at most this long within 2 r0 of one point.
     map_every : int
         The own maps take every other beam of the scans of one control tick in ``map_every``.
     memory_radius_m : float
@@ -159,6 +163,7 @@ class PlannerParams(Checked):
     replan_s: float = _positive(1.0)
     escape_bound_s: float = _positive(15.0)
     escape_block_m: float = _positive(1.0)
+    give_way_s: float = _positive(10.0)
     map_every: int = integer_field(2, low=1)
 
     def _check_together(self) -> None:
@@ -194,6 +199,14 @@ class _Memory:
     still_s: float = 0.0
     #: Hit points: (x m, y m, goal distance m, side taken).
     hits: list[tuple[float, float, float, int]] = field(default_factory=list)
+
+
+def _ahead(beta: float, left: float, right: float) -> bool:
+    """Whether the nearest safe heading on either side of the goal bearing ``beta`` (rad, robot
+    frame; NaN: none) lies within 90 degrees of it: the robot can go on round what blocks it
+    without turning back."""
+    return any(abs(float(wrap_angle(h - beta))) <= math.pi / 2 for h in (left, right)
+               if not math.isnan(h))
 
 
 @dataclass(frozen=True)
@@ -233,6 +246,11 @@ class BugPlanner:
         before any loop detection and outside escape (policies that revise a side when news
         arrives: ``collab``); a different side is taken at once (the loop-detection timer
         restarts), at most once per follow. None: never.
+    wait : callable, optional
+        ``wait(robot) -> bool``, asked when a robot heading for its goal finds its goal
+        direction blocked: whether it waits (zero command, for at most ``give_way_s``) for the
+        robots in its way to clear it, having the right of way over them (``collab``). None:
+        never waits.
     range_m : float
         Lidar range R (readings of R are "no return" in the robots' own maps).
     area_m : (float, float), optional
@@ -247,18 +265,20 @@ class BugPlanner:
     decide: Callable[[int], int]
     params: PlannerParams = field(default_factory=PlannerParams)
     reconsider: Callable[[int, int], int] | None = None
+    wait: Callable[[int], bool] | None = None
     range_m: float = 3.0
     area_m: tuple[float, float] | None = None
 
     @classmethod
     def for_swarm(cls, n_robots: int, config: SwarmConfig, decide: Callable[[int], int],
                   reconsider: Callable[[int, int], int] | None = None, *,
-                  area_m: tuple[float, float] | None = None) -> BugPlanner:
+                  area_m: tuple[float, float] | None = None,
+                  wait: Callable[[int], bool] | None = None) -> BugPlanner:
         """The planner of ``n_robots`` robots of a swarm configuration (its geometry, lidar field
         of view, speed limits and control rate) in a mission area ``area_m``."""
         return cls(n_robots, l_th_m=config.geometry.l_th_m, r0_m=config.robot.r0_m,
                    fov_rad=config.sensor.fov_rad, decide=decide,
-                   params=PlannerParams.for_swarm(config), reconsider=reconsider,
+                   params=PlannerParams.for_swarm(config), reconsider=reconsider, wait=wait,
                    range_m=config.sensor.range_m, area_m=area_m)
 
     def __post_init__(self) -> None:
@@ -274,6 +294,8 @@ class BugPlanner:
         #: Ticks in escape; decisions taken from the tried-sides memory.
         self.escape_ticks = np.zeros(self.n_robots, dtype=np.int64)
         self.sides_remembered = np.zeros(self.n_robots, dtype=np.int64)
+        #: Ticks waiting for robots in the way (the right of way, ``wait``).
+        self.wait_ticks = np.zeros(self.n_robots, dtype=np.int64)
         #: Each robot's map of its own scans (made at the first step, over the starts and goals).
         self.maps: OwnMaps | None = None
         self._tick = 0
@@ -371,6 +393,11 @@ class BugPlanner:
             x, y = float(poses[i, 0]), float(poses[i, 1])
             if not math.hypot(x - mem.still_xy[0], y - mem.still_xy[1]) <= 2 * self.r0_m:
                 mem.still_xy, mem.still_s = (x, y), time_s  # moved (NaN at first: starts here)
+            if (self.wait is not None and mem.mode == Mode.GO_TO_GOAL and not clear[i]
+                    and time_s - mem.still_s < p.give_way_s - 1e-9
+                    and not _ahead(beta[i], left[i], right[i]) and self.wait(i)):
+                self.wait_ticks[i] += 1  # the robots in its way give way to it
+                continue
             view = _View(poses[i], goals[i], safe[i], float(dist[i]), bool(clear[i]), beta[i],
                          (left[i], right[i]))
             target = self._target(i, mem, time_s, view)

@@ -72,14 +72,18 @@ class BugController(Controller):
         #: whether a robot's own scans have shown a wall longer than R (``walls``' gate).
         self.held: list[list[tuple[int, np.ndarray]]] = [[] for _ in range(n)]
         self.long_wall_seen = np.zeros(n, dtype=bool)
-        #: Per robot, each neighbour's position and tick from its last message that arrived:
-        #: ``{sender: (x_m, y_m, tick)}``.
-        self.neighbours: list[dict[int, tuple[float, float, int]]] = [{} for _ in range(n)]
+        #: Per robot, each neighbour's position, tick and goal distance from its last message
+        #: that arrived: ``{sender: (x_m, y_m, tick, goal_m)}``; and the goal distance each
+        #: robot last announced (m, as its neighbours read it; inf before its first message).
+        self.neighbours: list[dict[int, tuple[float, float, int, float]]] = [
+            {} for _ in range(n)]
+        self.announced_m = np.full(n, np.inf)
         self.poses = np.zeros((n, 3))
         self.goals = np.zeros((n, 2))
+        self._swarm: SwarmStep | None = None
         self.planner = BugPlanner.for_swarm(
             n, setup.config, self._decide, self._reconsider if policy.reconsiders else None,
-            area_m=area_m)
+            area_m=area_m, wait=self._wait if policy.messages is not None else None)
 
     def _decide(self, i: int) -> int:
         ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
@@ -107,10 +111,17 @@ class BugController(Controller):
             return side
         return self._decide(i)
 
+    def _wait(self, i: int) -> bool:
+        """Whether robot ``i``, its goal direction blocked, waits for the robots in its way
+        (the policy's message kind decides: the right of way)."""
+        kind = self.policy.messages
+        assert kind is not None and self._swarm is not None
+        return kind.waits(self, self._swarm, i)
+
     def step(self, swarm: SwarmStep) -> tuple[np.ndarray, dict[int, bytes]]:
         """Observe, read the messages that arrived, decide, plan; the messages of the robots
         that broadcast this tick."""
-        self.poses, self.goals = swarm.poses, swarm.goals
+        self.poses, self.goals, self._swarm = swarm.poses, swarm.goals, swarm
         self.decider.observe(swarm)
         kind = self.policy.messages
         if kind is not None:

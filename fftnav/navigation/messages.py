@@ -34,10 +34,11 @@ from fftnav.navigation.collab import (
     MAX_SEGMENTS_PER_MESSAGE,
     NEIGHBOUR_AGE_TICKS,
     PERIOD_TICKS,
-    decode_segments,
-    encode_segments,
+    decode_message,
+    encode_message,
     long_wall,
     scan_segments,
+    waits_for,
 )
 from fftnav.navigation.controllers import SwarmStep
 from fftnav.registry import Registry, first_line
@@ -71,6 +72,11 @@ class MessageKind:
         """The messages of the robots that broadcast this tick (robot -> bytes), after the
         planner decided (``blocked``: whose goal direction was blocked, one per robot)."""
         return {}
+
+    def waits(self, control: BugController, swarm: SwarmStep, robot: int) -> bool:
+        """Whether robot ``robot``, whose goal direction is blocked, waits this tick for the
+        robots in its way (it has the right of way); the default never waits."""
+        return False
 
     def __repr__(self) -> str:
         return f"<message kind {self.name!r}>"
@@ -116,14 +122,32 @@ class Walls(MessageKind):
             return
         for r in np.flatnonzero(present).tolist():
             for pkt in swarm.arrived(r):
-                control.held[r].append((swarm.tick, decode_segments(pkt.payload)))
+                goal_m, segments = decode_message(pkt.payload)
+                control.held[r].append((swarm.tick, segments))
                 x, y = pkt.sender_pose[0], pkt.sender_pose[1]
-                control.neighbours[r][pkt.sender] = (float(x), float(y), swarm.tick)
+                control.neighbours[r][pkt.sender] = (float(x), float(y), swarm.tick, goal_m)
             if control.long_wall_seen[r]:
                 self._draw(control, r)
-                maps.set_robots(r, np.array(
-                    [(x, y) for x, y, tick in control.neighbours[r].values()
-                     if swarm.tick - tick <= NEIGHBOUR_AGE_TICKS]))
+                maps.set_robots(r, self._near(control, r, swarm.tick)[:, :2])
+
+    @staticmethod
+    def _near(control: BugController, robot: int, tick: int) -> np.ndarray:
+        """``x_m, y_m, goal_m, index`` of the neighbours robot ``robot`` heard from in the last
+        NEIGHBOUR_AGE_TICKS ticks (their last messages)."""
+        return np.array([(x, y, goal_m, j) for j, (x, y, t, goal_m)
+                         in control.neighbours[robot].items()
+                         if tick - t <= NEIGHBOUR_AGE_TICKS], dtype=float).reshape(-1, 4)
+
+    def waits(self, control: BugController, swarm: SwarmStep, robot: int) -> bool:
+        """Once the gate is open: whether a robot whose goal direction is blocked waits for
+        the neighbours in its way, having the right of way over them
+        (:func:`~fftnav.navigation.collab.waits_for`, on the goal distances of the last
+        messages)."""
+        if not control.long_wall_seen[robot]:
+            return False
+        return waits_for(swarm.poses[robot, :2], swarm.goals[robot], index=robot,
+                         goal_m=control.announced_m[robot],
+                         neighbours=self._near(control, robot, swarm.tick))
 
     @staticmethod
     def _draw(control: BugController, robot: int) -> None:
@@ -138,7 +162,7 @@ class Walls(MessageKind):
     def send(self, control: BugController, swarm: SwarmStep,
              blocked: np.ndarray) -> dict[int, bytes]:
         """Robots take turns by index: robot i broadcasts at the ticks t with
-        (t + i) % PERIOD_TICKS == 0."""
+        (t + i) % PERIOD_TICKS == 0, when its scan shows segments (with its goal distance)."""
         outgoing: dict[int, bytes] = {}
         for i in swarm.active.tolist():
             if (swarm.tick + i) % PERIOD_TICKS:
@@ -151,5 +175,7 @@ class Walls(MessageKind):
                 if control.planner.maps is not None:
                     self._draw(control, i)
             if len(segments):
-                outgoing[i] = encode_segments(segments[:MAX_SEGMENTS_PER_MESSAGE])
+                goal_m = float(np.hypot(*(swarm.goals[i] - swarm.poses[i, :2])))
+                outgoing[i] = encode_message(segments[:MAX_SEGMENTS_PER_MESSAGE], goal_m=goal_m)
+                control.announced_m[i] = decode_message(outgoing[i])[0]  # as neighbours read it
         return outgoing

@@ -7,15 +7,18 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import assume, given, settings
+from hypothesis import strategies as st
 
 from fftnav.config import EpisodeConfig, SwarmConfig
 from fftnav.episode import episode_csv, run_episode
 from fftnav.navigation.collab import (
     MAX_MESSAGE_BYTES,
     MAX_SEGMENTS_PER_MESSAGE,
-    decode_segments,
-    encode_segments,
+    decode_message,
+    encode_message,
     scan_segments,
+    waits_for,
 )
 from fftnav.navigation.ownmap import OwnMaps
 from fftnav.world import Polygon, World
@@ -29,15 +32,21 @@ def test_messages_round_trip_to_the_centimetre_and_stay_within_64_bytes():
     rng = np.random.default_rng(0)
     for n in range(MAX_SEGMENTS_PER_MESSAGE + 1):
         seg = rng.uniform(-300, 300, (n, 2, 2))
-        data = encode_segments(seg)
-        assert len(data) == 1 + 8 * n <= MAX_MESSAGE_BYTES
-        np.testing.assert_allclose(decode_segments(data), seg, atol=0.005 + 1e-9)
+        goal = float(rng.uniform(0, 600))
+        data = encode_message(seg, goal_m=goal)
+        assert len(data) == 3 + 8 * n <= MAX_MESSAGE_BYTES
+        goal_back, seg_back = decode_message(data)
+        np.testing.assert_allclose(seg_back, seg, atol=0.005 + 1e-9)
+        assert goal_back == pytest.approx(goal, abs=0.005 + 1e-9)
+    assert decode_message(encode_message(np.zeros((0, 2, 2)), goal_m=1e4))[0] == 655.35
     with pytest.raises(ValueError, match="segments must hold at most 7 segments"):
-        encode_segments(np.zeros((8, 2, 2)))
+        encode_message(np.zeros((8, 2, 2)), goal_m=1.0)
     with pytest.raises(ValueError, match=r"segments must lie within \+-327.67 m"):
-        encode_segments(np.array([[[400.0, 0.0], [0.0, 0.0]]]))
-    with pytest.raises(ValueError, match="data must be a segment message"):
-        decode_segments(b"\x02\x00")
+        encode_message(np.array([[[400.0, 0.0], [0.0, 0.0]]]), goal_m=1.0)
+    with pytest.raises(ValueError, match="goal_m must be >= 0, got goal_m=nan"):
+        encode_message(np.zeros((0, 2, 2)), goal_m=math.nan)
+    with pytest.raises(ValueError, match="data must be a walls message"):
+        decode_message(b"\x01\x00\x00")
 
 
 def _ranges(x, y, yaw, walls=(), discs=()):
@@ -226,3 +235,55 @@ def test_two_collab_robots_meeting_head_on_in_a_corridor_pass_each_other(monkeyp
     monkeypatch.setattr(OwnMaps, "set_robots", lambda self, robot, xy: None)
     blind = run_episode(world, "collab", seed=0).rows
     assert min(r.time_s for r in blind) > 3 * max(r.time_s for r in own)
+
+
+@settings(max_examples=300, deadline=None)
+@given(st.floats(-5, 5), st.floats(-5, 5), st.floats(0, 2 * math.pi), st.floats(0.3, 1.15),
+       st.integers(0, 200), st.integers(0, 200), st.integers(0, 14), st.integers(0, 14))
+def test_of_two_robots_in_each_others_way_exactly_one_waits(x, y, heading, gap, goal_a, goal_b,
+                                                            a, b):
+    """Two robots facing each other (each in the other's way, goals beyond each other) that
+    compare the same announced goal distances agree: exactly one goes first, the one nearer
+    its goal (the lower index at a tie); a robot with nobody in its way never waits."""
+    assume(a != b)
+    u = np.array([math.cos(heading), math.sin(heading)])
+    pa = np.array([x, y])
+    pb = pa + gap * u
+    ga, gb = goal_a / 10.0, goal_b / 10.0
+    wa = waits_for(pa, pb + 5 * u, index=a, goal_m=ga, neighbours=[[*pb, gb, b]])
+    wb = waits_for(pb, pa - 5 * u, index=b, goal_m=gb, neighbours=[[*pa, ga, a]])
+    assert wa != wb
+    assert wa == ((ga, a) < (gb, b))
+    # the same neighbour behind the robot, or beyond the radius, is not in its way
+    assert not waits_for(pa, pa - 5 * u, index=a, goal_m=0.0, neighbours=[[*pb, gb, b]])
+    assert not waits_for(pa, pa + 9 * u, index=a, goal_m=0.0,
+                         neighbours=[[*(pa + 1.3 * u), gb, b]])
+
+
+def test_a_robot_waits_only_for_robots_it_goes_before():
+    """With two neighbours in its way, a robot waits only if it goes before both."""
+    here, goal = np.array([0.0, 0.0]), np.array([5.0, 0.0])
+    first, last = [0.8, 0.2, 9.0, 3], [0.6, -0.3, 1.0, 4]
+    assert waits_for(here, goal, index=2, goal_m=5.0, neighbours=[first])
+    assert not waits_for(here, goal, index=2, goal_m=5.0, neighbours=[first, last])
+    assert not waits_for(here, goal, index=2, goal_m=5.0, neighbours=np.zeros((0, 4)))
+
+
+def test_in_a_corridor_too_narrow_to_pass_the_robot_with_the_right_of_way_goes_straight(
+        monkeypatch):
+    """A corridor 0.8 m wide, longer than R: two collab robots meet in it, too close to pass.
+    Robot 0 has the right of way (same goal distance, lower index): it waits while robot 1
+    gives way, and then drives straight through, its path within 2 % of the optimum. Without
+    the right of way (Walls.waits switched off) robot 0 backs out first and its path is more
+    than 1.5 times as long; robot 1 goes round the corridor both times."""
+    from fftnav.navigation.messages import Walls
+
+    world = _headon(0.8)
+    rows = run_episode(world, "collab", seed=0).rows
+    assert all(r.arrived for r in rows)
+    assert rows[0].path_length_m < 1.02 * rows[0].optimal_length_m
+    monkeypatch.setattr(Walls, "waits", lambda self, control, swarm, robot: False)
+    alone = run_episode(world, "collab", seed=0).rows
+    assert all(r.arrived for r in alone)
+    assert alone[0].path_length_m > 1.5 * alone[0].optimal_length_m
+    assert rows[1].path_length_m == pytest.approx(alone[1].path_length_m, rel=0.1)
