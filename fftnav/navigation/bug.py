@@ -132,7 +132,8 @@ class PlannerParams(Checked):
     give_way_s : float
         Right of way: a robot heading for its goal whose goal direction is blocked, and which
         goes before the robots in its way (the planner's ``wait``), waits for them to clear
-        the way instead of taking a side, at most this long within 2 r0 of one point.
+        the way instead of taking a side, at most this long within 2 r0 of one point (the
+        squeezed plan's timer: time spent waiting there counts toward ``squeeze_after_s``).
     map_every : int
         The own maps take every other beam of the scans of one control tick in ``map_every``.
     memory_radius_m : float
@@ -248,9 +249,10 @@ class BugPlanner:
         restarts), at most once per follow. None: never.
     wait : callable, optional
         ``wait(robot) -> bool``, asked when a robot heading for its goal finds its goal
-        direction blocked: whether it waits (zero command, for at most ``give_way_s``) for the
-        robots in its way to clear it, having the right of way over them (``collab``). None:
-        never waits.
+        direction blocked with no safe heading within 90 degrees of it (going on would mean
+        turning back), while it has stood less than ``give_way_s`` within 2 r0 of one point:
+        whether it waits (zero command) for the robots in its way to clear it, having the
+        right of way over them (policies with ``walls`` messages). None: never waits.
     range_m : float
         Lidar range R (readings of R are "no return" in the robots' own maps).
     area_m : (float, float), optional

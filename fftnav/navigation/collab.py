@@ -73,7 +73,7 @@ BLOCK_BEARING_RAD = math.radians(60.0)
 
 def encode_message(segments: np.ndarray, *, goal_m: float) -> bytes:
     """A ``walls`` message: the sender's distance to its goal ``goal_m`` (m; its right of way,
-    :func:`gives_way`) and ``segments`` ``(n, 2, 2)`` (m, at most
+    :func:`waits_for`) and ``segments`` ``(n, 2, 2)`` (m, at most
     :data:`MAX_SEGMENTS_PER_MESSAGE`, inside +-327 m), as bytes: a count byte, the goal distance
     in centimetres as a little-endian uint16 (at most 655.35 m), then x0, y0, x1, y1 of each
     segment in centimetres as little-endian int16 (``3 + 8 n`` bytes).
@@ -90,7 +90,7 @@ def encode_message(segments: np.ndarray, *, goal_m: float) -> bytes:
         raise ValueError(f"segments must lie within +-327.67 m, got segments={seg.tolist()}")
     if not goal_m >= 0:
         raise ValueError(f"goal_m must be >= 0, got goal_m={goal_m!r}")
-    goal_cm = min(round(goal_m * 100.0), 65535)
+    goal_cm = round(min(goal_m, 655.35) * 100.0)
     return struct.pack(f"<BH{4 * len(seg)}h", len(seg), goal_cm, *cm.astype(int).ravel().tolist())
 
 
@@ -192,7 +192,8 @@ def waits_for(xy: np.ndarray, goal: np.ndarray, *, index: int, goal_m: float,
 
     Examples
     --------
-    Two robots face each other 1 m apart, each 5 m from its goal; robot 0 goes first:
+    Two robots face each other 1 m apart, each having announced 5 m to its goal; robot 0 (the
+    lower index) goes first:
 
     >>> waits_for(np.array([0.0, 0.0]), np.array([6.0, 0.0]), index=0, goal_m=5.0,
     ...           neighbours=np.array([[1.0, 0.0, 5.0, 1.0]]))

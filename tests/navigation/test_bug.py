@@ -299,3 +299,33 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
     monkeypatch.setattr(bug.PlannerParams, "for_swarm", classmethod(no_squeeze))
     rows = run_episode(world, "collab", seed=seed).rows
     assert [(r.robot, r.failure) for r in rows if not r.arrived] == [(2, "jam"), (3, "jam")]
+
+
+def test_a_robot_with_the_right_of_way_waits_only_boxed_in_and_at_most_give_way_s():
+    """``wait`` is asked only when the goal direction is blocked and no safe heading lies within
+    90 degrees of it; a robot that goes first then stands still (no decision) for at most
+    give_way_s in one place, and decides as usual after that, or when ``wait`` says no."""
+    asked = []
+
+    def wait(i):
+        asked.append(i)
+        return True
+
+    p, calls = _planner(LEFT, give_way_s=2.0)
+    p.wait = wait
+    # blocked ahead, but the sides are open: it takes a side at once, wait not asked
+    cmd, _ = _step(p, 0.0, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+    assert asked == [] and calls == [0] and p.memory[0].mode == Mode.FOLLOW
+    p, calls = _planner(LEFT, give_way_s=2.0)
+    p.wait = wait
+    boxed = _mask([(-100, 100)])  # only the rear half open: going on means turning back
+    for k in range(20):  # 2 s standing in one place
+        cmd, blocked = _step(p, 0.1 * k, (0, 0, 0), (10, 0), boxed)
+        assert cmd.tolist() == [[0.0, 0.0]] and blocked[0]
+    assert calls == [] and p.wait_ticks[0] == 20 and p.memory[0].mode == Mode.GO_TO_GOAL
+    cmd, _ = _step(p, 2.0, (0, 0, 0), (10, 0), boxed)  # waited give_way_s: decides
+    assert calls == [0] and cmd[0, 1] != 0.0 and len(asked) == 20
+    p, calls = _planner(LEFT)
+    p.wait = lambda i: False  # it gives way: decides at once
+    _step(p, 0.0, (0, 0, 0), (10, 0), boxed)
+    assert calls == [0]

@@ -38,7 +38,8 @@ def test_messages_round_trip_to_the_centimetre_and_stay_within_64_bytes():
         goal_back, seg_back = decode_message(data)
         np.testing.assert_allclose(seg_back, seg, atol=0.005 + 1e-9)
         assert goal_back == pytest.approx(goal, abs=0.005 + 1e-9)
-    assert decode_message(encode_message(np.zeros((0, 2, 2)), goal_m=1e4))[0] == 655.35
+    for far in (1e4, math.inf):
+        assert decode_message(encode_message(np.zeros((0, 2, 2)), goal_m=far))[0] == 655.35
     with pytest.raises(ValueError, match="segments must hold at most 7 segments"):
         encode_message(np.zeros((8, 2, 2)), goal_m=1.0)
     with pytest.raises(ValueError, match=r"segments must lie within \+-327.67 m"):
@@ -254,9 +255,10 @@ def test_of_two_robots_in_each_others_way_exactly_one_waits(x, y, heading, gap, 
     wb = waits_for(pb, pa - 5 * u, index=b, goal_m=gb, neighbours=[[*pa, ga, a]])
     assert wa != wb
     assert wa == ((ga, a) < (gb, b))
-    # the same neighbour behind the robot, or beyond the radius, is not in its way
-    assert not waits_for(pa, pa - 5 * u, index=a, goal_m=0.0, neighbours=[[*pb, gb, b]])
-    assert not waits_for(pa, pa + 9 * u, index=a, goal_m=0.0,
+    # the same neighbour behind the robot, or beyond the radius, is not in its way (a robot
+    # announcing -1 m would go before anyone in its way)
+    assert not waits_for(pa, pa - 5 * u, index=a, goal_m=-1.0, neighbours=[[*pb, gb, b]])
+    assert not waits_for(pa, pa + 9 * u, index=a, goal_m=-1.0,
                          neighbours=[[*(pa + 1.3 * u), gb, b]])
 
 
@@ -272,14 +274,30 @@ def test_a_robot_waits_only_for_robots_it_goes_before():
 def test_in_a_corridor_too_narrow_to_pass_the_robot_with_the_right_of_way_goes_straight(
         monkeypatch):
     """A corridor 0.8 m wide, longer than R: two collab robots meet in it, too close to pass.
-    Robot 0 has the right of way (same goal distance, lower index): it waits while robot 1
-    gives way, and then drives straight through, its path within 2 % of the optimum. Without
-    the right of way (Walls.waits switched off) robot 0 backs out first and its path is more
-    than 1.5 times as long; robot 1 goes round the corridor both times."""
+    Robot 0 has the right of way (its last message, sent a tick after robot 1's, announced the
+    shorter goal distance): it waits while robot 1 gives way, and then drives straight through,
+    its path within 2 % of the optimum. Every time a robot asks whether it waits, the goal
+    distance it holds for the other is the one the other last announced. Without the right of
+    way (Walls.waits switched off) robot 0 backs out first and its path is more than 1.5 times
+    as long; robot 1 goes round the corridor both times."""
     from fftnav.navigation.messages import Walls
 
     world = _headon(0.8)
+    asked = []
+    waits = Walls.waits
+
+    def spy(self, control, swarm, robot):
+        near = self._near(control, robot, swarm.tick)
+        for goal_m, j in near[:, 2:4]:
+            assert goal_m == control.announced_m[int(j)]
+        asked.append((robot, len(near)))
+        return waits(self, control, swarm, robot)
+
+    monkeypatch.setattr(Walls, "waits", spy)
     rows = run_episode(world, "collab", seed=0).rows
+    assert {robot for robot, n in asked if n} == {0, 1}
+    monkeypatch.setattr(Walls, "waits", waits)
+    assert run_episode(world, "collab", seed=0).rows == rows
     assert all(r.arrived for r in rows)
     assert rows[0].path_length_m < 1.02 * rows[0].optimal_length_m
     monkeypatch.setattr(Walls, "waits", lambda self, control, swarm, robot: False)
@@ -287,3 +305,23 @@ def test_in_a_corridor_too_narrow_to_pass_the_robot_with_the_right_of_way_goes_s
     assert all(r.arrived for r in alone)
     assert alone[0].path_length_m > 1.5 * alone[0].optimal_length_m
     assert rows[1].path_length_m == pytest.approx(alone[1].path_length_m, rel=0.1)
+
+
+def test_with_the_gate_closed_a_collab_robot_never_waits(monkeypatch):
+    """The right of way is collab's too only once its gate is open: with the gate held shut
+    (no wall ever longer than R), the 0.8 m head-on corridor runs exactly as own-only's."""
+    import dataclasses
+
+    from fftnav.navigation import messages
+
+    world = _headon(0.8)
+    monkeypatch.setattr(messages, "long_wall", lambda segments, *, range_m: False)
+    collab = run_episode(world, "collab", seed=0)
+    own = run_episode(world, "own-only", seed=0)
+
+    def moves(row):
+        return {k: v for k, v in dataclasses.asdict(row).items()
+                if k != "policy" and not k.startswith(("bytes_", "messages_"))}
+
+    assert [moves(r) for r in collab.rows] == [moves(r) for r in own.rows]
+    assert collab.rows[0].path_length_m > 1.5 * collab.rows[0].optimal_length_m
