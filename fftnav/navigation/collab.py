@@ -34,6 +34,8 @@ import struct
 
 import numpy as np
 
+from fftnav.observe.scan import wrap_angle
+
 __all__ = [
     "MAX_MESSAGE_BYTES",
     "MAX_SEGMENTS_PER_MESSAGE",
@@ -206,7 +208,7 @@ def waits_for(xy: np.ndarray, goal: np.ndarray, *, index: int, goal_m: float,
     x, y = float(xy[0]), float(xy[1])
     dx, dy = nb[:, 0] - x, nb[:, 1] - y
     ahead = math.atan2(float(goal[1]) - y, float(goal[0]) - x)
-    off = np.abs((np.arctan2(dy, dx) - ahead + math.pi) % (2 * math.pi) - math.pi)
+    off = np.abs(wrap_angle(np.arctan2(dy, dx) - ahead))
     in_way = (np.hypot(dx, dy) <= BLOCK_RADIUS_M) & (off <= BLOCK_BEARING_RAD)
     if not in_way.any():
         return False
