@@ -47,6 +47,7 @@ collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/fresh_noise.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise.toml
 	$(BIN)/python experiments/headon.py
+	$(BIN)/python experiments/noise_seeds.py
 	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)

@@ -134,6 +134,14 @@ class PlannerParams(Checked):
         goes before the robots in its way (the planner's ``wait``), waits for them to clear
         the way instead of taking a side, at most this long within 2 r0 of one point (the
         squeezed plan's timer: time spent waiting there counts toward ``squeeze_after_s``).
+    guide_margin_m, guide_bound_s : float
+        Guided robots (the planner's ``guide``): a robot heading for its goal steers along its
+        way through the walls of its own map (:meth:`OwnMaps.plan`, ``walls_only``; trunks,
+        rocks and robots are left to the safe directions), as an escaping robot does, while
+        that way is more than ``guide_margin_m`` longer than the 8-connected grid distance to
+        the goal (what it knows blocks the straight line); else it heads for the goal. When the
+        way has not become ``progress_m`` shorter than its best for ``guide_bound_s`` seconds,
+        the robot gives it up until it is R closer to its goal than where it gave up.
     map_every : int
         The own maps take every other beam of the scans of one control tick in ``map_every``.
     memory_radius_m : float
@@ -165,6 +173,8 @@ class PlannerParams(Checked):
     escape_bound_s: float = _positive(15.0)
     escape_block_m: float = _positive(1.0)
     give_way_s: float = _positive(10.0)
+    guide_margin_m: float = _non_negative(1.0)
+    guide_bound_s: float = _positive(5.0)
     map_every: int = integer_field(2, low=1)
 
     def _check_together(self) -> None:
@@ -194,6 +204,11 @@ class _Memory:
     turn: int = 0  # escape: the side turned to while the way's bearing is unsafe (0: none)
     way_best_m: float = math.inf  # escape: the shortest planned way so far (m) ...
     way_best_s: float = 0.0  # ... and since when
+    guided: bool = False  # heading for the goal along the own map's way (the planner's guide)
+    guide_s: float = -math.inf  # when that way was last planned
+    guide_best_m: float = math.inf  # the shortest guided way so far (m) ...
+    guide_best_s: float = 0.0  # ... and since when
+    guide_quit_m: float = math.inf  # guidance gave up at this goal distance (m; inf: never)
     #: Where the robot was when it last got more than 2 r0 from the previous such point, and
     #: when (the squeezed plan's timer).
     still_xy: tuple[float, float] = (math.nan, math.nan)
@@ -253,6 +268,11 @@ class BugPlanner:
         turning back), while it has stood less than ``give_way_s`` within 2 r0 of one point:
         whether it waits (zero command) for the robots in its way to clear it, having the
         right of way over them (policies with ``walls`` messages). None: never waits.
+    guide : callable, optional
+        ``guide(robot) -> bool``, asked when a robot heads for its goal: whether it steers
+        along its way through the walls of its own map (which may hold what its neighbours saw)
+        while that way is more than ``guide_margin_m`` longer than the straight one (``collab``
+        once its gate is open). None: never.
     range_m : float
         Lidar range R (readings of R are "no return" in the robots' own maps).
     area_m : (float, float), optional
@@ -268,6 +288,7 @@ class BugPlanner:
     params: PlannerParams = field(default_factory=PlannerParams)
     reconsider: Callable[[int, int], int] | None = None
     wait: Callable[[int], bool] | None = None
+    guide: Callable[[int], bool] | None = None
     range_m: float = 3.0
     area_m: tuple[float, float] | None = None
 
@@ -275,13 +296,14 @@ class BugPlanner:
     def for_swarm(cls, n_robots: int, config: SwarmConfig, decide: Callable[[int], int],
                   reconsider: Callable[[int, int], int] | None = None, *,
                   area_m: tuple[float, float] | None = None,
-                  wait: Callable[[int], bool] | None = None) -> BugPlanner:
+                  wait: Callable[[int], bool] | None = None,
+                  guide: Callable[[int], bool] | None = None) -> BugPlanner:
         """The planner of ``n_robots`` robots of a swarm configuration (its geometry, lidar field
         of view, speed limits and control rate) in a mission area ``area_m``."""
         return cls(n_robots, l_th_m=config.geometry.l_th_m, r0_m=config.robot.r0_m,
                    fov_rad=config.sensor.fov_rad, decide=decide,
                    params=PlannerParams.for_swarm(config), reconsider=reconsider, wait=wait,
-                   range_m=config.sensor.range_m, area_m=area_m)
+                   guide=guide, range_m=config.sensor.range_m, area_m=area_m)
 
     def __post_init__(self) -> None:
         self.memory = [_Memory() for _ in range(self.n_robots)]
@@ -298,6 +320,10 @@ class BugPlanner:
         self.sides_remembered = np.zeros(self.n_robots, dtype=np.int64)
         #: Ticks waiting for robots in the way (the right of way, ``wait``).
         self.wait_ticks = np.zeros(self.n_robots, dtype=np.int64)
+        #: Ticks heading for the goal along the own map's way (``guide``), and the times a
+        #: robot gave that way up.
+        self.guided_ticks = np.zeros(self.n_robots, dtype=np.int64)
+        self.guides_quit = np.zeros(self.n_robots, dtype=np.int64)
         #: Each robot's map of its own scans (made at the first step, over the starts and goals).
         self.maps: OwnMaps | None = None
         self._tick = 0
@@ -442,6 +468,11 @@ class BugPlanner:
                 if clear:
                     return beta
                 return left if mem.side > 0 else right
+        if self.guide is not None and self.guide(i):
+            heading = self._guided_heading(i, mem, t, view)
+            if heading is not None:
+                self.guided_ticks[i] += 1
+                return heading
         if clear:
             return beta
         side = self._tried_side(mem, xy, dist)
@@ -467,8 +498,7 @@ class BugPlanner:
         the nearest safe heading to it on either side; None without a way (or a safe heading)."""
         p, maps = self.params, self.maps
         assert maps is not None
-        safe = view.safe
-        xy, yaw = view.pose[:2], float(view.pose[2])
+        xy = view.pose[:2]
         if t - mem.planned_s >= p.replan_s - 1e-9:
             mem.planned_s = t
             squeeze = t - mem.still_s >= p.squeeze_after_s - 1e-9
@@ -482,6 +512,49 @@ class BugPlanner:
                 mem.flips += 1
                 maps.plan(i, xy, view.goal, squeeze=squeeze)
                 mem.way_best_m, mem.way_best_s, mem.turn = maps.way_length(i, xy), t, 0
+        return self._steer(i, mem, view)
+
+    def _guided_heading(self, i: int, mem: _Memory, t: float, view: _View) -> float | None:
+        """Heading toward the point ``escape_lookahead_m`` along robot ``i``'s way to the goal
+        through the walls of its own map (``OwnMaps.plan(..., walls_only=True)``, replanned
+        every ``replan_s``) while that way is more than ``guide_margin_m`` longer than the grid
+        distance, as :meth:`_escape_heading` steers; None otherwise (the robot heads for its
+        goal), and until it is R closer than where it gave up a way that led nowhere."""
+        p, maps = self.params, self.maps
+        assert maps is not None
+        xy = view.pose[:2]
+        if view.dist_m > mem.guide_quit_m - self.range_m:
+            return None
+        if t - mem.guide_s >= p.replan_s - 1e-9:
+            mem.guide_s = t
+            maps.plan(i, xy, view.goal, walls_only=True)
+            way = maps.way_length(i, xy)
+            d = np.abs(maps.cell(view.goal) - maps.cell(xy))
+            grid = (d.max() + (math.sqrt(2.0) - 1.0) * d.min()) * maps.res
+            guided = math.isfinite(way) and way > grid + p.guide_margin_m
+            if guided and not mem.guided:
+                mem.turn, mem.guide_best_m, mem.guide_best_s = 0, way, t
+            mem.guided = guided
+            if not guided:
+                return None
+            if way < mem.guide_best_m - p.progress_m:
+                mem.guide_best_m, mem.guide_best_s = way, t
+            elif t - mem.guide_best_s > p.guide_bound_s:  # the way leads nowhere: give up
+                mem.guided, mem.guide_quit_m = False, view.dist_m
+                self.guides_quit[i] += 1
+                return None
+        if not mem.guided:
+            return None
+        return self._steer(i, mem, view)
+
+    def _steer(self, i: int, mem: _Memory, view: _View) -> float | None:
+        """Heading toward the point ``escape_lookahead_m`` down robot ``i``'s last planned
+        field: its bearing if safe, else the nearest safe heading on the side kept in
+        ``mem.turn``; None without a way (or a safe heading)."""
+        p, maps = self.params, self.maps
+        assert maps is not None
+        safe = view.safe
+        xy, yaw = view.pose[:2], float(view.pose[2])
         point = maps.waypoint(i, xy, p.escape_lookahead_m)
         if point is None:
             return None

@@ -83,7 +83,8 @@ class BugController(Controller):
         self._swarm: SwarmStep | None = None
         self.planner = BugPlanner.for_swarm(
             n, setup.config, self._decide, self._reconsider if policy.reconsiders else None,
-            area_m=area_m, wait=self._wait if policy.messages is not None else None)
+            area_m=area_m, wait=self._wait if policy.messages is not None else None,
+            guide=self._guide if policy.messages is not None else None)
 
     def _decide(self, i: int) -> int:
         ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
@@ -117,6 +118,13 @@ class BugController(Controller):
         kind = self.policy.messages
         assert kind is not None and self._swarm is not None
         return kind.waits(self, self._swarm, i)
+
+    def _guide(self, i: int) -> bool:
+        """Whether robot ``i``, heading for its goal, steers along its map's way (the policy's
+        message kind decides)."""
+        kind = self.policy.messages
+        assert kind is not None and self._swarm is not None
+        return kind.guides(self, self._swarm, i)
 
     def step(self, swarm: SwarmStep) -> tuple[np.ndarray, dict[int, bytes]]:
         """Observe, read the messages that arrived, decide, plan; the messages of the robots

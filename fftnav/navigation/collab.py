@@ -23,8 +23,12 @@ that announced the shorter distance to its goal): it waits while the other gives
 
 At a decision ``collab`` compares the two sides by the length of the way to the goal through
 that map (:meth:`fftnav.navigation.ownmap.OwnMaps.side_costs`) and takes the clearly shorter one
-(docs/planner.md, "collab"). Pure numpy; nothing but the robot's own scan and pose and its
-neighbours' messages.
+(docs/planner.md, "collab"). Heading for its goal, a robot whose walls (its own segments and
+its neighbours', :meth:`fftnav.navigation.ownmap.OwnMaps.add_walls`) block the straight line
+(its way through them more than ``PlannerParams.guide_margin_m`` longer) steers along that way
+instead, as an escaping robot does (the planner's ``guide``): it goes round a trap, or to a gap
+its neighbours saw, before it meets the wall. Pure numpy; nothing but the robot's own scan and
+pose and its neighbours' messages.
 """
 
 from __future__ import annotations

@@ -78,6 +78,11 @@ class MessageKind:
         robots in its way (it has the right of way); the default never waits."""
         return False
 
+    def guides(self, control: BugController, swarm: SwarmStep, robot: int) -> bool:
+        """Whether robot ``robot``, heading for its goal, steers along its way through its own
+        map (the planner's ``guide``); the default never does."""
+        return False
+
     def __repr__(self) -> str:
         return f"<message kind {self.name!r}>"
 
@@ -114,7 +119,8 @@ class Observations(MessageKind):
 class Walls(MessageKind):
     """Wall segments fitted to the scan, every PERIOD_TICKS ticks, drawn into the receivers'
     own maps once they have seen a wall longer than R (and where the senders stand is then
-    not a wall in those maps)."""
+    not a wall in those maps, and a robot heading for its goal steers along its way through
+    its map where that map blocks the straight line)."""
 
     def receive(self, control: BugController, swarm: SwarmStep, present: np.ndarray) -> None:
         maps = control.planner.maps
@@ -149,6 +155,11 @@ class Walls(MessageKind):
                          goal_m=control.announced_m[robot],
                          neighbours=self._near(control, robot, swarm.tick))
 
+    def guides(self, control: BugController, swarm: SwarmStep, robot: int) -> bool:
+        """Once the gate is open, a robot heading for its goal steers along its way through its
+        map (its own scans and its neighbours' walls) where that way leaves the straight line."""
+        return bool(control.long_wall_seen[robot])
+
     @staticmethod
     def _draw(control: BugController, robot: int) -> None:
         """Draw robot ``robot``'s held segments into its map, at their arrival ticks."""
@@ -175,6 +186,8 @@ class Walls(MessageKind):
                 if control.planner.maps is not None:
                     self._draw(control, i)
             if len(segments):
+                if control.planner.maps is not None:
+                    control.planner.maps.add_walls(i, swarm.tick, segments)
                 goal_m = float(np.hypot(*(swarm.goals[i] - swarm.poses[i, :2])))
                 outgoing[i] = encode_message(segments[:MAX_SEGMENTS_PER_MESSAGE], goal_m=goal_m)
                 control.announced_m[i] = decode_message(outgoing[i])[0]  # as neighbours read it

@@ -12,7 +12,10 @@ shortest 8-connected path to its goal through its own map, with cells never seen
 (optimistic: the path tries the unknown, and the map learns the walls it meets). The distance
 field to the goal is a Dijkstra run from the goal cell
 (:func:`fftnav.optimal.gridgraph.grid_graph`, ``scipy.sparse.csgraph.dijkstra``), recomputed
-when asked (the planner asks once a second while a robot escapes).
+when asked (the planner asks once a second while a robot escapes). A second layer holds only
+wall segments (the robot's own, :meth:`OwnMaps.add_walls`, and its neighbours',
+:meth:`OwnMaps.add_segments`): ``plan(..., walls_only=True)`` plans through those alone, the way
+a guided robot follows (:class:`~fftnav.navigation.bug.BugPlanner`, ``guide``).
 """
 
 from __future__ import annotations
@@ -87,6 +90,9 @@ class OwnMaps:
         self.last_free = np.full((n_robots, *self.shape), -1, dtype=np.int32)
         #: Control tick at which a neighbour's segment last marked a cell (:meth:`add_segments`).
         self.last_shared = np.full((n_robots, *self.shape), -1, dtype=np.int32)
+        #: Control tick at which a wall segment, the robot's own or a neighbour's, last marked a
+        #: cell (:meth:`add_walls`, :meth:`add_segments`; ``plan(..., walls_only=True)``).
+        self.last_wall = np.full((n_robots, *self.shape), -1, dtype=np.int32)
         self._disc = self._disc_of(clearance_m)
         squeezed = None if squeeze_m is None else self._disc_of(squeeze_m)
         same = squeezed is None or np.array_equal(squeezed, self._disc)
@@ -162,11 +168,21 @@ class OwnMaps:
     def add_segments(self, robot: int, tick: int, segments: np.ndarray) -> None:
         """Mark the cells along line segments ``(n, 2, 2)`` (m; walls a neighbour saw) hit at
         ``tick`` in robot ``robot``'s map (its own later looks through them clear them)."""
+        self._mark_segments((self.last_hit, self.last_shared, self.last_wall), robot, tick,
+                            segments)
+
+    def add_walls(self, robot: int, tick: int, segments: np.ndarray) -> None:
+        """Mark the cells along line segments ``(n, 2, 2)`` (m; walls robot ``robot`` fitted to
+        its own scan) as walls at ``tick``: only ``plan(..., walls_only=True)`` reads them."""
+        self._mark_segments((self.last_wall,), robot, tick, segments)
+
+    def _mark_segments(self, layers: tuple[np.ndarray, ...], robot: int, tick: int,
+                       segments: np.ndarray) -> None:
         for a, b in np.asarray(segments, dtype=float).reshape(-1, 2, 2):
             n = int(math.ceil(float(np.hypot(*(b - a))) / (self.res / 2.0))) + 1
             cells = self.cell(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
             cells = cells[self.inside(cells)]
-            for layer in (self.last_hit, self.last_shared):
+            for layer in layers:
                 layer[robot, cells[:, 0], cells[:, 1]] = np.maximum(
                     layer[robot, cells[:, 0], cells[:, 1]], tick)
 
@@ -200,16 +216,21 @@ class OwnMaps:
         return occupied
 
     def plan(self, robot: int, xy: np.ndarray, goal: np.ndarray, *,
-             squeeze: bool = False) -> bool:
+             squeeze: bool = False, walls_only: bool = False) -> bool:
         """Recompute robot ``robot``'s distance field to ``goal`` (cells within the clearance
         of an occupied cell are closed, except around the robot and the goal; with ``squeeze``,
         planned again at ``squeeze_m`` when that leaves the robot no way); False when the robot
-        or the goal lies outside the grid (no field)."""
+        or the goal lies outside the grid (no field). With ``walls_only``, the occupied cells
+        are only those of wall segments (:meth:`add_walls`, :meth:`add_segments`) not seen
+        through since, and the cells :meth:`block_way` closed: no trunk, rock or robot."""
         here, there = self.cell(xy), self.cell(goal)
         if not (self.inside(here) and self.inside(there)):
             self._field.pop(robot, None)
             return False
-        occupied = self.occupied(robot)
+        if walls_only:
+            occupied = (self.last_wall[robot] > self.last_free[robot]) | self.blocked[robot]
+        else:
+            occupied = self.occupied(robot)
         field = self._distances(occupied, self._disc, here, there)
         if squeeze and self._squeeze is not None and not np.isfinite(field[tuple(here)]):
             self.squeezes[robot] += 1

@@ -20,7 +20,9 @@ Registered policies:
     :mod:`fftnav.navigation.collab`), drawn into the receivers' own maps once they have seen a
     wall longer than R themselves (before that, ``collab`` is ``own-only``); at a decision the
     side whose way to the goal through that map is clearly shorter (by 1 m, a step through a
-    cell the robot never saw counting three), else P_s as ``own-only``.
+    cell the robot never saw counting three), else P_s as ``own-only``; and, heading for its
+    goal, a robot steers along its way through the walls of that map where they block the
+    straight line (the planner's ``guide``).
 ``collab-reconsider``
     ``collab`` that also asks again while following a wall, when wall segments arrived since
     it decided (``Policy.reconsiders``).

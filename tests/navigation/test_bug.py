@@ -269,9 +269,11 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
     do): robots 2 and 3 end side by side in a trap's corner by a rock, and the clearance
     closes each one's pocket. Without the squeezed plan (map_squeeze_m = map_clearance_m) both
     turn on the spot until the time limit: a jam. With the default squeeze, once they have
-    stayed put for squeeze_after_s, both plan a narrower way out and every robot arrives."""
+    stayed put for squeeze_after_s, both plan a narrower way out and every robot arrives.
+    (collab's guided way is switched off too: it keeps these robots out of that corner.)"""
     from fftnav.episode import run_episode
     from fftnav.navigation import bug
+    from fftnav.navigation.messages import Walls
     from fftnav.navigation.ownmap import OwnMaps
     from fftnav.runner.tasks import episode_seed
     from fftnav.world.generate import generate_world
@@ -285,6 +287,7 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
 
     monkeypatch.setattr(OwnMaps, "__init__", keep)
     monkeypatch.setattr(OwnMaps, "set_robots", lambda self, robot, xy: None)
+    monkeypatch.setattr(Walls, "guides", lambda self, control, swarm, robot: False)
     world = generate_world("traps", 71, robots=15)
     seed = episode_seed("traps", 71)
     rows = run_episode(world, "collab", seed=seed).rows
@@ -329,3 +332,47 @@ def test_a_robot_with_the_right_of_way_waits_only_boxed_in_and_at_most_give_way_
     p.wait = lambda i: False  # it gives way: decides at once
     _step(p, 0.0, (0, 0, 0), (10, 0), boxed)
     assert calls == [0]
+
+
+def test_a_guided_robot_steers_round_a_known_wall_and_gives_the_way_up_when_it_leads_nowhere():
+    """With ``guide``, a robot heading for its goal whose map shows a wall across the straight
+    line (its way more than guide_margin_m longer than the grid distance) turns toward the way
+    round it, although its scan shows nothing; without the wall, or without ``guide``, it
+    drives straight. Held in place (its way never gets shorter), it gives the way up after
+    guide_bound_s and heads for the goal until it is R closer."""
+
+    def planner(**kw):
+        p = BugPlanner(1, l_th_m=0.6, r0_m=0.15, fov_rad=FOV, decide=lambda i: LEFT,
+                       params=PlannerParams(**kw), area_m=(12.0, 12.0))
+        p.guide = lambda i: True
+        return p
+
+    wall = np.array([[[6.0, 0.0], [6.0, 9.0]]])  # x = 6 m, from y = 0 to 9 m
+    start, goal = (2.0, 6.0, 0.0), (10.0, 6.0)
+    p = planner()
+    cmd, _ = _step(p, 0.0, start, goal, _mask())
+    assert cmd.tolist() == [[0.5, 0.0]] and p.guided_ticks[0] == 0  # nothing known: straight
+    p.maps.add_walls(0, 1, wall)
+    cmd, _ = _step(p, 1.0, start, goal, _mask())
+    assert cmd[0, 0] == 0.0 and cmd[0, 1] > 0  # turns left, toward the way over the wall's end
+    assert p.guided_ticks[0] == 1 and p.memory[0].mode == Mode.GO_TO_GOAL
+    unguided = planner()
+    unguided.guide = None
+    _step(unguided, 0.0, start, goal, _mask())
+    unguided.maps.add_walls(0, 1, wall)
+    cmd, _ = _step(unguided, 1.0, start, goal, _mask())
+    assert cmd.tolist() == [[0.5, 0.0]]
+    p = planner(guide_bound_s=3.0)
+    _step(p, 0.0, start, goal, _mask())
+    p.maps.add_walls(0, 0, wall)
+    for k in range(10, 56):  # in place from 1 s: plans at 1, 2, ... s; gives up at 5 s
+        cmd, _ = _step(p, 0.1 * k, start, goal, _mask())
+        if k < 50:
+            assert cmd[0, 0] == 0.0 and cmd[0, 1] > 0 and p.guides_quit[0] == 0
+        else:
+            assert cmd.tolist() == [[0.5, 0.0]] and p.guides_quit[0] == 1
+    cmd, _ = _step(p, 7.0, (4.0, 6.0, 0.0), goal, _mask())  # 2 m closer: still straight
+    assert cmd.tolist() == [[0.5, 0.0]] and not p.memory[0].guided
+    p.maps.add_walls(0, 10**6, wall)  # seen again (the scans of this test see nothing)
+    cmd, _ = _step(p, 8.0, (5.5, 7.0, 0.0), goal, _mask())  # more than R closer: guided again
+    assert p.memory[0].guided

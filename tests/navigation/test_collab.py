@@ -325,3 +325,33 @@ def test_with_the_gate_closed_a_collab_robot_never_waits(monkeypatch):
 
     assert [moves(r) for r in collab.rows] == [moves(r) for r in own.rows]
     assert collab.rows[0].path_length_m > 1.5 * collab.rows[0].optimal_length_m
+
+
+def test_guided_robots_steer_for_the_gap_and_only_collab_is_guided(monkeypatch):
+    """Staggered departures under a wall with one gap on the right: once its gate is open, a
+    collab robot heading for its goal steers along its map's way (the planner's guide), toward
+    the gap its neighbours and its own scans showed, and no collab robot's path is longer than
+    own-only's; fusion's and own-only's robots are never guided."""
+    from fftnav.navigation import bugcontrol
+
+    planners = []
+    init = bugcontrol.BugController.__init__
+
+    def keep(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        planners.append(self.planner)
+
+    monkeypatch.setattr(bugcontrol.BugController, "__init__", keep)
+    world = _barrier_world()
+    cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=60.0, departure="staggered",
+                                            stagger_s=4.0))
+    rows = {p: run_episode(world, p, seed=5, config=cfg).rows
+            for p in ("own-only", "fusion", "collab")}
+    own, fusion, collab = planners
+    assert not own.guided_ticks.any() and not fusion.guided_ticks.any()
+    assert collab.guided_ticks.sum() > 0
+    assert all(r.arrived for r in rows["collab"] + rows["own-only"])
+    # the robots farthest from the gap go there before they meet the wall: shorter paths
+    short = [o.path_length_m - c.path_length_m for o, c in zip(rows["own-only"], rows["collab"],
+                                                               strict=True)]
+    assert min(short) >= 0.0 and short[0] > 0.5 and collab.guided_ticks[0] > 0

@@ -261,3 +261,39 @@ def test_where_other_robots_stand_is_not_occupied_but_a_shared_wall_is():
     assert marked.any() and maps.occupied(0)[marked].all()
     maps.set_robots(0, np.zeros((0, 2)))
     assert maps.occupied(0)[occ].all()
+
+
+def test_the_walls_only_plan_sees_wall_segments_and_not_other_hits():
+    """plan(walls_only=True) closes only the cells of wall segments (the robot's own,
+    add_walls, or a neighbour's, add_segments), as grid A* on those cells does: a blob of scan
+    hits (a rock, a robot) across the way is not there, and a wall the robot later looks
+    through is cleared. The ordinary plan still goes round the blob."""
+    maps = _maps(lo=(0.0, 0.0), hi=(8.0, 4.0))
+    start = maps.lo + (np.array([6, 10]) + 0.5) * 0.2
+    goal = maps.lo + (np.array([34, 10]) + 0.5) * 0.2
+    here, there = tuple(maps.cell(start)), tuple(maps.cell(goal))
+    blob = np.zeros(maps.shape, dtype=bool)
+    blob[4:17, 20:22] = True  # hits from the bottom to near the top, across the straight way
+    maps.last_hit[0][blob] = 1
+    assert maps.plan(0, start, goal, walls_only=True)
+    assert maps.way_length(0, start) == pytest.approx(
+        astar(np.zeros(maps.shape, dtype=bool), here, there).length_cells * 0.2, abs=1e-9)
+    assert maps.plan(0, start, goal)
+    around = astar(_closed_by_brute_force(blob, 0.2, 0.3), here, there).length_cells * 0.2
+    assert maps.way_length(0, start) == pytest.approx(around, abs=1e-9)
+    assert around > 28 * 0.2 + 1.0
+    # a wall of the robot's own scan at x = 3 m from y = 0 to 3 m, and a neighbour's at x = 5 m
+    # from y = 1 to 4 m: the way snakes between them
+    maps.add_walls(0, 2, np.array([[[3.0, 0.0], [3.0, 3.0]]]))
+    maps.add_segments(0, 2, np.array([[[5.0, 1.0], [5.0, 4.0]]]))
+    walls = (maps.last_wall[0] >= 0)
+    assert maps.plan(0, start, goal, walls_only=True)
+    snake = astar(_closed_by_brute_force(walls, 0.2, 0.3), here, there).length_cells * 0.2
+    assert maps.way_length(0, start) == pytest.approx(snake, abs=1e-9)
+    assert snake > 28 * 0.2 + 2.0
+    maps.last_free[0][walls & (maps.last_shared[0] < 0)] = 3  # looked through the own wall
+    assert maps.plan(0, start, goal, walls_only=True)
+    shared = maps.last_shared[0] >= 0
+    assert maps.way_length(0, start) == pytest.approx(
+        astar(_closed_by_brute_force(shared, 0.2, 0.3), here, there).length_cells * 0.2,
+        abs=1e-9)
