@@ -2,7 +2,8 @@
 
 - :mod:`fftnav.navigation.bug` - ``BugPlanner``, the planner's state machine (docs/planner.md);
   :mod:`~fftnav.navigation.corridor` (its compiled corridor test) and
-  :mod:`~fftnav.navigation.ownmap` (each robot's map of its own scans, the escape way);
+  :mod:`~fftnav.navigation.ownmap` (each robot's map of its own scans, the escape and guided
+  ways);
 - :mod:`fftnav.navigation.policies` - decision policies (which side), ``register_policy``;
 - :mod:`fftnav.navigation.messages` - what a policy's robots broadcast and how they read it;
 - :mod:`fftnav.navigation.controllers` - the controller API (``Controller``, ``SwarmStep``,

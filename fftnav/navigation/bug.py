@@ -141,7 +141,11 @@ class PlannerParams(Checked):
         that way is more than ``guide_margin_m`` longer than the 8-connected grid distance to
         the goal (what it knows blocks the straight line); else it heads for the goal. When the
         way has not become ``progress_m`` shorter than its best for ``guide_bound_s`` seconds,
-        the robot gives it up until it is R closer to its goal than where it gave up.
+        the robot gives it up until it is R closer to its goal than where it gave up. The guided
+        way and its timer outlast a follow: heading for its goal again, a robot steers down its
+        map's last planned field (a decision's or an escape's, if they planned since) until its
+        next plan, and gives the way up at that plan if the follow kept it from becoming
+        ``progress_m`` shorter for ``guide_bound_s``.
     map_every : int
         The own maps take every other beam of the scans of one control tick in ``map_every``.
     memory_radius_m : float
@@ -271,8 +275,8 @@ class BugPlanner:
     guide : callable, optional
         ``guide(robot) -> bool``, asked when a robot heads for its goal: whether it steers
         along its way through the walls of its own map (which may hold what its neighbours saw)
-        while that way is more than ``guide_margin_m`` longer than the straight one (``collab``
-        once its gate is open). None: never.
+        while that way is more than ``guide_margin_m`` longer than the 8-connected grid
+        distance (``collab`` once its gate is open). None: never.
     range_m : float
         Lidar range R (readings of R are "no return" in the robots' own maps).
     area_m : (float, float), optional
@@ -299,7 +303,8 @@ class BugPlanner:
                   wait: Callable[[int], bool] | None = None,
                   guide: Callable[[int], bool] | None = None) -> BugPlanner:
         """The planner of ``n_robots`` robots of a swarm configuration (its geometry, lidar field
-        of view, speed limits and control rate) in a mission area ``area_m``."""
+        of view, speed limits and control rate) in a mission area ``area_m``, with the hooks
+        ``decide``, ``reconsider``, ``wait`` and ``guide`` of :class:`BugPlanner`."""
         return cls(n_robots, l_th_m=config.geometry.l_th_m, r0_m=config.robot.r0_m,
                    fov_rad=config.sensor.fov_rad, decide=decide,
                    params=PlannerParams.for_swarm(config), reconsider=reconsider, wait=wait,
