@@ -22,7 +22,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy.stats import wilcoxon
 
 ROOT = Path(__file__).resolve().parents[1]
 ENVS = ("walls", "traps")
@@ -62,6 +61,10 @@ def run_map(job: tuple[str, int]) -> list[dict]:
 
 def report(table: pd.DataFrame) -> str:
     """AR and SPL per env and policy, and the paired per-map SPL differences of ``collab``."""
+    from fftnav.runner.summary import paired_tests
+
+    tests = {ref: paired_tests(table, reference=ref).set_index(["env", "policy"]).p_value
+             for ref in ("own-only", "fusion")}
     lines = [f"# `collab` with {NOISE_STD_M * 100:.0f} cm range noise, {SEEDS} more episode "
              f"seeds per map (maps {MAPS.start}-{MAPS.stop - 1})", "",
              "Written by `python experiments/noise_seeds.py`. AR and SPL in % over "
@@ -81,7 +84,7 @@ def report(table: pd.DataFrame) -> str:
                 lines.append(f"| {env} | {policy} | {ar:.1f} | {spl:.1f} | | | | |")
             for ref in refs[policy]:
                 diff = per_map[policy] - per_map[ref]
-                p = wilcoxon(diff).pvalue if (diff != 0).any() else float("nan")
+                p = tests[ref][env, policy]
                 lines.append(f"| {env} | {policy} | {ar:.1f} | {spl:.1f} | {ref} | "
                              f"{100 * diff.mean():+.1f} | {(diff > 0).sum()} / {(diff < 0).sum()} "
                              f"| {p:.2g} |")

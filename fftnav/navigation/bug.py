@@ -24,6 +24,7 @@ from fftnav.navigation import corridor
 from fftnav.navigation.ownmap import OwnMaps
 from fftnav.observe.safe import beam_index, nearest_safe_headings
 from fftnav.observe.scan import beam_angles_rad, wrap_angle
+from fftnav.optimal.astar import octile
 from fftnav.validate import Checked, integer_field, number_field
 
 __all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
@@ -534,8 +535,7 @@ class BugPlanner:
             mem.guide_s = t
             maps.plan(i, xy, view.goal, walls_only=True)
             way = maps.way_length(i, xy)
-            d = np.abs(maps.cell(view.goal) - maps.cell(xy))
-            grid = (d.max() + (math.sqrt(2.0) - 1.0) * d.min()) * maps.res
+            grid = octile(maps.cell(view.goal), maps.cell(xy)) * maps.res
             guided = math.isfinite(way) and way > grid + p.guide_margin_m
             if guided and not mem.guided:
                 mem.turn, mem.guide_best_m, mem.guide_best_s = 0, way, t

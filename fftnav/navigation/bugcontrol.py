@@ -16,6 +16,7 @@ its decision counters, the planner's diagnostics and the neighbour accounting.
 from __future__ import annotations
 
 import math
+from collections.abc import Callable
 
 import numpy as np
 
@@ -83,8 +84,7 @@ class BugController(Controller):
         self._swarm: SwarmStep | None = None
         self.planner = BugPlanner.for_swarm(
             n, setup.config, self._decide, self._reconsider if policy.reconsiders else None,
-            area_m=area_m, wait=self._wait if policy.messages is not None else None,
-            guide=self._guide if policy.messages is not None else None)
+            area_m=area_m, wait=self._asks("waits"), guide=self._asks("guides"))
 
     def _decide(self, i: int) -> int:
         ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
@@ -112,19 +112,20 @@ class BugController(Controller):
             return side
         return self._decide(i)
 
-    def _wait(self, i: int) -> bool:
-        """Whether robot ``i``, its goal direction blocked, waits for the robots in its way
-        (the policy's message kind decides: the right of way)."""
+    def _asks(self, question: str) -> Callable[[int], bool] | None:
+        """The planner's hook ``robot -> bool`` that asks the policy's message kind
+        ``question`` (``"waits"``: the right of way; ``"guides"``: the guided way) at the
+        current tick; None for a policy without messages (never)."""
         kind = self.policy.messages
-        assert kind is not None and self._swarm is not None
-        return kind.waits(self, self._swarm, i)
+        if kind is None:
+            return None
+        ask = getattr(kind, question)
 
-    def _guide(self, i: int) -> bool:
-        """Whether robot ``i``, heading for its goal, steers along its map's way (the policy's
-        message kind decides)."""
-        kind = self.policy.messages
-        assert kind is not None and self._swarm is not None
-        return kind.guides(self, self._swarm, i)
+        def answer(i: int) -> bool:
+            assert self._swarm is not None
+            return bool(ask(self, self._swarm, i))
+
+        return answer
 
     def step(self, swarm: SwarmStep) -> tuple[np.ndarray, dict[int, bytes]]:
         """Observe, read the messages that arrived, decide, plan; the messages of the robots

@@ -181,13 +181,14 @@ class Walls(MessageKind):
             range_m = control.config.sensor.range_m
             segments = scan_segments(swarm.poses[i], swarm.ranges_m[i], swarm.angles_rad,
                                      range_m=range_m)
+            maps = control.planner.maps
             if not control.long_wall_seen[i] and long_wall(segments, range_m=range_m):
                 control.long_wall_seen[i] = True
-                if control.planner.maps is not None:
+                if maps is not None:
                     self._draw(control, i)
             if len(segments):
-                if control.planner.maps is not None:
-                    control.planner.maps.add_walls(i, swarm.tick, segments)
+                if maps is not None:
+                    maps.add_walls(i, swarm.tick, segments)
                 goal_m = float(np.hypot(*(swarm.goals[i] - swarm.poses[i, :2])))
                 outgoing[i] = encode_message(segments[:MAX_SEGMENTS_PER_MESSAGE], goal_m=goal_m)
                 control.announced_m[i] = decode_message(outgoing[i])[0]  # as neighbours read it

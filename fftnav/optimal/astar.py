@@ -23,11 +23,17 @@ from fftnav.optimal.gridgraph import (
 )
 from fftnav.validate import check_number
 
-__all__ = ["GridPath", "UnreachableGoalError", "astar", "path_length_m"]
+__all__ = ["GridPath", "UnreachableGoalError", "astar", "octile", "path_length_m"]
 
 
-def _octile(a: tuple[int, int], b: tuple[int, int]) -> float:
-    di, dj = abs(a[0] - b[0]), abs(a[1] - b[1])
+def octile(a: tuple[int, int], b: tuple[int, int]) -> float:
+    """Length (cells) of the shortest 8-connected path between cells ``a`` and ``b`` with
+    nothing in the way: ``max(di, dj) + (sqrt(2) - 1) min(di, dj)``.
+
+    >>> octile((0, 0), (3, 1)) == 2 + 2 ** 0.5
+    True
+    """
+    di, dj = abs(int(a[0]) - int(b[0])), abs(int(a[1]) - int(b[1]))
     return max(di, dj) + (math.sqrt(2.0) - 1.0) * min(di, dj)
 
 
@@ -68,7 +74,7 @@ def astar(
     moves = move_table(connectivity)  # validates connectivity
     start = check_cell(occupied, start_cell, "start_cell")
     goal = check_cell(occupied, goal_cell, "goal_cell")
-    heuristic = _octile if connectivity == 8 else _euclidean
+    heuristic = octile if connectivity == 8 else _euclidean
     rows, cols = occupied.shape
 
     def passable(cell: tuple[int, int], footprint: np.ndarray) -> bool:
