@@ -33,7 +33,8 @@ benchmark: $(STAMP)
 
 # collab: the core comparison (walls, traps; own-only, fusion, collab; 20 maps), its walls
 # holdouts (maps 21-40 and 41-60), the fresh maps 61-80 of every kind (with and without lidar
-# noise), two robots head-on in a corridor, and the full sweep (docs/experiments.md, [sweep]);
+# noise; and which robots fail there), two robots head-on in a corridor, and the full sweep
+# (docs/experiments.md, [sweep]);
 # the runs resume when rerun.
 collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/core.toml
@@ -48,6 +49,7 @@ collab: $(STAMP)
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise.toml
 	$(BIN)/python experiments/headon.py
 	$(BIN)/python experiments/noise_seeds.py
+	$(BIN)/python experiments/walls_failures.py
 	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)

@@ -1,0 +1,126 @@
+"""Which robots fail at walls and traps on the fresh maps, and why they are hard.
+
+Reads the committed episodes of ``experiments/collab/fresh.toml`` (maps 61-80, 15 robots, the
+paper's setting) and of ``experiments/noise_seeds.py`` (the same maps with 1 cm lidar noise, 3
+more episode seeds), and sorts every robot of the walls and traps maps two ways:
+
+- **where it starts**: the two robots at each end of the start line (robots 0, 1, 13 and 14 of
+  15: start and goal within 2 m of the arena's side wall) or the 11 between them;
+- **whether the planner fits through the short way**: the robot's grid A* length with obstacles
+  inflated by the protective radius r (``robot.r_m``, 0.3 m: the safe directions keep a
+  sector 2 r wide free) against its reference, inflated by r0 (``robot.r0_m``, 0.15 m).
+  "Narrow": more than 10 % longer at r, or no way at r; the short way passes a gap that
+  rocks narrow below 2 r.
+
+Run from the repository root: ``python experiments/walls_failures.py`` (about a minute)
+-> ``results/collab/walls_failures.md`` (failures per policy and class).
+"""
+
+from __future__ import annotations
+
+from multiprocessing import Pool
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+ROOT = Path(__file__).resolve().parents[1]
+ENVS = ("walls", "traps")
+POLICIES = ("own-only", "fusion", "collab")
+EDGE = (0, 1, 13, 14)
+NARROW = 1.1
+
+
+def lengths(job: tuple[str, int]) -> list[dict]:
+    """Every robot's A* length at r0 and at r on one map (inf where there is no way at r)."""
+    from fftnav.config import SwarmConfig
+    from fftnav.optimal.gridgraph import UnreachableGoalError
+    from fftnav.optimal.reference import optimal_lengths
+    from fftnav.world.generate import generate_world
+
+    env, map_seed = job
+    robot = SwarmConfig().robot
+    world = generate_world(env, map_seed, robots=15)
+    at_r0, _ = optimal_lengths(world, r0_m=robot.r0_m)
+    try:
+        at_r, _ = optimal_lengths(world, r0_m=robot.r_m)
+    except (ValueError, UnreachableGoalError):  # a start, a goal or a way closed at r
+        at_r = np.array([optimal_lengths_one(world, i, robot.r_m) for i in range(15)])
+    return [{"env": env, "map_seed": map_seed, "robot": i, "astar_r0_m": at_r0[i],
+             "astar_r_m": at_r[i]} for i in range(15)]
+
+
+def optimal_lengths_one(world, robot: int, r_m: float) -> float:
+    """One robot's A* length at ``r_m`` (inf if its start, goal or way is closed)."""
+    from dataclasses import replace
+
+    from fftnav.optimal.gridgraph import UnreachableGoalError
+    from fftnav.optimal.reference import optimal_lengths
+
+    one = replace(world, starts=world.starts[robot:robot + 1], goals=world.goals[robot:robot + 1])
+    try:
+        return float(optimal_lengths(one, r0_m=r_m)[0][0])
+    except (ValueError, UnreachableGoalError):
+        return float("inf")
+
+
+def classify(episodes: pd.DataFrame, ways: pd.DataFrame) -> pd.DataFrame:
+    """``episodes`` (env, map_seed, robot, policy, arrived) with the classes ``edge`` and
+    ``narrow`` of each robot."""
+    table = episodes.merge(ways, on=["env", "map_seed", "robot"], how="left")
+    table["edge"] = table.robot.isin(EDGE)
+    table["narrow"] = ~(table.astar_r_m <= NARROW * table.astar_r0_m)
+    return table
+
+
+def report(runs: dict[str, pd.DataFrame]) -> str:
+    """Failures per env, policy and class, for each run."""
+    lines = ["# Who fails at walls and traps on the fresh maps 61-80", "",
+             "Written by `python experiments/walls_failures.py` from the committed episodes. "
+             f"Edge: robots {', '.join(map(str, EDGE))} of 15 (start and goal within 2 m of "
+             "the arena's side wall); middle: the other 11. Narrow: the grid A* way with "
+             f"obstacles inflated by r (0.3 m) is more than {NARROW - 1:.0%} longer than the "
+             "reference at r0 (0.15 m), or closed. Cells: failures / robots (AR %).", ""]
+    for title, table in runs.items():
+        lines += [f"## {title}", "",
+                  "| env | policy | AR % | edge | middle | narrow | AR % without narrow |",
+                  "|---|---|---|---|---|---|---|"]
+        for env in ENVS:
+            for policy in POLICIES:
+                part = table[(table.env == env) & (table.policy == policy)]
+                fail = ~part.arrived.astype(bool)
+
+                def cell(mask: pd.Series, fail: pd.Series = fail) -> str:
+                    n, k = int(mask.sum()), int((fail & mask).sum())
+                    return f"{k} / {n} ({100 * (n - k) / max(n, 1):.1f})"
+
+                wide = ~part.narrow
+                lines.append(
+                    f"| {env} | {policy} | {100 * (~fail).mean():.1f} | {cell(part.edge)} | "
+                    f"{cell(~part.edge)} | {cell(part.narrow)} | "
+                    f"{100 * (~fail[wide]).mean():.1f} |")
+        lines.append("")
+    return "\n".join(lines)
+
+
+def main() -> str:
+    jobs = [(env, m) for env in ENVS for m in range(61, 81)]
+    with Pool(2) as pool:
+        ways = pd.DataFrame([row for rows in pool.imap(lengths, jobs) for row in rows])
+    fresh = pd.read_csv(ROOT / "results" / "collab" / "fresh" / "episodes.csv")
+    noise = pd.read_csv(ROOT / "results" / "collab" / "noise_seeds.csv")
+    keep = ["env", "map_seed", "robot", "policy", "arrived"]
+    runs = {"Without noise (`experiments/collab/fresh.toml`)":
+            classify(fresh[fresh.env.isin(ENVS)][keep], ways),
+            "1 cm noise, 3 more episode seeds (`experiments/noise_seeds.py`)":
+            classify(noise[keep], ways)}
+    text = report(runs)
+    out = ROOT / "results" / "collab" / "walls_failures.md"
+    out.write_text(text)
+    print(text)
+    print(f"-> {out.relative_to(ROOT)}")
+    return text
+
+
+if __name__ == "__main__":
+    main()
