@@ -18,11 +18,17 @@ Run from the repository root: ``python experiments/walls_failures.py`` (about a 
 
 from __future__ import annotations
 
+from dataclasses import replace
 from multiprocessing import Pool
 from pathlib import Path
 
 import numpy as np
 import pandas as pd
+
+from fftnav.config import SwarmConfig
+from fftnav.optimal.gridgraph import UnreachableGoalError
+from fftnav.optimal.reference import optimal_lengths
+from fftnav.world.generate import generate_world
 
 ROOT = Path(__file__).resolve().parents[1]
 ENVS = ("walls", "traps")
@@ -33,11 +39,6 @@ NARROW = 1.1
 
 def lengths(job: tuple[str, int]) -> list[dict]:
     """Every robot's A* length at r0 and at r on one map (inf where there is no way at r)."""
-    from fftnav.config import SwarmConfig
-    from fftnav.optimal.gridgraph import UnreachableGoalError
-    from fftnav.optimal.reference import optimal_lengths
-    from fftnav.world.generate import generate_world
-
     env, map_seed = job
     robot = SwarmConfig().robot
     world = generate_world(env, map_seed, robots=15)
@@ -52,11 +53,6 @@ def lengths(job: tuple[str, int]) -> list[dict]:
 
 def optimal_lengths_one(world, robot: int, r_m: float) -> float:
     """One robot's A* length at ``r_m`` (inf if its start, goal or way is closed)."""
-    from dataclasses import replace
-
-    from fftnav.optimal.gridgraph import UnreachableGoalError
-    from fftnav.optimal.reference import optimal_lengths
-
     one = replace(world, starts=world.starts[robot:robot + 1], goals=world.goals[robot:robot + 1])
     try:
         return float(optimal_lengths(one, r0_m=r_m)[0][0])
@@ -71,6 +67,12 @@ def classify(episodes: pd.DataFrame, ways: pd.DataFrame) -> pd.DataFrame:
     table["edge"] = table.robot.isin(EDGE)
     table["narrow"] = ~(table.astar_r_m <= NARROW * table.astar_r0_m)
     return table
+
+
+def _failures(fail: pd.Series, mask: pd.Series) -> str:
+    """``failures / robots (AR %)`` of the robots in ``mask``."""
+    n, k = int(mask.sum()), int((fail & mask).sum())
+    return f"{k} / {n} ({100 * (n - k) / max(n, 1):.1f})"
 
 
 def report(runs: dict[str, pd.DataFrame]) -> str:
@@ -89,16 +91,10 @@ def report(runs: dict[str, pd.DataFrame]) -> str:
             for policy in POLICIES:
                 part = table[(table.env == env) & (table.policy == policy)]
                 fail = ~part.arrived.astype(bool)
-
-                def cell(mask: pd.Series, fail: pd.Series = fail) -> str:
-                    n, k = int(mask.sum()), int((fail & mask).sum())
-                    return f"{k} / {n} ({100 * (n - k) / max(n, 1):.1f})"
-
-                wide = ~part.narrow
                 lines.append(
-                    f"| {env} | {policy} | {100 * (~fail).mean():.1f} | {cell(part.edge)} | "
-                    f"{cell(~part.edge)} | {cell(part.narrow)} | "
-                    f"{100 * (~fail[wide]).mean():.1f} |")
+                    f"| {env} | {policy} | {100 * (~fail).mean():.1f} | "
+                    f"{_failures(fail, part.edge)} | {_failures(fail, ~part.edge)} | "
+                    f"{_failures(fail, part.narrow)} | {100 * (~fail[~part.narrow]).mean():.1f} |")
         lines.append("")
     return "\n".join(lines)
 
