@@ -2,7 +2,7 @@
 
 Reads the committed episodes of ``experiments/collab/fresh.toml`` (maps 61-80, 15 robots, the
 paper's setting) and of ``experiments/noise_seeds.py`` (the same maps with 1 cm lidar noise, 3
-more episode seeds), and sorts every robot of the walls and traps maps two ways:
+more episode seeds), and sorts every robot of the walls and traps maps three ways:
 
 - **where it starts**: the two robots at each end of the start line (robots 0, 1, 13 and 14 of
   15: start and goal within 2 m of the arena's side wall) or the 11 between them;
@@ -11,8 +11,14 @@ more episode seeds), and sorts every robot of the walls and traps maps two ways:
   sector 2 r wide free) against its reference, inflated by r0 (``robot.r0_m``, 0.15 m).
   "Narrow": more than 10 % longer at r, or no way at r; the short way passes a gap that
   rocks narrow below 2 r.
+- **whether the planner's own map closes the short way**: the way through an own map
+  (:class:`~fftnav.navigation.ownmap.OwnMaps`, at the planner's cell size and clearance:
+  0.2 m and 0.3 m) that holds every obstacle's surface, as if the robot had seen them all.
+  "Map-closed": more than 10 % longer than the reference, or no way. A cell is closed within
+  the clearance of a hit *cell*, so a straight gap stays open in it only from 0.7-0.8 m
+  on (2 r is 0.6 m).
 
-Run from the repository root: ``python experiments/walls_failures.py`` (about a minute)
+Run from the repository root: ``python experiments/walls_failures.py`` (about half a minute)
 -> ``results/collab/walls_failures.md`` (failures per policy and class).
 """
 
@@ -26,6 +32,8 @@ import numpy as np
 import pandas as pd
 
 from fftnav.config import SwarmConfig
+from fftnav.navigation.bug import PlannerParams
+from fftnav.navigation.ownmap import OwnMaps
 from fftnav.optimal.gridgraph import UnreachableGoalError
 from fftnav.optimal.reference import optimal_lengths
 from fftnav.world.generate import generate_world
@@ -35,6 +43,7 @@ ENVS = ("walls", "traps")
 POLICIES = ("own-only", "fusion", "collab")
 EDGE = (0, 1, 13, 14)
 NARROW = 1.1
+PARAMS = PlannerParams()
 
 
 def lengths(job: tuple[str, int]) -> list[dict]:
@@ -60,12 +69,46 @@ def optimal_lengths_one(world, robot: int, r_m: float) -> float:
         return float("inf")
 
 
+def surface_points(world, spacing_m: float = 0.02) -> np.ndarray:
+    """Points ``(P, 2)`` at most ``spacing_m`` apart along every solid's outline."""
+    points = []
+    for solid in world.solids:
+        ring = solid.outline()
+        for a, b in zip(ring, np.roll(ring, -1, axis=0), strict=True):
+            n = int(np.ceil(np.hypot(*(b - a)) / spacing_m)) + 1
+            points.append(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
+    return np.concatenate(points)
+
+
+def map_ways(job: tuple[str, int]) -> list[dict]:
+    """Every robot's way length through an own map holding every obstacle surface of one map
+    (the planner's cell size, clearance and margin; inf where it has no way)."""
+    env, map_seed = job
+    params = PARAMS
+    world = generate_world(env, map_seed, robots=15)
+    reach = np.concatenate([world.starts[:, :2], world.goals, [[0.0, 0.0], world.size_m]])
+    maps = OwnMaps(15, reach.min(axis=0) - params.map_margin_m,
+                   reach.max(axis=0) + params.map_margin_m,
+                   resolution_m=params.map_resolution_m, range_m=SwarmConfig().sensor.range_m,
+                   clearance_m=params.map_clearance_m)
+    cells = maps.cell(surface_points(world))
+    cells = cells[maps.inside(cells)]
+    maps.last_hit[:, cells[:, 0], cells[:, 1]] = 0  # seen as hits at tick 0, never passed
+    rows = []
+    for i in range(15):
+        maps.plan(i, world.starts[i, :2], world.goals[i])
+        rows.append({"env": env, "map_seed": map_seed, "robot": i,
+                     "own_map_m": maps.way_length(i, world.starts[i, :2])})
+    return rows
+
+
 def classify(episodes: pd.DataFrame, ways: pd.DataFrame) -> pd.DataFrame:
-    """``episodes`` (env, map_seed, robot, policy, arrived) with the classes ``edge`` and
-    ``narrow`` of each robot."""
+    """``episodes`` (env, map_seed, robot, policy, arrived) with the classes ``edge``,
+    ``narrow`` and ``map_closed`` of each robot."""
     table = episodes.merge(ways, on=["env", "map_seed", "robot"], how="left")
     table["edge"] = table.robot.isin(EDGE)
     table["narrow"] = ~(table.astar_r_m <= NARROW * table.astar_r0_m)
+    table["map_closed"] = ~(table.own_map_m <= NARROW * table.astar_r0_m)
     return table
 
 
@@ -82,11 +125,16 @@ def report(runs: dict[str, pd.DataFrame]) -> str:
              f"Edge: robots {', '.join(map(str, EDGE))} of 15 (start and goal within 2 m of "
              "the arena's side wall); middle: the other 11. Narrow: the grid A* way with "
              f"obstacles inflated by r (0.3 m) is more than {NARROW - 1:.0%} longer than the "
-             "reference at r0 (0.15 m), or closed. Cells: failures / robots (AR %).", ""]
+             "reference at r0 (0.15 m), or closed. Map-closed: the way through an own map at "
+             f"the planner's cell size and clearance ({PARAMS.map_resolution_m} m, "
+             f"{PARAMS.map_clearance_m} m) holding every obstacle "
+             f"surface is more than {NARROW - 1:.0%} longer than the reference, or closed. "
+             "Cells: failures / robots (AR %).", ""]
     for title, table in runs.items():
         lines += [f"## {title}", "",
-                  "| env | policy | AR % | edge | middle | narrow | AR % without narrow |",
-                  "|---|---|---|---|---|---|---|"]
+                  "| env | policy | AR % | edge | middle | narrow | AR % without narrow "
+                  "| map-closed | AR % without map-closed |",
+                  "|---|---|---|---|---|---|---|---|---|"]
         for env in ENVS:
             for policy in POLICIES:
                 part = table[(table.env == env) & (table.policy == policy)]
@@ -94,7 +142,9 @@ def report(runs: dict[str, pd.DataFrame]) -> str:
                 lines.append(
                     f"| {env} | {policy} | {100 * (~fail).mean():.1f} | "
                     f"{_failures(fail, part.edge)} | {_failures(fail, ~part.edge)} | "
-                    f"{_failures(fail, part.narrow)} | {100 * (~fail[~part.narrow]).mean():.1f} |")
+                    f"{_failures(fail, part.narrow)} | {100 * (~fail[~part.narrow]).mean():.1f} | "
+                    f"{_failures(fail, part.map_closed)} | "
+                    f"{100 * (~fail[~part.map_closed]).mean():.1f} |")
         lines.append("")
     return "\n".join(lines)
 
@@ -103,6 +153,8 @@ def main() -> str:
     jobs = [(env, m) for env in ENVS for m in range(61, 81)]
     with Pool(2) as pool:
         ways = pd.DataFrame([row for rows in pool.imap(lengths, jobs) for row in rows])
+        own = pd.DataFrame([row for rows in pool.imap(map_ways, jobs) for row in rows])
+    ways = ways.merge(own, on=["env", "map_seed", "robot"])
     fresh = pd.read_csv(ROOT / "results" / "collab" / "fresh" / "episodes.csv")
     noise = pd.read_csv(ROOT / "results" / "collab" / "noise_seeds.csv")
     keep = ["env", "map_seed", "robot", "policy", "arrived"]
