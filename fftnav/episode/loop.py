@@ -112,7 +112,8 @@ class _Onboard:
             policy = _guarded_policy(method) if plugin else method.policy
             self.controller: Controller = BugController(setup, policy,
                                                         full_circle=self.pipe.bank.full_circle,
-                                                        area_m=world.size_m)
+                                                        area_m=world.size_m,
+                                                        walled=world.boundary == "walls")
         elif plugin:
             self.controller = _guarded_controller(method, setup)
         else:

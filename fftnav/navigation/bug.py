@@ -146,7 +146,10 @@ class PlannerParams(Checked):
         way and its timer outlast a follow: heading for its goal again, a robot steers down its
         map's last planned field (a decision's or an escape's, if they planned since) until its
         next plan, and gives the way up at that plan if the follow kept it from becoming
-        ``progress_m`` shorter for ``guide_bound_s``.
+        ``progress_m`` shorter for ``guide_bound_s``. A robot the planner may guide (its
+        ``guide`` says so) also escapes along its way through the walls, and closes that way
+        when it has not become ``progress_m`` shorter for ``guide_bound_s`` (not
+        ``escape_bound_s``): what it cannot pass there, the next way goes round.
     map_every : int
         The own maps take every other beam of the scans of one control tick in ``map_every``.
     memory_radius_m : float
@@ -283,6 +286,9 @@ class BugPlanner:
     area_m : (float, float), optional
         Width and height (m) of the mission area, corner at the origin. The robots' own maps
         cover it, the starts and the goals, and ``map_margin_m`` around them.
+    walled : bool
+        Whether walls enclose the mission area: the ways through the walls only then stay
+        inside it (:class:`OwnMaps`, ``walled_m``).
     """
 
     n_robots: int
@@ -296,20 +302,23 @@ class BugPlanner:
     guide: Callable[[int], bool] | None = None
     range_m: float = 3.0
     area_m: tuple[float, float] | None = None
+    walled: bool = False
 
     @classmethod
     def for_swarm(cls, n_robots: int, config: SwarmConfig, decide: Callable[[int], int],
                   reconsider: Callable[[int, int], int] | None = None, *,
                   area_m: tuple[float, float] | None = None,
                   wait: Callable[[int], bool] | None = None,
-                  guide: Callable[[int], bool] | None = None) -> BugPlanner:
+                  guide: Callable[[int], bool] | None = None,
+                  walled: bool = False) -> BugPlanner:
         """The planner of ``n_robots`` robots of a swarm configuration (its geometry, lidar field
-        of view, speed limits and control rate) in a mission area ``area_m``, with the hooks
-        ``decide``, ``reconsider``, ``wait`` and ``guide`` of :class:`BugPlanner`."""
+        of view, speed limits and control rate) in a mission area ``area_m`` (``walled`` or
+        not), with the hooks ``decide``, ``reconsider``, ``wait`` and ``guide`` of
+        :class:`BugPlanner`."""
         return cls(n_robots, l_th_m=config.geometry.l_th_m, r0_m=config.robot.r0_m,
                    fov_rad=config.sensor.fov_rad, decide=decide,
                    params=PlannerParams.for_swarm(config), reconsider=reconsider, wait=wait,
-                   guide=guide, range_m=config.sensor.range_m, area_m=area_m)
+                   guide=guide, range_m=config.sensor.range_m, area_m=area_m, walled=walled)
 
     def __post_init__(self) -> None:
         self.memory = [_Memory() for _ in range(self.n_robots)]
@@ -411,7 +420,8 @@ class BugPlanner:
                                 reach.max(axis=0) + p.map_margin_m,
                                 resolution_m=p.map_resolution_m, range_m=self.range_m,
                                 clearance_m=p.map_clearance_m,
-                                squeeze_m=p.map_squeeze_m)
+                                squeeze_m=p.map_squeeze_m,
+                                walled_m=self.area_m if self.walled else None)
         if self._tick % p.map_every == 0:
             self.maps.update(self._tick, np.flatnonzero(moving), poses, ranges_m, angles,
                              beam_step=2)
@@ -500,23 +510,25 @@ class BugPlanner:
 
     def _escape_heading(self, i: int, mem: _Memory, t: float, view: _View) -> float | None:
         """Heading toward the point ``escape_lookahead_m`` along the way to the goal through
-        robot ``i``'s own map (replanned every ``replan_s``): that bearing if it is safe, else
-        the nearest safe heading to it on either side; None without a way (or a safe heading)."""
+        robot ``i``'s own map (replanned every ``replan_s``; through its walls only where the
+        planner may guide it): that bearing if it is safe, else the nearest safe heading to it
+        on either side; None without a way (or a safe heading)."""
         p, maps = self.params, self.maps
         assert maps is not None
         xy = view.pose[:2]
         if t - mem.planned_s >= p.replan_s - 1e-9:
             mem.planned_s = t
             squeeze = t - mem.still_s >= p.squeeze_after_s - 1e-9
-            maps.plan(i, xy, view.goal, squeeze=squeeze)
+            walls = self.guide is not None and self.guide(i)
+            bound_s = p.guide_bound_s if walls else p.escape_bound_s
+            maps.plan(i, xy, view.goal, squeeze=squeeze, walls_only=walls)
             way = maps.way_length(i, xy)
             if way < mem.way_best_m - p.progress_m:
                 mem.way_best_m, mem.way_best_s = way, t
-            elif t - mem.way_best_s > p.escape_bound_s and maps.block_way(i, xy,
-                                                                          p.escape_block_m):
+            elif t - mem.way_best_s > bound_s and maps.block_way(i, xy, p.escape_block_m):
                 self.loop_flips[i] += 1  # the way leads nowhere: close it, plan another
                 mem.flips += 1
-                maps.plan(i, xy, view.goal, squeeze=squeeze)
+                maps.plan(i, xy, view.goal, squeeze=squeeze, walls_only=walls)
                 mem.way_best_m, mem.way_best_s, mem.turn = maps.way_length(i, xy), t, 0
         return self._steer(i, mem, view)
 

@@ -56,12 +56,15 @@ class BugController(Controller):
     area_m : (float, float), optional
         Width and height (m) of the mission area (the world's map, corner at the origin): the
         robots' own maps cover it (:class:`~fftnav.navigation.bug.BugPlanner`).
+    walled : bool
+        Whether walls enclose the mission area (the world's boundary is ``"walls"``).
     """
 
     uses_pipeline = True
 
     def __init__(self, setup: ControllerSetup, policy: Policy, *,
-                 full_circle: bool, area_m: tuple[float, float] | None = None) -> None:
+                 full_circle: bool, area_m: tuple[float, float] | None = None,
+                 walled: bool = False) -> None:
         super().__init__(setup)
         n = setup.n_robots
         self.policy, self.rng = policy, setup.rng
@@ -84,7 +87,7 @@ class BugController(Controller):
         self._swarm: SwarmStep | None = None
         self.planner = BugPlanner.for_swarm(
             n, setup.config, self._decide, self._reconsider if policy.reconsiders else None,
-            area_m=area_m, wait=self._asks("waits"), guide=self._asks("guides"))
+            area_m=area_m, wait=self._asks("waits"), guide=self._asks("guides"), walled=walled)
 
     def _decide(self, i: int) -> int:
         ctx = DecisionContext(i, lambda: self.decider.own_probability(i),

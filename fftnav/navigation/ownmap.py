@@ -15,7 +15,7 @@ field to the goal is a Dijkstra run from the goal cell
 when asked (the planner asks once a second while a robot escapes). A second layer holds only
 wall segments (the robot's own, :meth:`OwnMaps.add_walls`, and its neighbours',
 :meth:`OwnMaps.add_segments`): ``plan(..., walls_only=True)`` plans through those alone, the way
-a guided robot follows (:class:`~fftnav.navigation.bug.BugPlanner`, ``guide``).
+a guided robot follows and escapes (:class:`~fftnav.navigation.bug.BugPlanner`, ``guide``).
 """
 
 from __future__ import annotations
@@ -70,11 +70,17 @@ class OwnMaps:
         way is planned again with the occupied cells dilated only by ``squeeze_m`` (the
         narrower ways). Default: ``clearance_m``; no second plan where ``squeeze_m`` closes the
         same cells as ``clearance_m``.
+    walled_m : (float, float), optional
+        Width and height (m) of a walled arena with its corner at the origin:
+        ``plan(..., walls_only=True)`` also closes the cells whose centres lie outside it
+        (nothing beyond its boundary walls is ever seen, so no wall segment closes it).
+        Default: none (an open world).
     """
 
     def __init__(self, n_robots: int, lo: np.ndarray, hi: np.ndarray, *, resolution_m: float,
                  range_m: float, clearance_m: float, squeeze_m: float | None = None,
-                 robot_radius_m: float = 0.45) -> None:
+                 robot_radius_m: float = 0.45,
+                 walled_m: tuple[float, float] | None = None) -> None:
         for name, value in (("resolution_m", resolution_m), ("range_m", range_m)):
             check_number(name, value, low=0, low_open=True)
         check_number("robot_radius_m", robot_radius_m, low=0)
@@ -105,6 +111,12 @@ class OwnMaps:
         #: Cells a robot closed itself: the ways of escapes that led nowhere (:meth:`block_way`).
         self.blocked = np.zeros((n_robots, *self.shape), dtype=bool)
         self._field: dict[int, np.ndarray] = {}
+        #: The cells outside the walled arena (closed in walls-only plans), None: open world.
+        self.outside: np.ndarray | None = None
+        if walled_m is not None:
+            rows, cols = np.mgrid[0:self.shape[0], 0:self.shape[1]]
+            x, y = self.lo[0] + (cols + 0.5) * self.res, self.lo[1] + (rows + 0.5) * self.res
+            self.outside = (x < 0) | (y < 0) | (x > walled_m[0]) | (y > walled_m[1])
         self._closed = np.zeros(self.shape, dtype=bool)  # the closed cells of the last plan
 
     def _disc_of(self, radius_m: float) -> np.ndarray:
@@ -222,13 +234,16 @@ class OwnMaps:
         planned again at ``squeeze_m`` when that leaves the robot no way); False when the robot
         or the goal lies outside the grid (no field). With ``walls_only``, the occupied cells
         are only those of wall segments (:meth:`add_walls`, :meth:`add_segments`) not seen
-        through since, and the cells :meth:`block_way` closed: no trunk, rock or robot."""
+        through since, the cells :meth:`block_way` closed and those outside a walled arena
+        (``walled_m``): no trunk, rock or robot."""
         here, there = self.cell(xy), self.cell(goal)
         if not (self.inside(here) and self.inside(there)):
             self._field.pop(robot, None)
             return False
         if walls_only:
             occupied = (self.last_wall[robot] > self.last_free[robot]) | self.blocked[robot]
+            if self.outside is not None:
+                occupied |= self.outside
         else:
             occupied = self.occupied(robot)
         field = self._distances(occupied, self._disc, here, there)

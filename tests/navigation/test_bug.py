@@ -376,3 +376,30 @@ def test_a_guided_robot_steers_round_a_known_wall_and_gives_the_way_up_when_it_l
     p.maps.add_walls(0, 10**6, wall)  # seen again (the scans of this test see nothing)
     cmd, _ = _step(p, 8.0, (5.5, 7.0, 0.0), goal, _mask())  # more than R closer: guided again
     assert p.memory[0].guided
+
+
+def test_a_robot_the_planner_may_guide_escapes_through_the_walls_and_gives_up_sooner():
+    """With a guide hook that says yes (collab's open gate), the escape of a robot held in
+    place plans through the walls of its map only: the scan hits all round it are not in its
+    way, which is the grid distance to the goal (10 m), where the plan through every hit goes
+    round them. And a way that does not shorten is closed after guide_bound_s (5 s here), not
+    escape_bound_s (15 s): every 6 s instead of every 16 s (plans are a second apart)."""
+
+    def flips(guide):
+        p = BugPlanner(1, l_th_m=0.6, r0_m=0.15, fov_rad=FOV, decide=lambda i: LEFT,
+                       params=PlannerParams(loop_timeout_s=5.0, escape_bound_s=15.0,
+                                            guide_bound_s=5.0), guide=guide)
+        at, ways = [], []
+        for k in range(300):
+            before = int(p.loop_flips[0])
+            _step(p, 0.1 * k, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+            if p.loop_flips[0] > before:
+                at.append(0.1 * k)
+                ways.append(p.maps.way_length(0, np.zeros(2)))
+        return at, ways
+
+    at, ways = flips(None)
+    assert at == pytest.approx([5.1, 21.1]) and ways[0] > 10.0 + 0.2
+    at, ways = flips(lambda i: True)
+    assert at == pytest.approx([5.1, 10.1, 16.1, 22.1, 28.1])
+    assert ways[0] == pytest.approx(10.0)

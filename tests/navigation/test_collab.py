@@ -279,7 +279,7 @@ def test_in_a_corridor_too_narrow_to_pass_the_robot_with_the_right_of_way_goes_s
     its path within 2 % of the optimum. Every time a robot asks whether it waits, the goal
     distance it holds for the other is the one the other last announced. Without the right of
     way (Walls.waits switched off) robot 0 backs out first and its path is more than 1.5 times
-    as long; robot 1 goes round the corridor both times."""
+    as long, and robot 1 drives through once robot 0 has gone; with it, robot 1 goes round."""
     from fftnav.navigation.messages import Walls
 
     world = _headon(0.8)
@@ -304,7 +304,8 @@ def test_in_a_corridor_too_narrow_to_pass_the_robot_with_the_right_of_way_goes_s
     alone = run_episode(world, "collab", seed=0).rows
     assert all(r.arrived for r in alone)
     assert alone[0].path_length_m > 1.5 * alone[0].optimal_length_m
-    assert rows[1].path_length_m == pytest.approx(alone[1].path_length_m, rel=0.1)
+    assert alone[1].path_length_m < 1.2 * alone[1].optimal_length_m
+    assert rows[1].path_length_m > 1.5 * rows[1].optimal_length_m
 
 
 def test_with_the_gate_closed_a_collab_robot_never_waits(monkeypatch):

@@ -297,3 +297,29 @@ def test_the_walls_only_plan_sees_wall_segments_and_not_other_hits():
     assert maps.way_length(0, start) == pytest.approx(
         astar(_closed_by_brute_force(shared, 0.2, 0.3), here, there).length_cells * 0.2,
         abs=1e-9)
+
+
+def test_the_walls_only_plan_of_a_walled_arena_stays_inside_it():
+    """With ``walled_m``, plan(walls_only=True) closes the cells outside the arena: a wall
+    across the whole 6 m x 4 m arena leaves no way, where an open world's plan goes round its
+    end outside the arena (grid A* on the wall's cells). The ordinary plan is not changed."""
+    wall = np.array([[[3.0, 0.0], [3.0, 4.0]]])
+    start, goal = np.array([1.0, 2.0]), np.array([5.0, 2.0])
+    open_world = _maps(lo=(-2.0, -2.0), hi=(8.0, 6.0))
+    walled = OwnMaps(1, np.array([-2.0, -2.0]), np.array([8.0, 6.0]), resolution_m=0.2,
+                     range_m=3.0, clearance_m=0.3, walled_m=(6.0, 4.0))
+    for maps in (open_world, walled):
+        maps.add_walls(0, 1, wall)
+    here, there = tuple(open_world.cell(start)), tuple(open_world.cell(goal))
+    cells = open_world.last_wall[0] >= 0
+    assert open_world.plan(0, start, goal, walls_only=True)
+    around = astar(_closed_by_brute_force(cells, 0.2, 0.3), here, there).length_cells * 0.2
+    assert math.isfinite(around)
+    assert open_world.way_length(0, start) == pytest.approx(around, abs=1e-9)
+    assert walled.plan(0, start, goal, walls_only=True)
+    assert walled.way_length(0, start) == math.inf
+    centres = walled.lo + (np.stack(np.nonzero(walled.outside)[::-1], axis=-1) + 0.5) * 0.2
+    assert ((centres < 0) | (centres > [6.0, 4.0])).any(axis=1).all()
+    assert walled.plan(0, start, goal)  # the ordinary plan does not read the walls layer
+    assert walled.way_length(0, start) == pytest.approx(
+        astar(np.zeros(walled.shape, dtype=bool), here, there).length_cells * 0.2, abs=1e-9)
