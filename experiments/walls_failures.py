@@ -32,8 +32,7 @@ import numpy as np
 import pandas as pd
 
 from fftnav.config import SwarmConfig
-from fftnav.navigation.bug import PlannerParams
-from fftnav.navigation.ownmap import OwnMaps
+from fftnav.navigation.bug import BugPlanner, PlannerParams
 from fftnav.optimal.gridgraph import UnreachableGoalError
 from fftnav.optimal.reference import optimal_lengths
 from fftnav.world.generate import generate_world
@@ -82,15 +81,13 @@ def surface_points(world, spacing_m: float = 0.02) -> np.ndarray:
 
 def map_ways(job: tuple[str, int]) -> list[dict]:
     """Every robot's way length through an own map holding every obstacle surface of one map
-    (the planner's cell size, clearance and margin; inf where it has no way)."""
+    (the planner's own maps of the swarm, :meth:`BugPlanner.new_maps`; inf where it has no
+    way)."""
     env, map_seed = job
-    params = PARAMS
     world = generate_world(env, map_seed, robots=15)
-    reach = np.concatenate([world.starts[:, :2], world.goals, [[0.0, 0.0], world.size_m]])
-    maps = OwnMaps(15, reach.min(axis=0) - params.map_margin_m,
-                   reach.max(axis=0) + params.map_margin_m,
-                   resolution_m=params.map_resolution_m, range_m=SwarmConfig().sensor.range_m,
-                   clearance_m=params.map_clearance_m)
+    planner = BugPlanner.for_swarm(15, SwarmConfig(), lambda i: 1, area_m=world.size_m,
+                                   walled=world.boundary == "walls")
+    maps = planner.new_maps(world.starts, world.goals)
     cells = maps.cell(surface_points(world))
     cells = cells[maps.inside(cells)]
     maps.last_hit[:, cells[:, 0], cells[:, 1]] = 0  # seen as hits at tick 0, never passed

@@ -414,14 +414,7 @@ class BugPlanner:
         # left, obstacle on the right) counter-clockwise, or from the left side clockwise
         moving = np.array([m.mode in (Mode.GO_TO_GOAL, Mode.FOLLOW) for m in self.memory])
         if self.maps is None:
-            reach = np.concatenate([poses[:, :2], goals]
-                                   + ([[[0.0, 0.0], list(self.area_m)]] if self.area_m else []))
-            self.maps = OwnMaps(k, reach.min(axis=0) - p.map_margin_m,
-                                reach.max(axis=0) + p.map_margin_m,
-                                resolution_m=p.map_resolution_m, range_m=self.range_m,
-                                clearance_m=p.map_clearance_m,
-                                squeeze_m=p.map_squeeze_m,
-                                walled_m=self.area_m if self.walled else None)
+            self.maps = self.new_maps(poses, goals)
         if self._tick % p.map_every == 0:
             self.maps.update(self._tick, np.flatnonzero(moving), poses, ranges_m, angles,
                              beam_step=2)
@@ -507,6 +500,19 @@ class BugPlanner:
         mem.flips, mem.escape, mem.reconsidered = 0, False, False
         mem.hits.append((float(xy[0]), float(xy[1]), dist, side))
         return left if side > 0 else right
+
+    def new_maps(self, poses: np.ndarray, goals: np.ndarray) -> OwnMaps:
+        """Empty own maps of the robots at ``poses`` ``(n, 3)`` with ``goals`` ``(n, 2)``: they
+        cover the mission area, the poses and the goals, and ``map_margin_m`` around them, at
+        the planner's cell size and clearances (the maps :meth:`step` makes at its first call)."""
+        p = self.params
+        reach = np.concatenate([np.asarray(poses, float)[:, :2], np.asarray(goals, float)]
+                               + ([[[0.0, 0.0], list(self.area_m)]] if self.area_m else []))
+        return OwnMaps(len(poses), reach.min(axis=0) - p.map_margin_m,
+                       reach.max(axis=0) + p.map_margin_m,
+                       resolution_m=p.map_resolution_m, range_m=self.range_m,
+                       clearance_m=p.map_clearance_m, squeeze_m=p.map_squeeze_m,
+                       walled_m=self.area_m if self.walled else None)
 
     def _escape_heading(self, i: int, mem: _Memory, t: float, view: _View) -> float | None:
         """Heading toward the point ``escape_lookahead_m`` along the way to the goal through
