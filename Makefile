@@ -33,8 +33,8 @@ benchmark: $(STAMP)
 
 # collab: the core comparison (walls, traps; own-only, fusion, collab; 20 maps), its walls
 # holdouts (maps 21-40 and 41-60), the fresh maps 61-80 of every kind (with and without lidar
-# noise; and which robots fail there), two robots head-on in a corridor, and the full sweep
-# (docs/experiments.md, [sweep]);
+# noise; which robots fail there, and where their time went, also with 240 s), two robots
+# head-on in a corridor, and the full sweep (docs/experiments.md, [sweep]);
 # the runs resume when rerun.
 collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/core.toml
@@ -50,6 +50,9 @@ collab: $(STAMP)
 	$(BIN)/python experiments/headon.py
 	$(BIN)/python experiments/noise_seeds.py
 	$(BIN)/python experiments/walls_failures.py
+	$(BIN)/python experiments/time_budget.py results/collab/fresh
+	$(BIN)/fftnav run experiments/collab/fresh_noise_240.toml
+	$(BIN)/python experiments/time_budget.py results/collab/fresh_noise_240
 	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)

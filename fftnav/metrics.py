@@ -38,6 +38,7 @@ __all__ = [
     "FailureCause",
     "FailureFeatures",
     "MEASURES",
+    "MOTIONS",
     "Measure",
     "NEIGHBOUR_REASONS",
     "arrival_rate",
@@ -47,6 +48,7 @@ __all__ = [
     "evaluate",
     "failure_features",
     "failure_thresholds",
+    "motions",
     "register_measure",
     "path_length_m",
     "spl",
@@ -596,6 +598,76 @@ def failure_features(
                            displacement_m=float(np.hypot(*(win[-1] - win[0]))),
                            progress_m=float(to_goal[0] - to_goal[1]),
                            near_share=float(near.mean()))
+
+
+#: What a moving robot does at a control tick (:func:`motions`), in the order of its codes.
+MOTIONS: tuple[str, ...] = ("drive", "correct", "turn", "stand")
+
+
+def motions(command: ArrayLike, moving: ArrayLike, *, control_hz: float,
+            turn_s: float = 1.0) -> np.ndarray:
+    """What each robot does at each control tick while it moves: drive, correct its heading,
+    turn, or stand.
+
+    A tick whose command has a forward speed ``v != 0`` drives. One with ``v = 0`` and a turn
+    rate ``w != 0`` rotates in place: it belongs to a *turn* when its run of consecutive
+    rotating ticks (of that robot, while it moves) lasts at least ``turn_s``, i.e. at least
+    ``ceil(turn_s * control_hz)`` ticks (turning round, as to go back), and to a heading
+    *correction* otherwise. ``v = w = 0`` stands (waiting, or blocked).
+
+    Parameters
+    ----------
+    command : array_like, shape (G, N, 2)
+        ``v`` (m/s) and ``w`` (rad/s) of G control ticks and N robots.
+    moving : array_like of bool, shape (G, N)
+        Whether the robot was on its way at the tick (departed, not arrived, not stopped).
+    control_hz : float
+        Control ticks per second.
+    turn_s : float
+        Shortest turn (s); 0 makes every rotation a turn.
+
+    Returns
+    -------
+    numpy.ndarray of int8, shape (G, N)
+        The index into :data:`MOTIONS` of each tick, -1 where the robot is not moving.
+
+    Examples
+    --------
+    One robot, 10 Hz: it drives, corrects for one tick, drives, turns for 10 ticks, stands,
+    then arrives.
+
+    >>> import numpy as np
+    >>> v = [0.5, 0.0, 0.5] + [0.0] * 10 + [0.0, 0.0]
+    >>> w = [0.0, 1.5, 0.0] + [1.5] * 10 + [0.0, 0.0]
+    >>> moving = [True] * 14 + [False]
+    >>> kinds = motions(np.c_[v, w][:, None, :], np.array(moving)[:, None], control_hz=10.0)
+    >>> [MOTIONS[k] if k >= 0 else "-" for k in kinds[:, 0]]  # doctest: +NORMALIZE_WHITESPACE
+    ['drive', 'correct', 'drive', 'turn', 'turn', 'turn', 'turn', 'turn', 'turn', 'turn',
+     'turn', 'turn', 'turn', 'stand', '-']
+    """
+    command = np.asarray(command, dtype=float)
+    moving = np.asarray(moving, dtype=bool)
+    if command.ndim != 3 or command.shape[2] != 2:
+        raise ValueError(f"command must have shape (G, N, 2), got shape {command.shape}")
+    if moving.shape != command.shape[:2]:
+        raise ValueError(f"moving must have shape {command.shape[:2]} (command's G, N), "
+                         f"got shape {moving.shape}")
+    check_number("control_hz", control_hz, low=0, low_open=True)
+    check_number("turn_s", turn_s, low=0)
+    v, w = command[..., 0], command[..., 1]
+    rotating = moving & (v == 0) & (w != 0)
+    kinds = np.where(v != 0, 0, np.where(w != 0, 1, 3)).astype(np.int8)
+    # runs of rotating ticks: their lengths, spread back over their ticks
+    edge = np.diff(np.pad(rotating, ((1, 1), (0, 0))).astype(np.int8), axis=0)
+    first, robot = np.nonzero(edge == 1)
+    last, robot_end = np.nonzero(edge == -1)
+    order, order_end = np.lexsort((first, robot)), np.lexsort((last, robot_end))
+    first, robot, last = first[order], robot[order], last[order_end]
+    long_run = (last - first) >= math.ceil(turn_s * control_hz - 1e-9)
+    for a, b, r in zip(first[long_run], last[long_run], robot[long_run], strict=True):
+        kinds[a:b, r] = 2
+    kinds[~moving] = -1
+    return kinds
 
 
 def classify_failure(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 import math
 
 import numpy as np
@@ -10,10 +11,12 @@ import pytest
 
 from fftnav.metrics import (
     MEASURES,
+    MOTIONS,
     arrival_rate,
     arrived,
     average_path_length_m,
     evaluate,
+    motions,
     path_length_m,
     spl,
     spl_terms,
@@ -421,3 +424,89 @@ def test_classify_failure_refuses_a_bad_trajectory():
         _classify(np.zeros((0, 2)))
     with pytest.raises(ValueError, match=r"trajectory must be finite"):
         _classify(np.full((3, 2), np.nan))
+
+
+def _motions_by_loop(command, moving, control_hz, turn_s):
+    """The oracle of motions(): each robot's ticks walked in order, runs grouped by hand."""
+    g, n = moving.shape
+    out = np.full((g, n), -1)
+    shortest = math.ceil(turn_s * control_hz - 1e-9)
+    for r in range(n):
+        for rotates, run in itertools.groupby(
+                range(g), key=lambda k: bool(moving[k, r] and command[k, r, 0] == 0
+                                             and command[k, r, 1] != 0)):
+            ticks = list(run)
+            for k in ticks:
+                if not moving[k, r]:
+                    continue
+                if rotates:
+                    out[k, r] = MOTIONS.index("turn" if len(ticks) >= shortest else "correct")
+                else:
+                    out[k, r] = MOTIONS.index("drive" if command[k, r, 0] != 0 else "stand")
+    return out
+
+
+@pytest.mark.parametrize("turn_s", [0.0, 0.3, 1.0])
+def test_motions_match_a_tick_by_tick_walk(turn_s):
+    """Random commands of 5 robots (driving, rotating in runs of every length, standing),
+    random gaps in moving: motions() against grouping each robot's ticks by hand."""
+    rng = np.random.default_rng(11)
+    g, n = 400, 5
+    v = np.where(rng.random((g, n)) < 0.4, 0.5, 0.0)
+    w = np.where(rng.random((g, n)) < 0.7, rng.choice([-1.5, 0.4, 1.5], (g, n)), 0.0)
+    w[(v == 0) & (rng.random((g, n)) < 0.1)] = 0.0
+    v[100:130, 1], w[100:130, 1] = 0.0, 1.5  # a long turn
+    moving = rng.random((g, n)) < 0.95
+    command = np.stack([v, w], axis=-1)
+    kinds = motions(command, moving, control_hz=10.0, turn_s=turn_s)
+    assert np.array_equal(kinds, _motions_by_loop(command, moving, 10.0, turn_s))
+    assert set(np.unique(kinds)) == ({-1, 0, 2, 3} if turn_s == 0 else {-1, 0, 1, 2, 3})
+    assert (kinds[100:130, 1][moving[100:130, 1]] == MOTIONS.index("turn")).all()
+
+
+def test_a_pause_in_moving_splits_a_rotation_run():
+    """Ten rotating ticks with the robot not moving at the fifth: two runs of 4 and 5 ticks,
+    both corrections at a 1 s turn (10 ticks), and the fifth tick is -1."""
+    command = np.tile([0.0, 1.0], (10, 1, 1))
+    moving = np.ones((10, 1), dtype=bool)
+    moving[4] = False
+    kinds = motions(command, moving, control_hz=10.0)
+    assert kinds[:, 0].tolist() == [1, 1, 1, 1, -1, 1, 1, 1, 1, 1]
+    moving[4] = True
+    assert (motions(command, moving, control_hz=10.0) == MOTIONS.index("turn")).all()
+
+
+def test_motions_name_bad_input():
+    command, moving = np.zeros((4, 2, 2)), np.ones((4, 2), dtype=bool)
+    with pytest.raises(ValueError, match=r"command must have shape \(G, N, 2\), got shape \(4, 2\)"):
+        motions(np.zeros((4, 2)), moving, control_hz=10.0)
+    with pytest.raises(ValueError, match=r"moving must have shape \(4, 2\).*got shape \(4, 3\)"):
+        motions(command, np.ones((4, 3), dtype=bool), control_hz=10.0)
+    with pytest.raises(ValueError, match="control_hz"):
+        motions(command, moving, control_hz=0.0)
+    with pytest.raises(ValueError, match="turn_s"):
+        motions(command, moving, control_hz=10.0, turn_s=-1.0)
+
+
+def test_motions_of_a_recorded_bug_episode_add_up_to_its_paths_and_times():
+    """A recorded 4-robot Bug episode (own-only, a small ruin, 12 s): every moving tick is one
+    motion, and the driving ticks at v_max make up each robot's path length (the simulator's
+    odometry, not the commands) to within a few centimetres; Bug robots never stand."""
+    import io
+
+    from fftnav.config import EpisodeConfig, SwarmConfig
+    from fftnav.episode import run_episode
+    from fftnav.episode.recording import STATUS, read_recording
+    from fftnav.world import generate_world
+
+    world = generate_world("rocky", 1003, robots=4, size_m=(10.0, 10.0), goal_y_m=9.0)
+    config = SwarmConfig(episode=EpisodeConfig(time_limit_s=12.0))
+    result = run_episode(world, "own-only", seed=1, config=config, record=True)
+    rec = read_recording(io.BytesIO(result.recording()))
+    moving = rec.status[:-1] == STATUS.index("moving")
+    kinds = motions(rec.command[:-1], moving, control_hz=config.episode.control_hz)
+    assert ((kinds >= 0) == moving).all()
+    drive = (kinds == MOTIONS.index("drive")).sum(axis=0) * config.robot.v_max_mps / 10.0
+    np.testing.assert_allclose(drive, [r.path_length_m for r in result.rows], atol=0.05)
+    assert (kinds == MOTIONS.index("correct")).any()
+    assert not (kinds == MOTIONS.index("stand")).any()
