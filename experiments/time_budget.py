@@ -4,10 +4,12 @@ A robot that does not arrive at walls and traps has usually not gone far out of 
 ran out of the 120 s. This script reads the recordings an experiment keeps (by default those of
 the episodes in which a robot failed; :mod:`fftnav.episode.recording`) and splits every moving
 robot's control ticks with :func:`fftnav.metrics.motions`: driving (``v != 0``), correcting its
-heading (rotating in place for less than 1 s), turning (rotating in place for 1 s or more, as to
+heading (rotating in place one way for less than 1 s), turning (one way for 1 s or more, as to
 go back) and standing, overall and by the planner's mode at the tick (the controller's
-``state/mode``: heading for the goal, following a boundary, escaping, waiting). Robots that
-failed and robots that arrived in the same episodes are counted apart.
+``state/mode``: heading for the goal, following a boundary, escaping, waiting). It also counts
+the *swings*: rotating ticks that reverse the rotation of the tick before (a robot swinging
+left and right on the spot). Robots that failed and robots that arrived in the same episodes
+are counted apart.
 
 It also gives, from ``FOLDER/episodes.csv``, the AR each env and policy would have had at
 shorter time limits than the run's (a robot arrived by T if its arrival time is at most T; the
@@ -51,6 +53,10 @@ def budget(path: Path) -> list[dict]:
                     turn_s=TURN_S)
     mode = rec.state["mode"][:-1]
     turn = MOTIONS.index("turn")
+    rotating = np.isin(kinds, (MOTIONS.index("correct"), turn))
+    w = np.sign(rec.command[:-1, :, 1])
+    swing = np.zeros_like(rotating)
+    swing[1:] = rotating[1:] & rotating[:-1] & (w[1:] == -w[:-1])
     rows = []
     for i, row in enumerate(rec.rows):
         k = kinds[:, i]
@@ -58,6 +64,7 @@ def budget(path: Path) -> list[dict]:
         out = {"env": rec.world.env, "map_seed": rec.world.seed, "policy": rec.policy,
                "robot": i, "arrived": bool(row["arrived"]), "failure": row["failure"],
                "moving_s": float((k >= 0).sum() * dt), "turns": len(starts),
+               "swing_s": float(swing[:, i].sum() * dt),
                "goal_left_m": float(np.hypot(*(rec.pose[-1, i, :2] - rec.world.goals[i])))}
         for j, name in enumerate(MOTIONS):
             out[f"{name}_s"] = float((k == j).sum() * dt)
@@ -83,17 +90,19 @@ def report(table: pd.DataFrame, folder: Path) -> str:
     lines = [_title(folder),
              "Written by `python experiments/time_budget.py` from the recordings the experiment "
              "kept (the episodes in which a robot did not arrive), with "
-             f"`fftnav.metrics.motions` (a turn: rotating in place for at least {TURN_S:g} s; "
-             "a correction: less). Shares in % of the robots' moving time; turns and seconds "
-             "per robot.", "",
+             f"`fftnav.metrics.motions` (a turn: rotating in place one way for at least "
+             f"{TURN_S:g} s; a correction: less). Shares in % of the robots' moving time; "
+             "swing: the rotating ticks that reverse the tick before's rotation (part of the "
+             "corrections); turns and seconds per robot.", "",
              "| env | policy | outcome | robots | moving s | drive | correct | turn | stand "
-             "| turns | goal left m |", "|---|---|---|---|---|---|---|---|---|---|---|"]
+             "| swing | turns | goal left m |", "|---|---|---|---|---|---|---|---|---|---|---|---|"]
     for (env, policy, arrived), g in table.groupby(["env", "policy", "arrived"]):
         lines.append(
             f"| {env} | {policy} | {'arrived' if arrived else 'failed'} | {len(g)} "
             f"| {g.moving_s.mean():.1f} | {_pct(g.drive_s, g.moving_s)} "
             f"| {_pct(g.correct_s, g.moving_s)} | {_pct(g.turn_s, g.moving_s)} "
-            f"| {_pct(g.stand_s, g.moving_s)} | {g.turns.mean():.1f} "
+            f"| {_pct(g.stand_s, g.moving_s)} | {_pct(g.swing_s, g.moving_s)} "
+            f"| {g.turns.mean():.1f} "
             f"| {g.goal_left_m.mean() if not arrived else float('nan'):.1f} |")
     lines += ["", "By the planner's mode, every policy together: the share of the moving time "
               "spent in the mode, and within it the share spent rotating in place.", "",

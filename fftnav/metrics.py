@@ -611,9 +611,10 @@ def motions(command: ArrayLike, moving: ArrayLike, *, control_hz: float,
 
     A tick whose command has a forward speed ``v != 0`` drives. One with ``v = 0`` and a turn
     rate ``w != 0`` rotates in place: it belongs to a *turn* when its run of consecutive
-    rotating ticks (of that robot, while it moves) lasts at least ``turn_s``, i.e. at least
-    ``ceil(turn_s * control_hz)`` ticks (turning round, as to go back), and to a heading
-    *correction* otherwise. ``v = w = 0`` stands (waiting, or blocked).
+    ticks rotating the same way (of that robot, while it moves) lasts at least ``turn_s``,
+    i.e. at least ``ceil(turn_s * control_hz)`` ticks (turning round, as to go back), and to
+    a heading *correction* otherwise; a robot that swings left and right on the spot makes
+    one-tick corrections. ``v = w = 0`` stands (waiting, or blocked).
 
     Parameters
     ----------
@@ -633,17 +634,17 @@ def motions(command: ArrayLike, moving: ArrayLike, *, control_hz: float,
 
     Examples
     --------
-    One robot, 10 Hz: it drives, corrects for one tick, drives, turns for 10 ticks, stands,
-    then arrives.
+    One robot, 10 Hz: it drives, corrects for one tick, drives, turns left for 10 ticks,
+    swings right and left, stands, then arrives.
 
     >>> import numpy as np
-    >>> v = [0.5, 0.0, 0.5] + [0.0] * 10 + [0.0, 0.0]
-    >>> w = [0.0, 1.5, 0.0] + [1.5] * 10 + [0.0, 0.0]
-    >>> moving = [True] * 14 + [False]
+    >>> v = [0.5, 0.0, 0.5] + [0.0] * 10 + [0.0, 0.0, 0.0, 0.0]
+    >>> w = [0.0, 1.5, 0.0] + [1.5] * 10 + [-1.5, 1.5, 0.0, 0.0]
+    >>> moving = [True] * 16 + [False]
     >>> kinds = motions(np.c_[v, w][:, None, :], np.array(moving)[:, None], control_hz=10.0)
     >>> [MOTIONS[k] if k >= 0 else "-" for k in kinds[:, 0]]  # doctest: +NORMALIZE_WHITESPACE
     ['drive', 'correct', 'drive', 'turn', 'turn', 'turn', 'turn', 'turn', 'turn', 'turn',
-     'turn', 'turn', 'turn', 'stand', '-']
+     'turn', 'turn', 'turn', 'correct', 'correct', 'stand', '-']
     """
     command = np.asarray(command, dtype=float)
     moving = np.asarray(moving, dtype=bool)
@@ -657,12 +658,13 @@ def motions(command: ArrayLike, moving: ArrayLike, *, control_hz: float,
     v, w = command[..., 0], command[..., 1]
     rotating = moving & (v == 0) & (w != 0)
     kinds = np.where(v != 0, 0, np.where(w != 0, 1, 3)).astype(np.int8)
-    # runs of rotating ticks: their lengths, spread back over their ticks
-    edge = np.diff(np.pad(rotating, ((1, 1), (0, 0))).astype(np.int8), axis=0)
-    first, robot = np.nonzero(edge == 1)
-    last, robot_end = np.nonzero(edge == -1)
+    # runs of ticks rotating the same way: where each begins and ends (per robot, in order)
+    way = np.pad(np.where(rotating, np.sign(w), 0.0), ((1, 1), (0, 0)))
+    change = way[1:] != way[:-1]
+    first, robot = np.nonzero(change[:-1] & (way[1:-1] != 0))
+    last, robot_end = np.nonzero(change[1:] & (way[1:-1] != 0))
     order, order_end = np.lexsort((first, robot)), np.lexsort((last, robot_end))
-    first, robot, last = first[order], robot[order], last[order_end]
+    first, robot, last = first[order], robot[order], last[order_end] + 1
     long_run = (last - first) >= math.ceil(turn_s * control_hz - 1e-9)
     for a, b, r in zip(first[long_run], last[long_run], robot[long_run], strict=True):
         kinds[a:b, r] = 2

@@ -427,14 +427,15 @@ def test_classify_failure_refuses_a_bad_trajectory():
 
 
 def _motions_by_loop(command, moving, control_hz, turn_s):
-    """The oracle of motions(): each robot's ticks walked in order, runs grouped by hand."""
+    """The oracle of motions(): each robot's ticks walked in order, grouped by hand into runs
+    of rotating one way (key +-1) and the rest (key 0)."""
     g, n = moving.shape
     out = np.full((g, n), -1)
     shortest = math.ceil(turn_s * control_hz - 1e-9)
     for r in range(n):
         for rotates, run in itertools.groupby(
-                range(g), key=lambda k: bool(moving[k, r] and command[k, r, 0] == 0
-                                             and command[k, r, 1] != 0)):
+                range(g), key=lambda k: np.sign(command[k, r, 1]) if (
+                    moving[k, r] and command[k, r, 0] == 0 and command[k, r, 1] != 0) else 0):
             ticks = list(run)
             for k in ticks:
                 if not moving[k, r]:
@@ -448,8 +449,9 @@ def _motions_by_loop(command, moving, control_hz, turn_s):
 
 @pytest.mark.parametrize("turn_s", [0.0, 0.3, 1.0])
 def test_motions_match_a_tick_by_tick_walk(turn_s):
-    """Random commands of 5 robots (driving, rotating in runs of every length, standing),
-    random gaps in moving: motions() against grouping each robot's ticks by hand."""
+    """Random commands of 5 robots (driving, rotating either way in runs of every length,
+    standing), random gaps in moving: motions() against grouping each robot's ticks by
+    hand."""
     rng = np.random.default_rng(11)
     g, n = 400, 5
     v = np.where(rng.random((g, n)) < 0.4, 0.5, 0.0)
@@ -462,6 +464,17 @@ def test_motions_match_a_tick_by_tick_walk(turn_s):
     assert np.array_equal(kinds, _motions_by_loop(command, moving, 10.0, turn_s))
     assert set(np.unique(kinds)) == ({-1, 0, 2, 3} if turn_s == 0 else {-1, 0, 1, 2, 3})
     assert (kinds[100:130, 1][moving[100:130, 1]] == MOTIONS.index("turn")).all()
+
+
+def test_a_robot_swinging_left_and_right_makes_corrections_not_a_turn():
+    """30 ticks alternating w = +1.5 and -1.5 rad/s on the spot (a dithering robot): 30
+    one-tick corrections; the same 30 ticks all one way are a turn."""
+    w = np.where(np.arange(30) % 2 == 0, 1.5, -1.5)
+    command = np.stack([np.zeros(30), w], axis=-1)[:, None, :]
+    moving = np.ones((30, 1), dtype=bool)
+    assert (motions(command, moving, control_hz=10.0) == MOTIONS.index("correct")).all()
+    command[:, 0, 1] = 1.5
+    assert (motions(command, moving, control_hz=10.0) == MOTIONS.index("turn")).all()
 
 
 def test_a_pause_in_moving_splits_a_rotation_run():
