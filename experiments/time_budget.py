@@ -60,7 +60,7 @@ def budget(path: Path) -> list[dict]:
     rows = []
     for i, row in enumerate(rec.rows):
         k = kinds[:, i]
-        starts = np.flatnonzero((k == turn) & (np.r_[-1, k[:-1]] != turn))
+        starts = np.flatnonzero((k == turn) & ((np.r_[-1, k[:-1]] != turn) | swing[:, i]))
         out = {"env": rec.world.env, "map_seed": rec.world.seed, "policy": rec.policy,
                "robot": i, "arrived": bool(row["arrived"]), "failure": row["failure"],
                "moving_s": float((k >= 0).sum() * dt), "turns": len(starts),
@@ -71,7 +71,7 @@ def budget(path: Path) -> list[dict]:
         for code, name in MODES.items():
             here = (k >= 0) & (mode[:, i] == code)
             out[f"{name}_s"] = float(here.sum() * dt)
-            out[f"{name}_rotating_s"] = float((here & np.isin(k, (1, 2))).sum() * dt)
+            out[f"{name}_rotating_s"] = float((here & rotating[:, i]).sum() * dt)
         rows.append(out)
     return rows
 

@@ -655,9 +655,10 @@ def motions(command: ArrayLike, moving: ArrayLike, *, control_hz: float,
                          f"got shape {moving.shape}")
     check_number("control_hz", control_hz, low=0, low_open=True)
     check_number("turn_s", turn_s, low=0)
+    drive, correct, turn, stand = (MOTIONS.index(k) for k in ("drive", "correct", "turn", "stand"))
     v, w = command[..., 0], command[..., 1]
     rotating = moving & (v == 0) & (w != 0)
-    kinds = np.where(v != 0, 0, np.where(w != 0, 1, 3)).astype(np.int8)
+    kinds = np.where(v != 0, drive, np.where(w != 0, correct, stand)).astype(np.int8)
     # runs of ticks rotating the same way: where each begins and ends (per robot, in order)
     way = np.pad(np.where(rotating, np.sign(w), 0.0), ((1, 1), (0, 0)))
     change = way[1:] != way[:-1]
@@ -667,7 +668,7 @@ def motions(command: ArrayLike, moving: ArrayLike, *, control_hz: float,
     first, robot, last = first[order], robot[order], last[order_end] + 1
     long_run = (last - first) >= math.ceil(turn_s * control_hz - 1e-9)
     for a, b, r in zip(first[long_run], last[long_run], robot[long_run], strict=True):
-        kinds[a:b, r] = 2
+        kinds[a:b, r] = turn
     kinds[~moving] = -1
     return kinds
 
