@@ -35,10 +35,12 @@ import pandas as pd
 
 from fftnav.episode.recording import STATUS, read_recording
 from fftnav.metrics import MOTIONS, motions
+from fftnav.navigation.bugcontrol import STATE_MODES
 
 ROOT = Path(__file__).resolve().parents[1]
-#: The planner's modes in the controller's state (BugController.state), by code.
-MODES = {0: "goal", 1: "follow", 2: "escape", 4: "wait"}
+#: The planner's modes in the controller's state (BugController.state) that a moving robot is
+#: in, by code.
+MODES = {STATE_MODES.index(name): name for name in ("goal", "follow", "escape", "wait")}
 TURN_S = 1.0
 #: Time limits (s) of the AR table, up to the run's own.
 LIMITS_S = (60.0, 90.0, 120.0, 150.0, 180.0, 210.0, 240.0)

@@ -26,7 +26,7 @@ from fftnav.navigation.controllers import Controller, ControllerSetup, SwarmStep
 from fftnav.navigation.decider import Decider
 from fftnav.navigation.policies import DecisionContext, Policy
 
-__all__ = ["SIDE_MARGIN_M", "SIDE_RADIUS_M", "UNKNOWN_COST", "BugController"]
+__all__ = ["SIDE_MARGIN_M", "SIDE_RADIUS_M", "STATE_MODES", "UNKNOWN_COST", "BugController"]
 
 #: ``collab``'s map says which side only when one side's way is this much shorter (m).
 SIDE_MARGIN_M = 1.0
@@ -38,8 +38,11 @@ UNKNOWN_COST = 3.0
 SIDE_RADIUS_M = 1.0
 
 
-#: ``state()["mode"]`` of each planner mode (escape, a flag of a follow, is 2).
-_MODE_CODES = {Mode.GO_TO_GOAL: 0, Mode.FOLLOW: 1, Mode.DONE: 3, Mode.WAIT: 4}
+#: The names of ``state()["mode"]``, by code (escape, a flag of a follow, is 2).
+STATE_MODES: tuple[str, ...] = ("goal", "follow", "escape", "done", "wait")
+#: ``state()["mode"]`` of each planner mode.
+_MODE_CODES = {mode: STATE_MODES.index(name) for mode, name in (
+    (Mode.GO_TO_GOAL, "goal"), (Mode.FOLLOW, "follow"), (Mode.DONE, "done"), (Mode.WAIT, "wait"))}
 
 
 class BugController(Controller):
