@@ -12,10 +12,14 @@ Run from the repository root: ``python experiments/noise_seeds.py`` (2 worker pr
 about 10 minutes on 2 cores) -> ``results/collab/noise_seeds.csv`` (one row per env, map,
 seed, policy and robot: arrived, SPL, failure cause) and ``results/collab/noise_seeds.md``
 (AR and SPL per env and policy, the per-map SPL differences with their paired Wilcoxon p).
+``--set KEY=VALUE`` (repeatable) changes a config key for every policy, as ``fftnav episode
+--set`` does (``--set planner.heading_tol_deg=10``), and ``--out PATH`` names the CSV (the
+report beside it, ``.md``).
 """
 
 from __future__ import annotations
 
+import argparse
 import zlib
 from multiprocessing import Pool
 from pathlib import Path
@@ -37,15 +41,16 @@ def seed_of(env: str, map_seed: int, k: int) -> int:
                .generate_state(1)[0])
 
 
-def run_map(job: tuple[str, int]) -> list[dict]:
-    """Every policy and seed of one map (its reference computed once)."""
+def run_map(job: tuple[str, int, dict[str, str]]) -> list[dict]:
+    """Every policy and seed of one map (its reference computed once), with the config
+    overrides of the job."""
     from fftnav.config import SwarmConfig
     from fftnav.episode import run_episode
     from fftnav.optimal.reference import optimal_lengths
     from fftnav.world.generate import generate_world
 
-    env, map_seed = job
-    config = SwarmConfig().replace({"sensor.noise_std_m": NOISE_STD_M})
+    env, map_seed, overrides = job
+    config = SwarmConfig().replace({"sensor.noise_std_m": NOISE_STD_M, **overrides})
     world = generate_world(env, map_seed, robots=15)
     reference = tuple(np.asarray(r) for r in optimal_lengths(world, r0_m=config.robot.r0_m))
     rows = []
@@ -59,15 +64,19 @@ def run_map(job: tuple[str, int]) -> list[dict]:
     return rows
 
 
-def report(table: pd.DataFrame) -> str:
-    """AR and SPL per env and policy, and the paired per-map SPL differences of ``collab``."""
+def report(table: pd.DataFrame, overrides: dict[str, str] | None = None) -> str:
+    """AR and SPL per env and policy, and the paired per-map SPL differences of ``collab``;
+    ``overrides``: the ``--set`` keys the table was run with."""
     from fftnav.runner.summary import paired_tests
 
     tests = {ref: paired_tests(table, reference=ref).set_index(["env", "policy"]).p_value
              for ref in ("own-only", "fusion")}
     lines = [f"# `collab` with {NOISE_STD_M * 100:.0f} cm range noise, {SEEDS} more episode "
-             f"seeds per map (maps {MAPS.start}-{MAPS.stop - 1})", "",
-             "Written by `python experiments/noise_seeds.py`. AR and SPL in % over "
+             f"seeds per map (maps {MAPS.start}-{MAPS.stop - 1})"
+             + "".join(f", {k} = {v}" for k, v in (overrides or {}).items()), "",
+             "Written by `python experiments/noise_seeds.py"
+             + "".join(f" --set {k}={v}" for k, v in (overrides or {}).items())
+             + "`. AR and SPL in % over "
              f"{len(MAPS)} maps x {SEEDS} seeds x 15 robots; differences are the mean of the "
              "per-map SPL differences (a map's SPL: the mean over its seeds' robots), in points, "
              "with the paired two-sided Wilcoxon signed-rank p over maps.", "",
@@ -91,16 +100,31 @@ def report(table: pd.DataFrame) -> str:
     return "\n".join(lines) + "\n"
 
 
-def main() -> pd.DataFrame:
-    jobs = [(env, m) for env in ENVS for m in MAPS]
+def main(argv: list[str] | None = None) -> pd.DataFrame:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    parser.add_argument("--set", action="append", default=[], metavar="KEY=VALUE",
+                        help="a config key for every policy (planner.heading_tol_deg=10)")
+    parser.add_argument("--out", type=Path, default=ROOT / "results/collab/noise_seeds.csv",
+                        help="the CSV; its report beside it (.md)")
+    args = parser.parse_args(argv)
+    from fftnav.config import SwarmConfig
+    bad = [item for item in args.set if "=" not in item]
+    if bad:
+        parser.error(f"--set must be KEY=VALUE, got --set {bad[0]}")
+    overrides = dict(item.split("=", 1) for item in args.set)
+    try:
+        SwarmConfig().replace(overrides)
+    except ValueError as exc:
+        parser.error(str(exc))
+    jobs = [(env, m, overrides) for env in ENVS for m in MAPS]
     with Pool(2) as pool:
         table = pd.DataFrame([row for rows in pool.imap(run_map, jobs) for row in rows])
-    out = ROOT / "results" / "collab" / "noise_seeds.csv"
+    out = args.out.resolve()
     table.to_csv(out, index=False)
-    text = report(table)
+    text = report(table, overrides)
     (out.with_suffix(".md")).write_text(text)
     print(text)
-    print(f"-> {out.relative_to(ROOT)}, {out.with_suffix('.md').relative_to(ROOT)}")
+    print(f"-> {out}, {out.with_suffix('.md')}")
     return table
 
 

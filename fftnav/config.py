@@ -1,11 +1,13 @@
 """Swarm configuration: one frozen dataclass per component, one name per quantity, units in names.
 
-A :class:`SwarmConfig` has four sections, the tables of an experiment TOML file:
+A :class:`SwarmConfig` has five sections, the tables of an experiment TOML file:
 
 - ``[robot]`` :class:`RobotConfig`: collision and protective radii, speed limits, embodiment;
 - ``[sensor]`` :class:`SensorConfig`: the lidar (beams, range, field of view, blind sector, noise);
 - ``[comms]`` :class:`CommsConfig`: the message channel (range, loss, delay, when to send);
-- ``[episode]`` :class:`EpisodeConfig`: time limit, control and physics rates, arrival radius.
+- ``[episode]`` :class:`EpisodeConfig`: time limit, control and physics rates, arrival radius;
+- ``[planner]`` :class:`PlannerConfig`: the Bug planner's constants (heading tolerance, loop
+  detection, own maps, escapes).
 
 The simulator (:class:`fftnav.sim.swarm.SimConfig` composes ``robot`` and ``sensor``), the
 observation pipeline (:meth:`SwarmConfig.pipeline`) and the planner
@@ -45,8 +47,8 @@ from fftnav.validate import (
     number_field,
 )
 
-__all__ = ["CommsConfig", "EpisodeConfig", "RobotConfig", "SensorConfig", "SwarmConfig",
-           "check_rates"]
+__all__ = ["CommsConfig", "EpisodeConfig", "PlannerConfig", "RobotConfig", "SensorConfig",
+           "SwarmConfig", "check_rates"]
 
 #: Upper bounds of the speed limits (a robot, not a projectile).
 MAX_SPEED_MPS = 100.0
@@ -276,8 +278,116 @@ class EpisodeConfig(_Section):
         return [int(round(d * self.control_hz)) for d in delays]
 
 
+@dataclass(frozen=True)
+class PlannerConfig(_Section):
+    """``[planner]``: the Bug planner's constants (:class:`fftnav.navigation.bug.BugPlanner`,
+    whose state machine ``docs/planner.md`` documents; its speed limits and control rate are
+    the ``[robot]`` and ``[episode]`` keys). The defaults are the project's planner; the paper
+    gives none of these.
+
+    Attributes
+    ----------
+    heading_tol_deg : float
+        Drive straight only when the heading error is at most this (degrees); else rotate in
+        place toward the heading (the paper's robots "move straight or rotate in place").
+    progress_m : float
+        Leave rule: the goal distance must be this much below the distance at the hit point.
+    loop_timeout_s : float
+        Loop detection: following for this long without getting ``progress_m`` closer to the
+        goal than ever before during the follow (circling, shuttling in a corner, boxed in by
+        other robots) starts an escape.
+    retreat_m : float
+        Once a following robot is this much farther from the goal than its best distance of
+        the follow (it backs out of a pocket, or runs along a wall away from the goal), it
+        escapes too. An escaping robot steers along the shortest way to its goal through its
+        own map (:class:`~fftnav.navigation.ownmap.OwnMaps`) instead of toward the goal, until
+        the leave rule.
+    map_resolution_m, map_clearance_m : float
+        Cell size of the robots' own maps, and the distance from a seen obstacle within which
+        the escape way may not pass.
+    map_squeeze_m, squeeze_after_s : float
+        A robot that has stayed within 2 r0 of one point for ``squeeze_after_s`` seconds and
+        whose own map leaves it no way at ``map_clearance_m`` (its pocket closed, as by another
+        robot standing beside it and seen as an obstacle) plans its way again with obstacles
+        widened by only ``map_squeeze_m`` (at most ``map_clearance_m``;
+        :class:`~fftnav.navigation.ownmap.OwnMaps`,
+        ``squeeze_m``): narrower ways, on which the clearance guard still keeps it off what its
+        scan sees.
+    map_margin_m : float
+        The own maps cover the mission area, the swarm's starts and goals, and this margin
+        around them.
+    escape_lookahead_m, replan_s : float
+        An escaping robot steers to the point this far along its way, replanned every
+        ``replan_s`` seconds from its map as it is then.
+    escape_bound_s, escape_block_m : float
+        Loop detection in escape: when the planned way's length has not become ``progress_m``
+        shorter than its best for ``escape_bound_s`` seconds, the robot closes the next
+        ``escape_block_m`` of that way in its own map
+        (:meth:`~fftnav.navigation.ownmap.OwnMaps.block_way`) and plans another (a loop detection,
+        counted in ``loop_flips``).
+    give_way_s : float
+        Right of way: a robot heading for its goal whose goal direction is blocked, and which
+        goes before the robots in its way (the planner's ``wait``), waits for them to clear
+        the way instead of taking a side, at most this long within 2 r0 of one point (the
+        squeezed plan's timer: time spent waiting there counts toward ``squeeze_after_s``).
+    guide_margin_m, guide_bound_s : float
+        Guided robots (the planner's ``guide``): a robot heading for its goal steers along its way
+        through the walls of its own map (:meth:`~fftnav.navigation.ownmap.OwnMaps.plan`,
+        ``walls_only``; trunks, rocks and robots are left to the safe directions), as an escaping
+        robot does, while that way is more than ``guide_margin_m`` longer than the 8-connected grid
+        distance to the goal (what it knows blocks the straight line); else it heads for the goal.
+        When the way has not become ``progress_m`` shorter than its best for ``guide_bound_s``
+        seconds, the robot gives it up until it is R closer to its goal than where it gave up. The
+        guided way and its timer outlast a follow: heading for its goal again, a robot steers down
+        its map's last planned field (a decision's or an escape's, if they planned since) until its
+        next plan, and gives the way up at that plan if the follow kept it from becoming
+        ``progress_m`` shorter for ``guide_bound_s``. A robot the planner may guide (its ``guide``
+        says so) also escapes along its way through the walls, and closes that way when it has not
+        become ``progress_m`` shorter for ``guide_bound_s`` (not ``escape_bound_s``): what it cannot
+        pass there, the next way goes round.
+    map_every : int
+        The own maps take every other beam of the scans of one control tick in ``map_every``.
+    memory_radius_m : float
+        Tried sides: at a new decision within this distance of one of its earlier hit points,
+        and no closer to the goal than it was there, a robot takes the side it did not take
+        there (without asking the policy).
+    clearance_m, lookahead_m : float
+        Clearance guard: a heading is drivable only if no scan point lies within ``r0 +
+        clearance_m`` of its line over the next ``r0 + lookahead_m``
+        (:func:`~fftnav.navigation.bug.corridor_free`).
+    """
+
+    name: ClassVar[str] = "planner"
+    heading_tol_deg: float = number_field(3.0, low=0, low_open=True, high=90)
+    progress_m: float = number_field(0.05, low=0)
+    loop_timeout_s: float = number_field(10.0, low=0, low_open=True)
+    clearance_m: float = number_field(0.03, low=0)
+    lookahead_m: float = number_field(0.1, low=0)
+    retreat_m: float = number_field(0.5, low=0, low_open=True)
+    memory_radius_m: float = number_field(1.0, low=0)
+    map_resolution_m: float = number_field(0.2, low=0, low_open=True)
+    map_clearance_m: float = number_field(0.3, low=0)
+    map_squeeze_m: float = number_field(0.2, low=0)
+    squeeze_after_s: float = number_field(10.0, low=0, low_open=True)
+    map_margin_m: float = number_field(2.0, low=0)
+    escape_lookahead_m: float = number_field(1.0, low=0, low_open=True)
+    replan_s: float = number_field(1.0, low=0, low_open=True)
+    escape_bound_s: float = number_field(15.0, low=0, low_open=True)
+    escape_block_m: float = number_field(1.0, low=0, low_open=True)
+    give_way_s: float = number_field(10.0, low=0, low_open=True)
+    guide_margin_m: float = number_field(1.0, low=0)
+    guide_bound_s: float = number_field(5.0, low=0, low_open=True)
+    map_every: int = integer_field(2, low=1)
+
+    def _check_together(self) -> None:
+        if self.map_squeeze_m > self.map_clearance_m:
+            raise ValueError(f"map_squeeze_m must be <= map_clearance_m={self.map_clearance_m!r}, "
+                             f"got map_squeeze_m={self.map_squeeze_m!r}")
+
+
 _SECTIONS: dict[str, type[_Section]] = {
-    cls.name: cls for cls in (RobotConfig, SensorConfig, CommsConfig, EpisodeConfig)}
+    cls.name: cls for cls in (RobotConfig, SensorConfig, CommsConfig, EpisodeConfig,
+                              PlannerConfig)}
 
 
 @dataclass(frozen=True)
@@ -288,6 +398,7 @@ class SwarmConfig(Checked):
     sensor: SensorConfig = field(default_factory=SensorConfig)
     comms: CommsConfig = field(default_factory=CommsConfig)
     episode: EpisodeConfig = field(default_factory=EpisodeConfig)
+    planner: PlannerConfig = field(default_factory=PlannerConfig)
 
     #: Section name -> its dataclass.
     SECTIONS: ClassVar[dict[str, type[_Section]]] = _SECTIONS

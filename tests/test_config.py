@@ -3,6 +3,7 @@ limit and the last departure; at least one control tick; no overflow from huge d
 
 from __future__ import annotations
 
+import math
 import subprocess
 import sys
 
@@ -92,3 +93,44 @@ def test_fftnav_episode_refuses_huge_delays_before_the_episode(tmp_path):
         assert proc.returncode == 2 and proc.stdout == "", proc.stderr
         assert proc.stderr.startswith("fftnav episode: error: ") and match in proc.stderr
         assert proc.stderr.count("\n") == 1, proc.stderr
+
+
+def test_the_planner_section_sets_the_planners_constants():
+    """``[planner]`` reaches the planner of every policy: at 10 degrees of tolerance a heading
+    error of 5 degrees is driven straight, at the default 3 degrees it is turned in place."""
+    from fftnav.navigation.bug import BugPlanner
+
+    def command(config):
+        planner = BugPlanner.for_swarm(1, config, lambda i: 1)
+        return planner._command(math.radians(5.0))
+
+    default = SwarmConfig()
+    wide = SwarmConfig.from_sections({"planner": {"heading_tol_deg": 10, "replan_s": 2}})
+    assert wide.planner.heading_tol_deg == 10.0 and wide.planner.replan_s == 2.0
+    assert command(default) == (0.0, pytest.approx(math.radians(5.0) * 10.0))
+    assert command(wide) == (default.robot.v_max_mps, 0.0)
+    params = BugPlanner.for_swarm(1, wide, lambda i: 1).params
+    assert params.replan_s == 2.0 and params.heading_tol_rad == pytest.approx(math.radians(10))
+    assert SwarmConfig().replace({"heading_tol_deg": "20"}).planner.heading_tol_deg == 20.0
+
+
+@pytest.mark.parametrize(("table", "message"), [
+    ({"heading_tol_deg": 0}, r"planner\.heading_tol_deg must be a finite number in \(0, 90\], "
+                             r"got planner\.heading_tol_deg=0"),
+    ({"map_every": 1.5}, r"planner\.map_every must be an integer >= 1, got planner\.map_every=1\.5"),
+    ({"map_squeeze_m": 0.4}, r"map_squeeze_m must be <= map_clearance_m=0\.3, "
+                             r"got map_squeeze_m=0\.4"),
+    ({"heading_tol": 10}, r"unknown key planner\.heading_tol; expected one of \['heading_tol_deg'"),
+])
+def test_bad_planner_constants_are_refused_naming_the_key(table, message):
+    with pytest.raises(ValueError, match=message):
+        SwarmConfig.from_sections({"planner": table})
+
+
+def test_fftnav_episode_refuses_a_bad_planner_constant_in_one_line(tmp_path):
+    proc = subprocess.run([sys.executable, "-m", "fftnav", "episode", "--world",
+                           str(_world(tmp_path)), "--policy", "fusion",
+                           "--set", "planner.heading_tol_deg=120"],
+                          capture_output=True, text=True, timeout=120)
+    assert proc.returncode == 2 and proc.stdout == "", proc.stderr
+    assert proc.stderr.count("\n") == 1 and "planner.heading_tol_deg must be" in proc.stderr

@@ -11,6 +11,7 @@ robots "move straight or rotate in place").
 
 from __future__ import annotations
 
+import dataclasses
 import math
 from collections.abc import Callable
 from dataclasses import dataclass, field
@@ -19,13 +20,13 @@ from typing import Any
 
 import numpy as np
 
-from fftnav.config import SwarmConfig
+from fftnav.config import PlannerConfig, SwarmConfig
 from fftnav.navigation import corridor
 from fftnav.navigation.ownmap import OwnMaps
 from fftnav.observe.safe import beam_index, nearest_safe_headings
 from fftnav.observe.scan import beam_angles_rad, wrap_angle
 from fftnav.optimal.astar import octile
-from fftnav.validate import Checked, integer_field, number_field
+from fftnav.validate import number_field
 
 __all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
 
@@ -81,13 +82,10 @@ def _positive(default: float) -> Any:
     return number_field(default, low=0, low_open=True)
 
 
-def _non_negative(default: float) -> Any:
-    return number_field(default, low=0)
-
-
 @dataclass(frozen=True)
-class PlannerParams(Checked):
-    """Planner constants (SI units).
+class PlannerParams(PlannerConfig):
+    """The planner's constants (:class:`~fftnav.config.PlannerConfig`, the ``[planner]``
+    section, SI units) with its speed limits and control rate.
 
     Attributes
     ----------
@@ -95,107 +93,31 @@ class PlannerParams(Checked):
         Speed limits: straight motion at ``v_max_mps``, rotation at most ``w_max_radps``.
     control_hz : float
         Control rate; a rotation command aims to close the heading error in one period.
-    heading_tol_rad : float
-        Drive straight only when the heading error is below this.
-    progress_m : float
-        Leave rule: the goal distance must be this much below the distance at the hit point.
-    loop_timeout_s : float
-        Loop detection: following for this long without getting ``progress_m`` closer to the
-        goal than ever before during the follow (circling, shuttling in a corner, boxed in by
-        other robots) starts an escape.
-    retreat_m : float
-        Once a following robot is this much farther from the goal than its best distance of
-        the follow (it backs out of a pocket, or runs along a wall away from the goal), it
-        escapes too. An escaping robot steers along the shortest way to its goal through its
-        own map (:class:`~fftnav.navigation.ownmap.OwnMaps`) instead of toward the goal, until
-        the leave rule.
-    map_resolution_m, map_clearance_m : float
-        Cell size of the robots' own maps, and the distance from a seen obstacle within which
-        the escape way may not pass.
-    map_squeeze_m, squeeze_after_s : float
-        A robot that has stayed within 2 r0 of one point for ``squeeze_after_s`` seconds and
-        whose own map leaves it no way at ``map_clearance_m`` (its pocket closed, as by another
-        robot standing beside it and seen as an obstacle) plans its way again with obstacles
-        widened by only ``map_squeeze_m`` (at most ``map_clearance_m``; :class:`OwnMaps`,
-        ``squeeze_m``): narrower ways, on which the clearance guard still keeps it off what its
-        scan sees.
-    map_margin_m : float
-        The own maps cover the mission area, the swarm's starts and goals, and this margin
-        around them.
-    escape_lookahead_m, replan_s : float
-        An escaping robot steers to the point this far along its way, replanned every
-        ``replan_s`` seconds from its map as it is then.
-    escape_bound_s, escape_block_m : float
-        Loop detection in escape: when the planned way's length has not become ``progress_m``
-        shorter than its best for ``escape_bound_s`` seconds, the robot closes the next
-        ``escape_block_m`` of that way in its own map (:meth:`OwnMaps.block_way`) and plans
-        another (a loop detection, counted in ``loop_flips``).
-    give_way_s : float
-        Right of way: a robot heading for its goal whose goal direction is blocked, and which
-        goes before the robots in its way (the planner's ``wait``), waits for them to clear
-        the way instead of taking a side, at most this long within 2 r0 of one point (the
-        squeezed plan's timer: time spent waiting there counts toward ``squeeze_after_s``).
-    guide_margin_m, guide_bound_s : float
-        Guided robots (the planner's ``guide``): a robot heading for its goal steers along its
-        way through the walls of its own map (:meth:`OwnMaps.plan`, ``walls_only``; trunks,
-        rocks and robots are left to the safe directions), as an escaping robot does, while
-        that way is more than ``guide_margin_m`` longer than the 8-connected grid distance to
-        the goal (what it knows blocks the straight line); else it heads for the goal. When the
-        way has not become ``progress_m`` shorter than its best for ``guide_bound_s`` seconds,
-        the robot gives it up until it is R closer to its goal than where it gave up. The guided
-        way and its timer outlast a follow: heading for its goal again, a robot steers down its
-        map's last planned field (a decision's or an escape's, if they planned since) until its
-        next plan, and gives the way up at that plan if the follow kept it from becoming
-        ``progress_m`` shorter for ``guide_bound_s``. A robot the planner may guide (its
-        ``guide`` says so) also escapes along its way through the walls, and closes that way
-        when it has not become ``progress_m`` shorter for ``guide_bound_s`` (not
-        ``escape_bound_s``): what it cannot pass there, the next way goes round.
-    map_every : int
-        The own maps take every other beam of the scans of one control tick in ``map_every``.
-    memory_radius_m : float
-        Tried sides: at a new decision within this distance of one of its earlier hit points,
-        and no closer to the goal than it was there, a robot takes the side it did not take
-        there (without asking the policy).
-    clearance_m, lookahead_m : float
-        Clearance guard: a heading is drivable only if no scan point lies within
-        ``r0 + clearance_m`` of its line over the next ``r0 + lookahead_m`` (:func:`corridor_free`).
     """
 
     v_max_mps: float = _positive(0.5)
     w_max_radps: float = _positive(1.5)
     control_hz: float = _positive(10.0)
-    heading_tol_rad: float = _positive(math.radians(3.0))
-    progress_m: float = _non_negative(0.05)
-    loop_timeout_s: float = _positive(10.0)
-    clearance_m: float = _non_negative(0.03)
-    lookahead_m: float = _non_negative(0.1)
-    retreat_m: float = _positive(0.5)
-    memory_radius_m: float = _non_negative(1.0)
-    map_resolution_m: float = _positive(0.2)
-    map_clearance_m: float = _non_negative(0.3)
-    map_squeeze_m: float = _non_negative(0.2)
-    squeeze_after_s: float = _positive(10.0)
-    map_margin_m: float = _non_negative(2.0)
-    escape_lookahead_m: float = _positive(1.0)
-    replan_s: float = _positive(1.0)
-    escape_bound_s: float = _positive(15.0)
-    escape_block_m: float = _positive(1.0)
-    give_way_s: float = _positive(10.0)
-    guide_margin_m: float = _non_negative(1.0)
-    guide_bound_s: float = _positive(5.0)
-    map_every: int = integer_field(2, low=1)
 
-    def _check_together(self) -> None:
-        if self.map_squeeze_m > self.map_clearance_m:
-            raise ValueError(f"map_squeeze_m must be <= map_clearance_m={self.map_clearance_m!r}, "
-                             f"got map_squeeze_m={self.map_squeeze_m!r}")
+    @property
+    def heading_tol_rad(self) -> float:
+        """``heading_tol_deg`` in radians."""
+        return math.radians(self.heading_tol_deg)
 
     @classmethod
-    def for_swarm(cls, config: SwarmConfig, **constants: float) -> PlannerParams:
-        """The speed limits and control rate of a swarm configuration; ``constants`` override
-        the state machine's other constants."""
+    def for_swarm(cls, config: SwarmConfig, **constants: Any) -> PlannerParams:
+        """The ``[planner]`` constants, speed limits and control rate of a swarm configuration;
+        ``constants`` override the ``[planner]`` constants.
+
+        >>> from fftnav.config import PlannerConfig, SwarmConfig
+        >>> cfg = SwarmConfig().replace({"planner.heading_tol_deg": 10})
+        >>> p = PlannerParams.for_swarm(cfg, replan_s=2)
+        >>> round(math.degrees(p.heading_tol_rad), 6), p.replan_s, p.v_max_mps
+        (10.0, 2.0, 0.5)
+        """
         return cls(v_max_mps=config.robot.v_max_mps, w_max_radps=config.robot.w_max_radps,
-                   control_hz=config.episode.control_hz, **constants)
+                   control_hz=config.episode.control_hz,
+                   **{**dataclasses.asdict(config.planner), **constants})
 
 
 @dataclass

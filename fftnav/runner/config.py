@@ -323,10 +323,10 @@ def _policies(value: Any, base: str | Path | None) -> tuple[str, ...]:
 def _sweep_cells(base: dict[str, Any], sweep: dict[str, Any], source: str, *,
                  folder: str | Path | None = None) -> list[tuple[str, ExperimentConfig]]:
     """The sweep's cells: for each axis ``"section.key"`` (``[robot]``, ``[sensor]``,
-    ``[comms]``, ``[episode]``), ``"world.key"`` or ``"world.<env>.key"`` and each of its
-    values, the base config with that one value (``world.<env>.key``: and only that env);
-    named ``key=value``, written to ``experiment.out/<name>``. Each cell is validated like a
-    config of its own."""
+    ``[comms]``, ``[episode]``, ``[planner]``), ``"world.key"`` or ``"world.<env>.key"`` and
+    each of its values, the base config with that one value (``world.<env>.key``: and only that
+    env); named ``key=value``, written to ``experiment.out/<name>``. Each cell is validated
+    like a config of its own."""
     cells = []
     out = base["experiment"].get("out", f"results/{base['experiment'].get('name')}")
     for axis, values in sweep.items():

@@ -20,6 +20,7 @@ from pathlib import Path
 from typing import Any
 
 from fftnav import __version__
+from fftnav.config import PlannerConfig
 from fftnav.files import load_npz, write_atomic
 from fftnav.plugins import file_sha256, plugin_sources
 from fftnav.runner.config import ExperimentConfig
@@ -172,10 +173,13 @@ def canonical_config(config: ExperimentConfig, columns: tuple[str, ...]) -> str:
     text), the fftnav version, the CSV ``columns``, and the SHA-256 of every plugin source
     (:func:`fftnav.plugins.plugin_sources`: the plugin files named by path and the modules
     beside them they import) and world file. A config without plugin or world files has no key
-    for them (nor ``world_files``): the ``config.json`` of results folders that hold no such
-    key stays valid. ``record`` is left out: recordings change no result."""
+    for them (nor ``world_files``), and one with the default ``[planner]`` no ``planner`` key:
+    the ``config.json`` of results folders that hold no such key stays valid. ``record`` is
+    left out: recordings change no result."""
     fields = {k: v for k, v in asdict(config).items()
               if not (k == "world_files" and not v) and k != "record"}
+    if config.swarm.planner == PlannerConfig():
+        del fields["swarm"]["planner"]
     plugins = {str(source): file_sha256(source) for found in config.resolved.values()
                if found.file for source in plugin_sources(found.file)}
     worlds = {path: file_sha256(Path(path)) for path in config.world_files.values()}
@@ -234,9 +238,19 @@ def _folder_problem(out: Path, canonical: str, columns: tuple[str, ...]) -> str 
         extra = [c for c in stored_columns if c not in columns]
         return (f"holds episodes with other columns than this fftnav writes (missing {missing}, "
                 f"extra {extra}{', or in another order' if not missing + extra else ''})")
-    changes = config_changes(stored, json.loads(canonical))
+    changes = config_changes(_with_planner(stored), _with_planner(json.loads(canonical)))
     return (f"holds results of a different experiment config ({record}); changed: "
             f"{', '.join(changes) or 'the layout of config.json'}")
+
+
+def _with_planner(stored: dict[str, Any]) -> dict[str, Any]:
+    """A ``config.json`` content with its default ``planner`` table filled in, if it has none
+    (:func:`canonical_config` leaves a default planner out), so that a changed constant is
+    named by its key."""
+    swarm = stored.get("swarm")
+    if not isinstance(swarm, dict) or "planner" in swarm:
+        return stored
+    return {**stored, "swarm": {**swarm, "planner": asdict(PlannerConfig())}}
 
 
 def config_changes(old: dict[str, Any], new: dict[str, Any]) -> list[str]:

@@ -236,3 +236,22 @@ def test_a_changed_plugin_or_module_beside_it_is_named_and_fresh_reruns(newcomer
     recorded = json.loads((out / "config.json").read_text())["plugin_sha256"]
     assert recorded == {str((newcomer / n).resolve()): file_sha256(newcomer / n)
                         for n in ("newcomer_policy.py", "newcomer_sides.py")}
+
+
+
+def test_a_planner_table_is_in_config_json_only_when_it_changes_a_constant(full):
+    """Folders run with the default planner keep their config.json (no ``planner`` key); a
+    changed ``[planner]`` constant is a different experiment, named by its key."""
+    stored = json.loads((full / "config.json").read_text())
+    assert "planner" not in stored["swarm"] and "episode" in stored["swarm"]
+    experiment = {"name": "fake", "envs": ["forest", "rocky"], "maps": 3, "map_seed": 5,
+                  "robots": 3, "policies": ["bug-left", "fusion", "random"]}
+    same = parse_config({"experiment": experiment, "planner": {"heading_tol_deg": 3}})
+    assert run_experiment(same, full, workers=1, task_fn=fake_task,
+                          progress=False).skipped == N_TASKS
+    other = parse_config({"experiment": experiment, "planner": {"heading_tol_deg": 10}})
+    with pytest.raises(ValueError, match=r"changed: planner\.heading_tol_deg; rerun with --fresh"):
+        run_experiment(other, full, workers=1, task_fn=fake_task, progress=False)
+    run_experiment(other, full, workers=1, task_fn=fake_task, progress=False, fresh=True)
+    stored = json.loads((full / "config.json").read_text())
+    assert stored["swarm"]["planner"]["heading_tol_deg"] == 10.0

@@ -22,7 +22,8 @@ BASE = {
     "experiment": {"name": "s", "envs": ["walls", "forest"], "maps": 2, "map_seed": 1,
                    "robots": 4, "policies": ["own-only", "collab"], "out": "results/s"},
     "sweep": {"sensor.range_m": [1.5, 6.0], "episode.departure": ["waves"],
-              "world.walls.wall_length_m": [[3.0, 4.5]], "comms.packet_loss": [0.3]},
+              "world.walls.wall_length_m": [[3.0, 4.5]], "comms.packet_loss": [0.3],
+              "planner.heading_tol_deg": [10]},
 }
 
 
@@ -30,7 +31,7 @@ def test_sweep_cells_are_the_base_and_one_value_at_a_time():
     config = parse_config(copy.deepcopy(BASE))
     names = [name for name, _ in config.cells]
     assert names == ["base", "range_m=1.5", "range_m=6", "departure=waves",
-                     "wall_length_m=3-4.5", "packet_loss=0.3"]
+                     "wall_length_m=3-4.5", "packet_loss=0.3", "heading_tol_deg=10"]
     cells = dict(config.cells)
     assert cells["base"].swarm == config.swarm and cells["base"].out == "results/s/base"
     assert cells["range_m=1.5"].swarm.sensor.range_m == 1.5
@@ -40,6 +41,8 @@ def test_sweep_cells_are_the_base_and_one_value_at_a_time():
     assert cells["wall_length_m=3-4.5"].envs == ("walls",)  # the axis of one env's world
     assert cells["range_m=6"].envs == ("walls", "forest")
     assert cells["packet_loss=0.3"].out == "results/s/packet_loss=0.3"
+    assert cells["heading_tol_deg=10"].swarm.planner.heading_tol_deg == 10.0
+    assert cells["heading_tol_deg=10"].swarm.sensor == config.swarm.sensor
     assert parse_config({k: v for k, v in BASE.items() if k != "sweep"}).cells == ()
 
 
@@ -51,6 +54,8 @@ def test_sweep_cells_are_the_base_and_one_value_at_a_time():
     ({"world.walls.colour": ["red"]}, r"sweep.world.walls.colour = 'red': unknown key "
                                        r"world.walls.colour"),
     ({"episode.departure": ["later"]}, r"episode.departure must be one of"),
+    ({"planner.heading_tol_deg": [0]}, r"sweep.planner.heading_tol_deg = 0: "
+                                       r"planner.heading_tol_deg must be a finite number"),
 ])
 def test_bad_sweeps_are_refused_naming_the_key(sweep, message):
     with pytest.raises(ValueError, match=message):
