@@ -13,6 +13,7 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from fftnav.config import PlannerConfig
 from fftnav.plugins import file_sha256
 from fftnav.runner import parse_config, run_experiment
 from fftnav.runner.resume import FolderLock, InvocationClock
@@ -246,12 +247,13 @@ def test_a_planner_table_is_in_config_json_only_when_it_changes_a_constant(full)
     assert "planner" not in stored["swarm"] and "episode" in stored["swarm"]
     experiment = {"name": "fake", "envs": ["forest", "rocky"], "maps": 3, "map_seed": 5,
                   "robots": 3, "policies": ["bug-left", "fusion", "random"]}
-    same = parse_config({"experiment": experiment, "planner": {"heading_tol_deg": 3}})
+    default = PlannerConfig().heading_tol_deg
+    same = parse_config({"experiment": experiment, "planner": {"heading_tol_deg": default}})
     assert run_experiment(same, full, workers=1, task_fn=fake_task,
                           progress=False).skipped == N_TASKS
-    other = parse_config({"experiment": experiment, "planner": {"heading_tol_deg": 10}})
+    other = parse_config({"experiment": experiment, "planner": {"heading_tol_deg": 45}})
     with pytest.raises(ValueError, match=r"changed: planner\.heading_tol_deg; rerun with --fresh"):
         run_experiment(other, full, workers=1, task_fn=fake_task, progress=False)
     run_experiment(other, full, workers=1, task_fn=fake_task, progress=False, fresh=True)
     stored = json.loads((full / "config.json").read_text())
-    assert stored["swarm"]["planner"]["heading_tol_deg"] == 10.0
+    assert stored["swarm"]["planner"]["heading_tol_deg"] == 45.0

@@ -23,7 +23,7 @@ BASE = {
                    "robots": 4, "policies": ["own-only", "collab"], "out": "results/s"},
     "sweep": {"sensor.range_m": [1.5, 6.0], "episode.departure": ["waves"],
               "world.walls.wall_length_m": [[3.0, 4.5]], "comms.packet_loss": [0.3],
-              "planner.heading_tol_deg": [10]},
+              "planner.heading_tol_deg": [20]},
 }
 
 
@@ -31,7 +31,7 @@ def test_sweep_cells_are_the_base_and_one_value_at_a_time():
     config = parse_config(copy.deepcopy(BASE))
     names = [name for name, _ in config.cells]
     assert names == ["base", "range_m=1.5", "range_m=6", "departure=waves",
-                     "wall_length_m=3-4.5", "packet_loss=0.3", "heading_tol_deg=10"]
+                     "wall_length_m=3-4.5", "packet_loss=0.3", "heading_tol_deg=20"]
     cells = dict(config.cells)
     assert cells["base"].swarm == config.swarm and cells["base"].out == "results/s/base"
     assert cells["range_m=1.5"].swarm.sensor.range_m == 1.5
@@ -41,8 +41,8 @@ def test_sweep_cells_are_the_base_and_one_value_at_a_time():
     assert cells["wall_length_m=3-4.5"].envs == ("walls",)  # the axis of one env's world
     assert cells["range_m=6"].envs == ("walls", "forest")
     assert cells["packet_loss=0.3"].out == "results/s/packet_loss=0.3"
-    assert cells["heading_tol_deg=10"].swarm.planner.heading_tol_deg == 10.0
-    assert cells["heading_tol_deg=10"].swarm.sensor == config.swarm.sensor
+    assert cells["heading_tol_deg=20"].swarm.planner.heading_tol_deg == 20.0
+    assert cells["heading_tol_deg=20"].swarm.sensor == config.swarm.sensor
     assert parse_config({k: v for k, v in BASE.items() if k != "sweep"}).cells == ()
 
 
