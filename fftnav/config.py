@@ -287,9 +287,11 @@ class PlannerConfig(_Section):
 
     Attributes
     ----------
-    heading_tol_deg : float
+    heading_tol_deg, way_heading_tol_deg : float
         Drive straight only when the heading error is at most this (degrees); else rotate in
         place toward the heading (the paper's robots "move straight or rotate in place").
+        ``way_heading_tol_deg`` applies while the robot steers along its own map's way
+        (escaping, or guided), ``heading_tol_deg`` otherwise.
     progress_m : float
         Leave rule: the goal distance must be this much below the distance at the hit point.
     loop_timeout_s : float
@@ -359,6 +361,7 @@ class PlannerConfig(_Section):
 
     name: ClassVar[str] = "planner"
     heading_tol_deg: float = number_field(3.0, low=0, low_open=True, high=90)
+    way_heading_tol_deg: float = number_field(3.0, low=0, low_open=True, high=90)
     progress_m: float = number_field(0.05, low=0)
     loop_timeout_s: float = number_field(10.0, low=0, low_open=True)
     clearance_m: float = number_field(0.03, low=0)

@@ -104,6 +104,11 @@ class PlannerParams(PlannerConfig):
         """``heading_tol_deg`` in radians."""
         return math.radians(self.heading_tol_deg)
 
+    @property
+    def way_heading_tol_rad(self) -> float:
+        """``way_heading_tol_deg`` in radians."""
+        return math.radians(self.way_heading_tol_deg)
+
     @classmethod
     def for_swarm(cls, config: SwarmConfig, **constants: Any) -> PlannerParams:
         """The ``[planner]`` constants, speed limits and control rate of a swarm configuration;
@@ -139,6 +144,7 @@ class _Memory:
     guide_best_m: float = math.inf  # the shortest guided way so far (m) ...
     guide_best_s: float = 0.0  # ... and since when
     guide_quit_m: float = math.inf  # guidance gave up at this goal distance (m; inf: never)
+    on_way: bool = False  # this tick's heading is along the own map's way (escape, guided)
     #: Where the robot was when it last got more than 2 r0 from the previous such point, and
     #: when (the squeezed plan's timer).
     still_xy: tuple[float, float] = (math.nan, math.nan)
@@ -359,13 +365,15 @@ class BugPlanner:
                 continue
             view = _View(poses[i], goals[i], safe[i], float(dist[i]), bool(clear[i]), beta[i],
                          (left[i], right[i]))
+            mem.on_way = False
             target = self._target(i, mem, time_s, view)
             self.follow_ticks[i] += mem.mode == Mode.FOLLOW
             if math.isnan(target):  # no safe heading on the chosen side: stall fallback
                 self.stall_ticks[i] += 1
                 commands[i] = self._stall_command(mem.side, angles, y1[i], ranges_m[i], free[i])
             else:
-                commands[i] = self._command(target)
+                commands[i] = self._command(
+                    target, p.way_heading_tol_rad if mem.on_way else p.heading_tol_rad)
         return commands, visible & ~clear
 
     def _target(self, i: int, mem: _Memory, t: float, view: _View) -> float:
@@ -395,6 +403,7 @@ class BugPlanner:
                     heading = self._escape_heading(i, mem, t, view)
                     if heading is not None:
                         self.escape_ticks[i] += 1
+                        mem.on_way = True
                         return heading
                 if clear:
                     return beta
@@ -403,6 +412,7 @@ class BugPlanner:
             heading = self._guided_heading(i, mem, t, view)
             if heading is not None:
                 self.guided_ticks[i] += 1
+                mem.on_way = True
                 return heading
         if clear:
             return beta
@@ -545,10 +555,11 @@ class BugPlanner:
             return self._command(float(angles[best]))
         return (0.0, side * p.w_max_radps)
 
-    def _command(self, target_rad: float) -> tuple[float, float]:
-        """Straight motion if aligned with ``target_rad``, else rotation in place toward it."""
+    def _command(self, target_rad: float, tol_rad: float | None = None) -> tuple[float, float]:
+        """Straight motion if within ``tol_rad`` (default ``heading_tol_rad``) of
+        ``target_rad``, else rotation in place toward it."""
         p = self.params
-        if abs(target_rad) <= p.heading_tol_rad:
+        if abs(target_rad) <= (p.heading_tol_rad if tol_rad is None else tol_rad):
             return (p.v_max_mps, 0.0)
         w = float(np.clip(target_rad * p.control_hz, -p.w_max_radps, p.w_max_radps))
         return (0.0, w)

@@ -83,6 +83,26 @@ def test_loop_detection_starts_an_escape_after_the_timeout_once():
     assert p.escape_ticks[0] > 0
 
 
+def test_the_way_tolerance_applies_only_along_the_own_maps_way():
+    """Blocked forever, as above: until the escape both planners command the same; while they
+    steer along the own map's way, the one whose ``way_heading_tol_deg`` is 90 drives straight at
+    every heading within 90 degrees, where the 3-degree one turns in place."""
+    narrow, _ = _planner(LEFT, loop_timeout_s=5.0, way_heading_tol_deg=3.0)
+    wide, _ = _planner(LEFT, loop_timeout_s=5.0, way_heading_tol_deg=90.0)
+    escaping = turned = 0
+    for k in range(200):
+        before = int(wide.escape_ticks[0])
+        a, _ = _step(narrow, 0.1 * k, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+        b, _ = _step(wide, 0.1 * k, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+        if wide.escape_ticks[0] == before:  # not along the way: the shared tolerance
+            assert a.tolist() == b.tolist()
+            continue
+        escaping += 1
+        assert wide.memory[0].on_way and b[0, 1] == 0.0 and b[0, 0] == 0.5
+        turned += a[0, 0] == 0.0
+    assert escaping > 100 and turned > 0
+
+
 def test_near_goal_an_obstacle_behind_the_goal_does_not_block_it():
     p, calls = _planner(LEFT)
     safe = _mask([(-30, 30)])
