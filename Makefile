@@ -34,8 +34,8 @@ benchmark: $(STAMP)
 # collab: the core comparison (walls, traps; own-only, fusion, collab; 20 maps), its walls
 # holdouts (maps 21-40 and 41-60), the fresh maps 61-80 of every kind (with and without lidar
 # noise; which robots fail there, and where their time went, also with 240 s), two robots
-# head-on in a corridor, the noisy fresh maps with a 10-degree heading tolerance, and the full
-# sweep (docs/experiments.md, [sweep]);
+# head-on in a corridor, the fresh maps with a 10-degree heading tolerance (everywhere, or only
+# along the own map's way), and the full sweep (docs/experiments.md, [sweep]);
 # the runs resume when rerun.
 collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/core.toml
@@ -57,6 +57,10 @@ collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/fresh_noise_tol10.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_tol10.toml
 	$(BIN)/python experiments/noise_seeds.py --set planner.heading_tol_deg=10 --out results/collab/noise_seeds_tol10.csv
+	$(BIN)/fftnav run experiments/collab/fresh_way10.toml
+	$(BIN)/fftnav figure sweep experiments/collab/fresh_way10.toml
+	$(BIN)/fftnav run experiments/collab/fresh_noise_way10.toml
+	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_way10.toml
 	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)
