@@ -34,8 +34,9 @@ benchmark: $(STAMP)
 # collab: the core comparison (walls, traps; own-only, fusion, collab; 20 maps), its walls
 # holdouts (maps 21-40 and 41-60), the fresh maps 61-80 of every kind (with and without lidar
 # noise; which robots fail there, and where their time went, also with 240 s), two robots
-# head-on in a corridor, the fresh maps with a 10-degree heading tolerance (everywhere, or only
-# along the own map's way), and the full sweep (docs/experiments.md, [sweep]);
+# head-on in a corridor, the heading tolerance on the tuning maps and the fresh maps with 10
+# degrees (everywhere, or only along the own map's way), and the full sweep
+# (docs/experiments.md, [sweep]);
 # the runs resume when rerun.
 collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/core.toml
@@ -61,6 +62,7 @@ collab: $(STAMP)
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_way10.toml
 	$(BIN)/fftnav run experiments/collab/fresh_noise_way10.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_way10.toml
+	$(BIN)/fftnav run experiments/collab/tolerance_tuning.toml
 	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)
