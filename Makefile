@@ -57,7 +57,8 @@ collab: $(STAMP)
 	$(BIN)/python experiments/time_budget.py results/collab/fresh_noise_240
 	$(BIN)/fftnav run experiments/collab/fresh_noise_tol10.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_tol10.toml
-	$(BIN)/python experiments/noise_seeds.py --set planner.heading_tol_deg=10 --out results/collab/noise_seeds_tol10.csv
+	$(BIN)/python experiments/noise_seeds.py --set planner.heading_tol_deg=10 --set planner.way_heading_tol_deg=10 --out results/collab/noise_seeds_tol10.csv
+	$(BIN)/fftnav run experiments/table1_tol10.toml
 	$(BIN)/fftnav run experiments/collab/fresh_way10.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_way10.toml
 	$(BIN)/fftnav run experiments/collab/fresh_noise_way10.toml

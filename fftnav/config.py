@@ -312,9 +312,8 @@ class PlannerConfig(_Section):
         whose own map leaves it no way at ``map_clearance_m`` (its pocket closed, as by another
         robot standing beside it and seen as an obstacle) plans its way again with obstacles
         widened by only ``map_squeeze_m`` (at most ``map_clearance_m``;
-        :class:`~fftnav.navigation.ownmap.OwnMaps`,
-        ``squeeze_m``): narrower ways, on which the clearance guard still keeps it off what its
-        scan sees.
+        :class:`~fftnav.navigation.ownmap.OwnMaps`, ``squeeze_m``): narrower ways, on which the
+        clearance guard still keeps it off what its scan sees.
     map_margin_m : float
         The own maps cover the mission area, the swarm's starts and goals, and this margin
         around them.

@@ -114,7 +114,7 @@ class PlannerParams(PlannerConfig):
         """The ``[planner]`` constants, speed limits and control rate of a swarm configuration;
         ``constants`` override the ``[planner]`` constants.
 
-        >>> from fftnav.config import PlannerConfig, SwarmConfig
+        >>> from fftnav.config import SwarmConfig
         >>> cfg = SwarmConfig().replace({"planner.heading_tol_deg": 10})
         >>> p = PlannerParams.for_swarm(cfg, replan_s=2)
         >>> round(math.degrees(p.heading_tol_rad), 6), p.replan_s, p.v_max_mps
