@@ -292,6 +292,12 @@ class PlannerConfig(_Section):
         place toward the heading (the paper's robots "move straight or rotate in place").
         ``way_heading_tol_deg`` applies while the robot steers along its own map's way
         (escaping, or guided), ``heading_tol_deg`` otherwise.
+    drive : {"straight", "steered"}
+        Motion within the heading tolerance: ``"straight"`` drives straight at full speed
+        (the paper's motion); ``"steered"`` drives at full speed and turns toward the heading
+        at the same time (the rotation command below, so the robot follows an arc of radius at
+        least v_max / w_max that closes the error), instead of drifting up to the tolerance
+        off it.
     progress_m : float
         Leave rule: the goal distance must be this much below the distance at the hit point.
     loop_timeout_s : float
@@ -361,6 +367,7 @@ class PlannerConfig(_Section):
     name: ClassVar[str] = "planner"
     heading_tol_deg: float = number_field(3.0, low=0, low_open=True, high=90)
     way_heading_tol_deg: float = number_field(3.0, low=0, low_open=True, high=90)
+    drive: str = choice_field("straight", ("straight", "steered"))
     progress_m: float = number_field(0.05, low=0)
     loop_timeout_s: float = number_field(10.0, low=0, low_open=True)
     clearance_m: float = number_field(0.03, low=0)

@@ -120,6 +120,8 @@ def test_the_planner_section_sets_the_planners_constants():
     ({"map_every": 1.5}, r"planner\.map_every must be an integer >= 1, got planner\.map_every=1\.5"),
     ({"map_squeeze_m": 0.4}, r"map_squeeze_m must be <= map_clearance_m=0\.3, "
                              r"got map_squeeze_m=0\.4"),
+    ({"drive": "arc"}, r"planner\.drive must be one of \['straight', 'steered'\], "
+                       r"got planner\.drive='arc'"),
     ({"heading_tol": 10}, r"unknown key planner\.heading_tol; expected one of \['heading_tol_deg'"),
 ])
 def test_bad_planner_constants_are_refused_naming_the_key(table, message):

@@ -19,7 +19,7 @@ import math
 
 import numpy as np
 
-from fftnav.navigation.bug import corridor_free
+from fftnav.navigation.bug import corridor_free, motion_command
 from fftnav.navigation.controllers import (
     Controller,
     ControllerSetup,
@@ -281,9 +281,10 @@ class FFTGoController(_Reactive):
     bearing if it is safe, else to the safe beam nearest the goal bearing on either side, ties
     (within ``turn_weight`` times the turn) going to the smaller turn: without that rule a
     robot facing an obstacle straight on turns back and forth between two equally good beams.
-    It uses the Bug planner's motion (rotate in place, drive straight when within the config's
-    ``planner.heading_tol_deg``). Near the goal (closer than l_th) the goal counts as reachable
-    when the three beams around it reach past it, as in the planner. With no safe beam it heads
+    It uses the Bug planner's motion (:func:`~fftnav.navigation.bug.motion_command` with the
+    config's ``planner.heading_tol_deg`` and ``planner.drive``). Near the goal (closer than
+    l_th) the goal counts as reachable when the three beams around it reach past it, as in the
+    planner. With no safe beam it heads
     for the most open drivable beam (largest y1) or rotates in place. It is the ablation "FFT
     mask, no Bug state machine": no follow mode, no leave rule, no loop detection.
 
@@ -315,7 +316,7 @@ class FFTGoController(_Reactive):
             if not drivable.any():
                 return 0.0, math.copysign(self.w_max_radps, beta)
             target = float(obs.angles_rad[int(np.argmax(np.where(drivable, obs.y1, -np.inf)))])
-        if abs(target) <= math.radians(self.config.planner.heading_tol_deg):
-            return self.v_max_mps, 0.0
-        return 0.0, float(np.clip(target * self.control_hz, -self.w_max_radps,
-                                  self.w_max_radps))
+        planner = self.config.planner
+        return motion_command(target, tol_rad=math.radians(planner.heading_tol_deg),
+                              v_max_mps=self.v_max_mps, w_max_radps=self.w_max_radps,
+                              control_hz=self.control_hz, drive=planner.drive)

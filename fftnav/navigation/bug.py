@@ -28,7 +28,7 @@ from fftnav.observe.scan import beam_angles_rad, wrap_angle
 from fftnav.optimal.astar import octile
 from fftnav.validate import number_field
 
-__all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free"]
+__all__ = ["Mode", "PlannerParams", "BugPlanner", "corridor_free", "motion_command"]
 
 
 def corridor_free(
@@ -67,6 +67,30 @@ def corridor_free(
         y = cos_h * py - sin_h * px
         free[k] = ~((x > 0) & (x <= lookahead_m) & (np.abs(y) < half_width_m)).any(axis=1)
     return free
+
+
+def motion_command(target_rad: float, *, tol_rad: float, v_max_mps: float, w_max_radps: float,
+                   control_hz: float, drive: str = "straight") -> tuple[float, float]:
+    """The planner's motion toward a heading ``target_rad`` (rad, robot frame): ``(v, w)``.
+
+    Beyond ``tol_rad`` of the heading the robot rotates in place,
+    ``w = clip(target * control_hz, -w_max, w_max)`` (closing the error in one control period
+    where the yaw rate allows). Within it, it drives at ``v_max_mps``: straight (``drive =
+    "straight"``, the paper's "move straight or rotate in place"), or turning toward the
+    heading by the same ``w`` (``drive = "steered"``).
+
+    >>> motion_command(0.5, tol_rad=0.1, v_max_mps=0.5, w_max_radps=1.5, control_hz=10.0)
+    (0.0, 1.5)
+    >>> motion_command(0.05, tol_rad=0.1, v_max_mps=0.5, w_max_radps=1.5, control_hz=10.0)
+    (0.5, 0.0)
+    >>> motion_command(0.05, tol_rad=0.1, v_max_mps=0.5, w_max_radps=1.5, control_hz=10.0,
+    ...                drive="steered")
+    (0.5, 0.5)
+    """
+    w = float(np.clip(target_rad * control_hz, -w_max_radps, w_max_radps))
+    if abs(target_rad) > tol_rad:
+        return (0.0, w)
+    return (v_max_mps, w if drive == "steered" else 0.0)
 
 
 class Mode(IntEnum):
@@ -556,10 +580,9 @@ class BugPlanner:
         return (0.0, side * p.w_max_radps)
 
     def _command(self, target_rad: float, tol_rad: float | None = None) -> tuple[float, float]:
-        """Straight motion if within ``tol_rad`` (default ``heading_tol_rad``) of
-        ``target_rad``, else rotation in place toward it."""
+        """:func:`motion_command` toward ``target_rad`` with tolerance ``tol_rad`` (default
+        ``heading_tol_rad``)."""
         p = self.params
-        if abs(target_rad) <= (p.heading_tol_rad if tol_rad is None else tol_rad):
-            return (p.v_max_mps, 0.0)
-        w = float(np.clip(target_rad * p.control_hz, -p.w_max_radps, p.w_max_radps))
-        return (0.0, w)
+        return motion_command(target_rad, tol_rad=p.heading_tol_rad if tol_rad is None
+                              else tol_rad, v_max_mps=p.v_max_mps, w_max_radps=p.w_max_radps,
+                              control_hz=p.control_hz, drive=p.drive)

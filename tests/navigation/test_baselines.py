@@ -119,6 +119,20 @@ def test_fft_go_steers_to_the_nearest_safe_beam_of_the_fft_mask():
     assert v == 0.0 and w == pytest.approx(max(-1.5, ANGLES[best] * 10))
 
 
+def test_fft_go_uses_the_planners_motion_from_the_config():
+    """At a goal 5 degrees off the heading fft-go turns in place at the default tolerance,
+    drives straight at 10 degrees, and drives turning toward it with ``drive = "steered"``."""
+    safe, y1, _ = _pipeline_outputs(_scan())
+    obs = _obs(_scan(), 5.0, safe=safe, y1=y1)
+    turn = math.radians(5.0) * 10.0
+    wide = CFG.replace({"planner.heading_tol_deg": 10})
+    steered = wide.replace({"planner.drive": "steered"})
+    assert FFTGoController(_setup()).act(obs) == (0.0, pytest.approx(turn))
+    assert FFTGoController(ControllerSetup(1, wide, np.random.default_rng(0))).act(obs) == (0.5, 0.0)
+    assert FFTGoController(ControllerSetup(1, steered, np.random.default_rng(0))).act(obs) == (
+        0.5, pytest.approx(turn))
+
+
 def test_fft_go_drives_straight_at_an_open_goal():
     safe, y1, _ = _pipeline_outputs(_scan())
     assert FFTGoController(_setup()).act(_obs(_scan(), 0.0, safe=safe, y1=y1)) == (0.5, 0.0)

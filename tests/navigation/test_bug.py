@@ -2,8 +2,10 @@ import math
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
-from fftnav.navigation.bug import BugPlanner, Mode, PlannerParams
+from fftnav.navigation.bug import BugPlanner, Mode, PlannerParams, motion_command
 from fftnav.navigation.policies import LEFT, RIGHT
 
 M = 360
@@ -101,6 +103,48 @@ def test_the_way_tolerance_applies_only_along_the_own_maps_way():
         assert wide.memory[0].on_way and b[0, 1] == 0.0 and b[0, 0] == 0.5
         turned += a[0, 0] == 0.0
     assert escaping > 100 and turned > 0
+
+
+@given(target=st.floats(-math.pi, math.pi), tol_deg=st.floats(0.5, 90.0))
+def test_steered_motion_closes_the_heading_error_that_straight_motion_keeps(target, tol_deg):
+    """Both motions rotate in place beyond the tolerance and drive at full speed within it;
+    there the steered one's yaw rate, integrated over one control period (the oracle: a
+    unicycle's heading after 0.1 s), leaves an error no larger than the one it started from,
+    and none where the yaw rate allows, while the straight one keeps the whole error."""
+    kw = dict(tol_rad=math.radians(tol_deg), v_max_mps=0.5, w_max_radps=1.5, control_hz=10.0)
+    straight = motion_command(target, **kw)
+    steered = motion_command(target, drive="steered", **kw)
+    if abs(target) > kw["tol_rad"]:
+        assert straight == steered and straight[0] == 0.0
+        return
+    assert straight == (0.5, 0.0) and steered[0] == 0.5
+    left = target - steered[1] * 0.1
+    assert abs(left) <= abs(target) + 1e-12 and abs(steered[1]) <= 1.5
+    if abs(target) * 10.0 <= 1.5:
+        assert left == pytest.approx(0.0, abs=1e-12)
+
+
+def test_a_steered_robot_heads_for_its_goal_where_a_straight_one_stops_to_turn():
+    """Open space, goal 9 degrees off the heading, tolerance 10, driven tick by tick (unicycle
+    kinematics): the straight planner drives on 9 degrees off until the goal's bearing passes
+    10 degrees, then stops and turns in place; the steered one never stops, and reaches the
+    goal sooner on a line at most 0.5 % longer than the distance."""
+    runs = {}
+    for drive in ("straight", "steered"):
+        p, _ = _planner(LEFT, heading_tol_deg=10.0, drive=drive)
+        x, y, yaw, length, stops = 0.0, 0.0, math.radians(9.0), 0.0, 0
+        for k in range(300):
+            if math.hypot(10 - x, y) < 0.05:
+                break
+            cmd, _ = _step(p, 0.1 * k, (x, y, yaw), (10, 0), _mask())
+            v, w = cmd[0]
+            stops += v == 0.0
+            yaw += w * 0.1
+            x, y = x + v * 0.1 * math.cos(yaw), y + v * 0.1 * math.sin(yaw)
+            length += v * 0.1
+        runs[drive] = k, length, stops
+    assert runs["straight"][2] > 0 and runs["steered"][2] == 0
+    assert runs["steered"][0] < runs["straight"][0] and runs["steered"][1] <= 10 * 1.005
 
 
 def test_near_goal_an_obstacle_behind_the_goal_does_not_block_it():
