@@ -13,7 +13,7 @@ from fftnav.observe.geometry import DRONE, REAL_ROBOT, SIM_ROBOT, RobotGeometry
 from fftnav.observe.pipeline import Pipeline, PipelineResult
 from fftnav.observe.safe import is_safe_direction, nearest_safe_headings
 
-__version__ = "0.1.0"
+__version__ = "0.2.0"
 
 __all__ = [
     "RobotGeometry", "SIM_ROBOT", "REAL_ROBOT", "DRONE", "__version__",

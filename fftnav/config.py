@@ -288,16 +288,16 @@ class PlannerConfig(_Section):
     Attributes
     ----------
     heading_tol_deg, way_heading_tol_deg : float
-        Drive straight only when the heading error is at most this (degrees); else rotate in
-        place toward the heading (the paper's robots "move straight or rotate in place").
-        ``way_heading_tol_deg`` applies while the robot steers along its own map's way
-        (escaping, or guided), ``heading_tol_deg`` otherwise.
-    drive : {"straight", "steered"}
-        Motion within the heading tolerance: ``"straight"`` drives straight at full speed
-        (the paper's motion); ``"steered"`` drives at full speed and turns toward the heading
-        at the same time (the rotation command below, so the robot follows an arc of radius at
-        least v_max / w_max that closes the error), instead of drifting up to the tolerance
-        off it.
+        Drive only when the heading error is at most this (degrees; default 20); else rotate
+        in place toward the heading. ``way_heading_tol_deg`` applies while the robot steers
+        along its own map's way (escaping, or guided), ``heading_tol_deg`` otherwise.
+    drive : {"steered", "straight"}
+        Motion within the heading tolerance: ``"steered"`` (default) drives at full speed and
+        turns toward the heading at the same time (the rotation command, so the robot follows
+        an arc of radius at least v_max / w_max that closes the error); ``"straight"`` drives
+        straight (the paper's robots "move straight or rotate in place"; with 3 degrees of
+        tolerance, the planner of fftnav 0.1.0). Chosen on the tuning maps, docs/results.md
+        (eleventh round of issue 21).
     progress_m : float
         Leave rule: the goal distance must be this much below the distance at the hit point.
     loop_timeout_s : float
@@ -365,9 +365,9 @@ class PlannerConfig(_Section):
     """
 
     name: ClassVar[str] = "planner"
-    heading_tol_deg: float = number_field(3.0, low=0, low_open=True, high=90)
-    way_heading_tol_deg: float = number_field(3.0, low=0, low_open=True, high=90)
-    drive: str = choice_field("straight", ("straight", "steered"))
+    heading_tol_deg: float = number_field(20.0, low=0, low_open=True, high=90)
+    way_heading_tol_deg: float = number_field(20.0, low=0, low_open=True, high=90)
+    drive: str = choice_field("steered", ("straight", "steered"))
     progress_m: float = number_field(0.05, low=0)
     loop_timeout_s: float = number_field(10.0, low=0, low_open=True)
     clearance_m: float = number_field(0.03, low=0)
