@@ -35,7 +35,8 @@ benchmark: $(STAMP)
 # holdouts (maps 21-40 and 41-60), the fresh maps 61-80 of every kind (with and without lidar
 # noise; which robots fail there, and where their time went, also with 240 s), two robots
 # head-on in a corridor, the heading tolerance on the tuning maps and the fresh maps with 10
-# degrees (everywhere, or only along the own map's way), and the full sweep
+# degrees (everywhere, or only along the own map's way), the steered motion on the tuning and
+# the fresh maps, and the full sweep
 # (docs/experiments.md, [sweep]);
 # the runs resume when rerun.
 collab: $(STAMP)
@@ -64,6 +65,16 @@ collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/fresh_noise_way10.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_way10.toml
 	$(BIN)/fftnav run experiments/collab/tolerance_tuning.toml
+	$(BIN)/fftnav run experiments/collab/drive_tuning.toml
+	$(BIN)/fftnav run experiments/collab/drive_tuning_steered20.toml
+	$(BIN)/fftnav run experiments/collab/drive_tuning_steered30.toml
+	$(BIN)/fftnav run experiments/collab/drive_holdout_straight10.toml
+	$(BIN)/fftnav run experiments/collab/drive_holdout_steered20.toml
+	$(BIN)/fftnav run experiments/collab/fresh_steered20.toml
+	$(BIN)/fftnav figure sweep experiments/collab/fresh_steered20.toml
+	$(BIN)/fftnav run experiments/collab/fresh_noise_steered20.toml
+	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_steered20.toml
+	$(BIN)/python experiments/noise_seeds.py --set planner.heading_tol_deg=20 --set planner.way_heading_tol_deg=20 --set planner.drive=steered --out results/collab/noise_seeds_steered20.csv
 	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)
