@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install install-browser test lint benchmark bench figures collab replays clean
+.PHONY: install install-browser test lint benchmark bench figures collab collab-planners replays clean
 
 install: $(STAMP)
 
@@ -34,11 +34,8 @@ benchmark: $(STAMP)
 # collab: the core comparison (walls, traps; own-only, fusion, collab; 20 maps), its walls
 # holdouts (maps 21-40 and 41-60), the fresh maps 61-80 of every kind (with and without lidar
 # noise; which robots fail there, and where their time went, also with 240 s), two robots
-# head-on in a corridor, the heading tolerance on the tuning maps and the fresh maps with 10
-# degrees (everywhere, or only along the own map's way), the steered motion on the tuning and
-# the fresh maps, and the full sweep
-# (docs/experiments.md, [sweep]);
-# the runs resume when rerun.
+# head-on in a corridor, and the full sweep (docs/experiments.md, [sweep]); the runs resume
+# when rerun.
 collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/core.toml
 	$(BIN)/fftnav figure sweep experiments/collab/core.toml
@@ -56,26 +53,32 @@ collab: $(STAMP)
 	$(BIN)/python experiments/time_budget.py results/collab/fresh
 	$(BIN)/fftnav run experiments/collab/fresh_noise_240.toml
 	$(BIN)/python experiments/time_budget.py results/collab/fresh_noise_240
-	$(BIN)/fftnav run experiments/collab/fresh_noise_tol10.toml
+	$(BIN)/fftnav run experiments/collab.toml
+
+# collab-planners: how the planner's motion was chosen (docs/results.md, tenth and eleventh
+# rounds of issue 21): the heading tolerance and the steered motion on the tuning and the fresh
+# maps. Their committed folders were written by fftnav 0.1.0, so they are rerun from scratch
+# (--fresh); their [planner] keys set the motion, so they give the same episodes.
+collab-planners: $(STAMP)
+	$(BIN)/fftnav run --fresh experiments/collab/fresh_noise_tol10.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_tol10.toml
-	$(BIN)/python experiments/noise_seeds.py --set planner.heading_tol_deg=10 --set planner.way_heading_tol_deg=10 --out results/collab/noise_seeds_tol10.csv
-	$(BIN)/fftnav run experiments/table1_tol10.toml
-	$(BIN)/fftnav run experiments/collab/fresh_way10.toml
+	$(BIN)/python experiments/noise_seeds.py --set planner.heading_tol_deg=10 --set planner.way_heading_tol_deg=10 --set planner.drive=straight --out results/collab/noise_seeds_tol10.csv
+	$(BIN)/fftnav run --fresh experiments/table1_tol10.toml
+	$(BIN)/fftnav run --fresh experiments/collab/fresh_way10.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_way10.toml
-	$(BIN)/fftnav run experiments/collab/fresh_noise_way10.toml
+	$(BIN)/fftnav run --fresh experiments/collab/fresh_noise_way10.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_way10.toml
-	$(BIN)/fftnav run experiments/collab/tolerance_tuning.toml
-	$(BIN)/fftnav run experiments/collab/drive_tuning.toml
-	$(BIN)/fftnav run experiments/collab/drive_tuning_steered20.toml
-	$(BIN)/fftnav run experiments/collab/drive_tuning_steered30.toml
-	$(BIN)/fftnav run experiments/collab/drive_holdout_straight10.toml
-	$(BIN)/fftnav run experiments/collab/drive_holdout_steered20.toml
-	$(BIN)/fftnav run experiments/collab/fresh_steered20.toml
+	$(BIN)/fftnav run --fresh experiments/collab/tolerance_tuning.toml
+	$(BIN)/fftnav run --fresh experiments/collab/drive_tuning.toml
+	$(BIN)/fftnav run --fresh experiments/collab/drive_tuning_steered20.toml
+	$(BIN)/fftnav run --fresh experiments/collab/drive_tuning_steered30.toml
+	$(BIN)/fftnav run --fresh experiments/collab/drive_holdout_straight10.toml
+	$(BIN)/fftnav run --fresh experiments/collab/drive_holdout_steered20.toml
+	$(BIN)/fftnav run --fresh experiments/collab/fresh_steered20.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_steered20.toml
-	$(BIN)/fftnav run experiments/collab/fresh_noise_steered20.toml
+	$(BIN)/fftnav run --fresh experiments/collab/fresh_noise_steered20.toml
 	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_steered20.toml
 	$(BIN)/python experiments/noise_seeds.py --set planner.heading_tol_deg=20 --set planner.way_heading_tol_deg=20 --set planner.drive=steered --out results/collab/noise_seeds_steered20.csv
-	$(BIN)/fftnav run experiments/collab.toml
 
 bench: $(STAMP)
 	$(BIN)/fftnav bench pipeline --csv results/pipeline_latency.csv

@@ -1,7 +1,7 @@
 """The replay figures of the docs, from the committed recordings (``make replays``).
 
-- ``results/figures/replay_rocky-1004.gif`` (README): ``bug-left`` on rocky map 1004,
-  where robot 5 ends ``stuck``, beside ``fusion`` on the same map and episode seed, where every
+- ``results/figures/replay_rocky-1014.gif`` (README): ``bug-left`` on rocky map 1014,
+  where robot 9 ends ``stuck``, beside ``fusion`` on the same map and episode seed, where every
   robot arrives. ``fusion``'s episode has no failure, so ``records/`` does not keep it: it is
   rerun here from the world, config and seed of the ``bug-left`` recording, and its rows are
   checked against ``results/table1/episodes.csv`` first.
@@ -12,9 +12,11 @@
   No committed result has a ``collision`` (the planner's clearance guard keeps the robots off
   the obstacles), so its frame is of a scripted robot driving straight at a rock. Where none
   of those recordings has a ``jam`` (the squeezed plan parts them, docs/planner.md), its
-  frame is of fresh traps map 71 under ``collab`` with the squeeze switched off and its robots
-  mapping each other as obstacles (``OwnMaps.set_robots`` switched off), where robots 2 and 3
-  jam.
+  frame is of fresh traps map 71 under ``collab`` with the squeeze switched off, its robots
+  mapping each other as obstacles (``OwnMaps.set_robots`` switched off), its guided way
+  switched off (``Walls.guides``) and the planner of
+  fftnav 0.1.0 (straight motion, turning in place beyond 3 degrees of heading error), where
+  robots 2 and 3 jam.
 
 Run from the repository root: ``python experiments/replay_figures.py``.
 """
@@ -34,6 +36,7 @@ from fftnav.episode import read_recording, run_episode
 from fftnav.episode.recording import write_recording
 from fftnav.metrics import FAILURE_CAUSES
 from fftnav.navigation.controllers import Controller
+from fftnav.navigation.messages import Walls
 from fftnav.navigation.ownmap import OwnMaps
 from fftnav.report.replay import write_image, write_video
 from fftnav.world import Circle, World
@@ -45,10 +48,10 @@ SOURCES = (ROOT / "results" / "table1", ROOT / "results" / "collab" / "core",
 
 def readme_gif(out: Path) -> Path:
     table1 = ROOT / "results" / "table1"
-    bug = read_recording(table1 / "records" / "rocky-1004-bug-left.npz")
+    bug = read_recording(table1 / "records" / "rocky-1014-bug-left.npz")
     fusion = run_episode(bug.world, "fusion", seed=bug.seed, config=bug.config, record=True)
     episodes = pd.read_csv(table1 / "episodes.csv")
-    rows = episodes[(episodes.env == "rocky") & (episodes.map_seed == 1004)
+    rows = episodes[(episodes.env == "rocky") & (episodes.map_seed == 1014)
                     & (episodes.policy == "fusion")]
     np.testing.assert_allclose([r.path_length_m for r in fusion.rows], rows.path_length_m,
                                atol=1e-6)
@@ -87,9 +90,13 @@ def _jam_recording(folder: Path) -> Path:
         return for_swarm(cls, config, map_squeeze_m=clearance, **constants)
 
     with (mock.patch.object(bug.PlannerParams, "for_swarm", classmethod(no_squeeze)),
-          mock.patch.object(OwnMaps, "set_robots", lambda *args: None)):
+          mock.patch.object(OwnMaps, "set_robots", lambda *args: None),
+          mock.patch.object(Walls, "guides", lambda *args: False)):
+        paper = SwarmConfig().replace({"planner.heading_tol_deg": 3.0,
+                                       "planner.way_heading_tol_deg": 3.0,
+                                       "planner.drive": "straight"})
         result = run_episode(generate_world("traps", 71, robots=15), "collab",
-                             seed=episode_seed("traps", 71), record=True)
+                             seed=episode_seed("traps", 71), record=True, config=paper)
     jammed = [(r.robot, r.failure) for r in result.rows if not r.arrived]
     if jammed != [(2, "jam"), (3, "jam")]:
         raise RuntimeError(f"fresh traps map 71 without the squeeze no longer jams: {jammed}")
@@ -123,5 +130,5 @@ def cause_frames(folder: Path) -> list[Path]:
 
 
 if __name__ == "__main__":
-    print(readme_gif(ROOT / "results" / "figures" / "replay_rocky-1004.gif"))
+    print(readme_gif(ROOT / "results" / "figures" / "replay_rocky-1014.gif"))
     cause_frames(ROOT / "results" / "figures" / "causes")

@@ -97,7 +97,8 @@ def test_fftnav_episode_refuses_huge_delays_before_the_episode(tmp_path):
 
 def test_the_planner_section_sets_the_planners_constants():
     """``[planner]`` reaches the planner of every policy: at 10 degrees of tolerance a heading
-    error of 5 degrees is driven straight, at 3 degrees it is turned in place."""
+    error of 5 degrees is driven straight, at 3 degrees it is turned in place, and with the
+    default (steered, 20 degrees) it is turned while driving."""
     from fftnav.navigation.bug import BugPlanner
 
     def command(config):
@@ -105,10 +106,12 @@ def test_the_planner_section_sets_the_planners_constants():
         return planner._command(math.radians(5.0))
 
     narrow = SwarmConfig.from_sections({"planner": {"heading_tol_deg": 3}})
-    wide = SwarmConfig.from_sections({"planner": {"heading_tol_deg": 10, "replan_s": 2}})
+    wide = SwarmConfig.from_sections({"planner": {"heading_tol_deg": 10, "replan_s": 2,
+                                                  "drive": "straight"}})
     assert wide.planner.heading_tol_deg == 10.0 and wide.planner.replan_s == 2.0
     assert command(narrow) == (0.0, pytest.approx(math.radians(5.0) * 10.0))
     assert command(wide) == (narrow.robot.v_max_mps, 0.0)
+    assert command(SwarmConfig()) == (0.5, pytest.approx(math.radians(5.0) * 10.0))  # steered
     params = BugPlanner.for_swarm(1, wide, lambda i: 1).params
     assert params.replan_s == 2.0 and params.heading_tol_rad == pytest.approx(math.radians(10))
     assert SwarmConfig().replace({"heading_tol_deg": "20"}).planner.heading_tol_deg == 20.0

@@ -6,8 +6,9 @@ direction: a robot drives only along a heading whose short corridor is free
 (:func:`fftnav.navigation.bug.corridor_free`, half width r0 + 3 cm, length r0 + 10 cm), and turns
 towards its target heading at most ``w_max`` (closing the error in one control period).
 ``vfh`` and ``ftg`` drive while turning when the heading error is below ``drive_tol_deg``
-(arcs, as their authors' robots did); ``fft-go`` uses the Bug planner's motion (rotate in place,
-then straight), so it differs from the Bug baselines only by having no memory.
+(arcs, as their authors' robots did); ``fft-go`` uses the Bug planner's motion
+(:func:`~fftnav.navigation.bug.motion_command`), so it differs from the Bug baselines only by
+having no memory.
 
 Each class documents its source and parameters; all parameters are class attributes, so a
 variant is a subclass (``class WideVFH(VFHController): sector_deg = 10.0``).

@@ -5,8 +5,10 @@ The planner never looks at raw ranges to decide where it may go: its input is th
 free up to l_th). The state machine, with its leave rule, loop detection, stall recovery and the
 no-safe-direction fallback, is documented in ``docs/planner.md``.
 
-Commands are either straight motion ``(v_max, 0)`` or rotation in place ``(0, w)`` (the paper's
-robots "move straight or rotate in place").
+Commands (:func:`motion_command`) are rotation in place ``(0, w)`` beyond the heading tolerance
+and, within it, motion at ``v_max`` turning toward the heading (``drive = "steered"``, the
+default) or straight ``(v_max, 0)`` (``"straight"``: the paper's robots "move straight or
+rotate in place").
 """
 
 from __future__ import annotations

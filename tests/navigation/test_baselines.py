@@ -120,17 +120,18 @@ def test_fft_go_steers_to_the_nearest_safe_beam_of_the_fft_mask():
 
 
 def test_fft_go_uses_the_planners_motion_from_the_config():
-    """At a goal 5 degrees off the heading fft-go turns in place at the default tolerance,
-    drives straight at 10 degrees, and drives turning toward it with ``drive = "steered"``."""
+    """At a goal 5 degrees off the heading fft-go drives turning toward it by default
+    (``drive = "steered"``), turns in place with straight motion at 3 degrees, and drives
+    straight at 10 degrees."""
     safe, y1, _ = _pipeline_outputs(_scan())
     obs = _obs(_scan(), 5.0, safe=safe, y1=y1)
     turn = math.radians(5.0) * 10.0
-    wide = CFG.replace({"planner.heading_tol_deg": 10})
-    steered = wide.replace({"planner.drive": "steered"})
-    assert FFTGoController(_setup()).act(obs) == (0.0, pytest.approx(turn))
+    narrow = CFG.replace({"planner.heading_tol_deg": 3, "planner.drive": "straight"})
+    wide = narrow.replace({"planner.heading_tol_deg": 10})
+    assert FFTGoController(_setup()).act(obs) == (0.5, pytest.approx(turn))
+    assert FFTGoController(ControllerSetup(1, narrow, np.random.default_rng(0))).act(obs) == (
+        0.0, pytest.approx(turn))
     assert FFTGoController(ControllerSetup(1, wide, np.random.default_rng(0))).act(obs) == (0.5, 0.0)
-    assert FFTGoController(ControllerSetup(1, steered, np.random.default_rng(0))).act(obs) == (
-        0.5, pytest.approx(turn))
 
 
 def test_fft_go_drives_straight_at_an_open_goal():

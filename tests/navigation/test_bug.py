@@ -44,7 +44,11 @@ def test_clear_goal_drives_straight_and_misaligned_goal_rotates_toward_it():
     assert cmd.tolist() == [[0.5, 0.0]] and not blocked[0] and calls == []
     cmd, _ = _step(p, 0.1, (0, 0, 0), (0, 10), _mask())  # goal at +90 deg: rotate left, capped
     assert cmd.tolist() == [[0.0, 1.5]]
-    cmd, _ = _step(p, 0.2, (0, 0, 0), (10, -1.0), _mask())  # small error: one-period rotation
+    # a small error (5.7 degrees) is turned within one period, while driving by default
+    cmd, _ = _step(p, 0.2, (0, 0, 0), (10, -1.0), _mask())
+    assert cmd[0, 0] == 0.5 and cmd[0, 1] == pytest.approx(10 * math.atan2(-1.0, 10), abs=1e-9)
+    paper, _ = _planner(LEFT, heading_tol_deg=3.0, drive="straight")  # in place beyond 3 degrees
+    cmd, _ = _step(paper, 0.0, (0, 0, 0), (10, -1.0), _mask())
     assert cmd[0, 0] == 0.0 and cmd[0, 1] == pytest.approx(10 * math.atan2(-1.0, 10), abs=1e-9)
 
 
@@ -88,9 +92,11 @@ def test_loop_detection_starts_an_escape_after_the_timeout_once():
 def test_the_way_tolerance_applies_only_along_the_own_maps_way():
     """Blocked forever, as above: until the escape both planners command the same; while they
     steer along the own map's way, the one whose ``way_heading_tol_deg`` is 90 drives straight at
-    every heading within 90 degrees, where the 3-degree one turns in place."""
-    narrow, _ = _planner(LEFT, loop_timeout_s=5.0, way_heading_tol_deg=3.0)
-    wide, _ = _planner(LEFT, loop_timeout_s=5.0, way_heading_tol_deg=90.0)
+    every heading within 90 degrees, where the 3-degree one turns in place (straight motion,
+    3 degrees elsewhere)."""
+    paper = dict(loop_timeout_s=5.0, heading_tol_deg=3.0, drive="straight")
+    narrow, _ = _planner(LEFT, way_heading_tol_deg=3.0, **paper)
+    wide, _ = _planner(LEFT, way_heading_tol_deg=90.0, **paper)
     escaping = turned = 0
     for k in range(200):
         before = int(wide.escape_ticks[0])
@@ -335,6 +341,7 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
     turn on the spot until the time limit: a jam. With the default squeeze, once they have
     stayed put for squeeze_after_s, both plan a narrower way out and every robot arrives.
     (collab's guided way is switched off too: it keeps these robots out of that corner.)"""
+    from fftnav.config import SwarmConfig
     from fftnav.episode import run_episode
     from fftnav.navigation import bug
     from fftnav.navigation.messages import Walls
@@ -354,7 +361,13 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
     monkeypatch.setattr(Walls, "guides", lambda self, control, swarm, robot: False)
     world = generate_world("traps", 71, robots=15)
     seed = episode_seed("traps", 71)
-    rows = run_episode(world, "collab", seed=seed).rows
+    # the robots end in that corner with the planner of fftnav 0.1.0 (straight motion, turning
+    # in place beyond 3 degrees of heading error); the default steered motion takes them
+    # elsewhere
+    paper = SwarmConfig().replace({"planner.heading_tol_deg": 3.0,
+                                   "planner.way_heading_tol_deg": 3.0,
+                                   "planner.drive": "straight"})
+    rows = run_episode(world, "collab", seed=seed, config=paper).rows
     assert all(r.arrived for r in rows)
     assert maps[0].squeezes[2] > 0 and maps[0].squeezes[3] > 0
     for_swarm = bug.PlannerParams.for_swarm.__func__
@@ -364,7 +377,7 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
                          **constants)
 
     monkeypatch.setattr(bug.PlannerParams, "for_swarm", classmethod(no_squeeze))
-    rows = run_episode(world, "collab", seed=seed).rows
+    rows = run_episode(world, "collab", seed=seed, config=paper).rows
     assert [(r.robot, r.failure) for r in rows if not r.arrived] == [(2, "jam"), (3, "jam")]
 
 
