@@ -14,9 +14,8 @@
   of those recordings has a ``jam`` (the squeezed plan parts them, docs/planner.md), its
   frame is of fresh traps map 71 under ``collab`` with the squeeze switched off, its robots
   mapping each other as obstacles (``OwnMaps.set_robots`` switched off), its guided way
-  switched off (``Walls.guides``) and the planner of
-  fftnav 0.1.0 (straight motion, turning in place beyond 3 degrees of heading error), where
-  robots 2 and 3 jam.
+  switched off (``Walls.guides``) and the paper's motion (``PAPER_MOTION``: straight, or
+  rotation in place beyond 3 degrees of heading error), where robots 2 and 3 jam.
 
 Run from the repository root: ``python experiments/replay_figures.py``.
 """
@@ -31,7 +30,7 @@ from unittest import mock
 import numpy as np
 import pandas as pd
 
-from fftnav.config import SwarmConfig
+from fftnav.config import PAPER_MOTION, SwarmConfig
 from fftnav.episode import read_recording, run_episode
 from fftnav.episode.recording import write_recording
 from fftnav.metrics import FAILURE_CAUSES
@@ -92,9 +91,7 @@ def _jam_recording(folder: Path) -> Path:
     with (mock.patch.object(bug.PlannerParams, "for_swarm", classmethod(no_squeeze)),
           mock.patch.object(OwnMaps, "set_robots", lambda *args: None),
           mock.patch.object(Walls, "guides", lambda *args: False)):
-        paper = SwarmConfig().replace({"planner.heading_tol_deg": 3.0,
-                                       "planner.way_heading_tol_deg": 3.0,
-                                       "planner.drive": "straight"})
+        paper = SwarmConfig().replace(PAPER_MOTION)
         result = run_episode(generate_world("traps", 71, robots=15), "collab",
                              seed=episode_seed("traps", 71), record=True, config=paper)
     jammed = [(r.robot, r.failure) for r in result.rows if not r.arrived]

@@ -47,8 +47,8 @@ from fftnav.validate import (
     number_field,
 )
 
-__all__ = ["CommsConfig", "EpisodeConfig", "PlannerConfig", "RobotConfig", "SensorConfig",
-           "SwarmConfig", "check_rates"]
+__all__ = ["CommsConfig", "EpisodeConfig", "PAPER_MOTION", "PlannerConfig", "RobotConfig",
+           "SensorConfig", "SwarmConfig", "check_rates"]
 
 #: Upper bounds of the speed limits (a robot, not a projectile).
 MAX_SPEED_MPS = 100.0
@@ -295,9 +295,9 @@ class PlannerConfig(_Section):
         Motion within the heading tolerance: ``"steered"`` (default) drives at full speed and
         turns toward the heading at the same time (the rotation command, so the robot follows
         an arc of radius at least v_max / w_max that closes the error); ``"straight"`` drives
-        straight (the paper's robots "move straight or rotate in place"; with 3 degrees of
-        tolerance, the planner of fftnav 0.1.0). Chosen on the tuning maps, docs/results.md
-        (eleventh round of issue 21).
+        straight (the paper's robots "move straight or rotate in place";
+        :data:`PAPER_MOTION`). The defaults were chosen on the tuning maps (docs/results.md,
+        "Turning while driving").
     progress_m : float
         Leave rule: the goal distance must be this much below the distance at the hit point.
     loop_timeout_s : float
@@ -392,6 +392,13 @@ class PlannerConfig(_Section):
         if self.map_squeeze_m > self.map_clearance_m:
             raise ValueError(f"map_squeeze_m must be <= map_clearance_m={self.map_clearance_m!r}, "
                              f"got map_squeeze_m={self.map_squeeze_m!r}")
+
+
+#: ``SwarmConfig().replace(PAPER_MOTION)``: the paper's motion, straight or rotation in place,
+#: the latter beyond 3 degrees of heading error everywhere.
+PAPER_MOTION: Mapping[str, Any] = {"planner.heading_tol_deg": 3.0,
+                                   "planner.way_heading_tol_deg": 3.0,
+                                   "planner.drive": "straight"}
 
 
 _SECTIONS: dict[str, type[_Section]] = {

@@ -341,7 +341,7 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
     turn on the spot until the time limit: a jam. With the default squeeze, once they have
     stayed put for squeeze_after_s, both plan a narrower way out and every robot arrives.
     (collab's guided way is switched off too: it keeps these robots out of that corner.)"""
-    from fftnav.config import SwarmConfig
+    from fftnav.config import PAPER_MOTION, SwarmConfig
     from fftnav.episode import run_episode
     from fftnav.navigation import bug
     from fftnav.navigation.messages import Walls
@@ -361,12 +361,9 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
     monkeypatch.setattr(Walls, "guides", lambda self, control, swarm, robot: False)
     world = generate_world("traps", 71, robots=15)
     seed = episode_seed("traps", 71)
-    # the robots end in that corner with the planner of fftnav 0.1.0 (straight motion, turning
-    # in place beyond 3 degrees of heading error); the default steered motion takes them
-    # elsewhere
-    paper = SwarmConfig().replace({"planner.heading_tol_deg": 3.0,
-                                   "planner.way_heading_tol_deg": 3.0,
-                                   "planner.drive": "straight"})
+    # the robots end in that corner with the paper's motion (straight, or rotation in place
+    # beyond 3 degrees of heading error); the default steered motion takes them elsewhere
+    paper = SwarmConfig().replace(PAPER_MOTION)
     rows = run_episode(world, "collab", seed=seed, config=paper).rows
     assert all(r.arrived for r in rows)
     assert maps[0].squeezes[2] > 0 and maps[0].squeezes[3] > 0

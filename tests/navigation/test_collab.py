@@ -10,7 +10,7 @@ import pytest
 from hypothesis import assume, given, settings
 from hypothesis import strategies as st
 
-from fftnav.config import EpisodeConfig, SwarmConfig
+from fftnav.config import PAPER_MOTION, EpisodeConfig, SwarmConfig
 from fftnav.episode import episode_csv, run_episode
 from fftnav.navigation.collab import (
     MAX_MESSAGE_BYTES,
@@ -344,12 +344,10 @@ def test_guided_robots_steer_for_the_gap_and_only_collab_is_guided(monkeypatch):
 
     monkeypatch.setattr(bugcontrol.BugController, "__init__", keep)
     world = _barrier_world()
-    # built for the planner of fftnav 0.1.0 (straight motion, in place beyond 3 degrees); with
-    # the default steered motion two collab robots here go the long way (docs/results.md)
+    # built for the paper's motion (straight, or rotation in place beyond 3 degrees); with the
+    # default steered motion two collab robots here go the long way (docs/results.md)
     cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=60.0, departure="staggered",
-                                            stagger_s=4.0)).replace(
-        {"planner.heading_tol_deg": 3.0, "planner.way_heading_tol_deg": 3.0,
-         "planner.drive": "straight"})
+                                            stagger_s=4.0)).replace(PAPER_MOTION)
     rows = {p: run_episode(world, p, seed=5, config=cfg).rows
             for p in ("own-only", "fusion", "collab")}
     own, fusion, collab = planners
