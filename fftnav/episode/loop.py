@@ -106,14 +106,11 @@ class _Onboard:
         self.channel = Channel(n, range_m=config.comms.comm_range_m,
                                loss=config.comms.packet_loss,
                                delay_ticks=config.comms.delay_ticks, rng=rng)
-        setup = ControllerSetup(n, config, rng)
+        setup = ControllerSetup.for_world(world, config, rng)
         plugin = method.reference not in registered_names()
         if method.policy is not None:
             policy = _guarded_policy(method) if plugin else method.policy
-            self.controller: Controller = BugController(setup, policy,
-                                                        full_circle=self.pipe.bank.full_circle,
-                                                        area_m=world.size_m,
-                                                        walled=world.boundary == "walls")
+            self.controller: Controller = BugController(setup, policy)
         elif plugin:
             self.controller = _guarded_controller(method, setup)
         else:

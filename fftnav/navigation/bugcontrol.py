@@ -51,28 +51,21 @@ class BugController(Controller):
     Parameters
     ----------
     setup : ControllerSetup
-        Swarm size, configuration, the episode's generator.
+        Swarm size, configuration, the episode's generator and the world's facts: whether the
+        scans cover 360 degrees, the mission area (the robots' own maps cover it,
+        :class:`~fftnav.navigation.bug.BugPlanner`) and whether walls enclose it.
     policy : Policy
         The decision policy.
-    full_circle : bool
-        Whether the scans cover 360 degrees.
-    area_m : (float, float), optional
-        Width and height (m) of the mission area (the world's map, corner at the origin): the
-        robots' own maps cover it (:class:`~fftnav.navigation.bug.BugPlanner`).
-    walled : bool
-        Whether walls enclose the mission area (the world's boundary is ``"walls"``).
     """
 
     uses_pipeline = True
 
-    def __init__(self, setup: ControllerSetup, policy: Policy, *,
-                 full_circle: bool, area_m: tuple[float, float] | None = None,
-                 walled: bool = False) -> None:
+    def __init__(self, setup: ControllerSetup, policy: Policy) -> None:
         super().__init__(setup)
         n = setup.n_robots
         self.policy, self.rng = policy, setup.rng
         self.name = policy.name  # type: ignore[misc]  # its rows carry the policy's name
-        self.decider = Decider(setup.config, setup.rng, full_circle=full_circle)
+        self.decider = Decider(setup.config, setup.rng, full_circle=setup.full_circle)
         self.heard = np.zeros(n, dtype=np.int64)  # messages read (the message kind counts)
         self._seen = np.zeros(n, dtype=np.int64)  # messages read at the last (re)decision
         #: Messages that arrived but are not read yet, ``(tick, payload)`` per robot, and
@@ -90,7 +83,8 @@ class BugController(Controller):
         self._swarm: SwarmStep | None = None
         self.planner = BugPlanner.for_swarm(
             n, setup.config, self._decide, self._reconsider if policy.reconsiders else None,
-            area_m=area_m, wait=self._asks("waits"), guide=self._asks("guides"), walled=walled)
+            area_m=setup.area_m, wait=self._asks("waits"), guide=self._asks("guides"),
+            walled=setup.walled)
 
     def _decide(self, i: int) -> int:
         ctx = DecisionContext(i, lambda: self.decider.own_probability(i),

@@ -35,8 +35,9 @@ from typing import ClassVar
 import numpy as np
 
 from fftnav.config import SwarmConfig
-from fftnav.observe.scan import wrap_angle
+from fftnav.observe.scan import is_full_circle, wrap_angle
 from fftnav.registry import Registry, first_line
+from fftnav.world.model import World
 
 __all__ = [
     "Action",
@@ -85,21 +86,48 @@ class Packet:
 
 @dataclass(frozen=True)
 class ControllerSetup:
-    """What a controller knows when an episode starts.
+    """What a controller knows when an episode starts: the same for every controller, the
+    default Bug controller included.
 
     Attributes
     ----------
     n_robots : int
         Robots in the episode (indices ``0 .. n_robots - 1``).
     config : SwarmConfig
-        Robot (r0, r, speed limits), sensor, comms and episode parameters.
+        Robot (r0, r, speed limits), sensor, comms, episode and planner parameters.
     rng : numpy.random.Generator
         The episode's generator: the only source of randomness a controller may use.
+    area_m : (float, float) or None
+        Width and height (m) of the mission area, the world's map with its corner at the origin
+        (None: unknown, e.g. a controller made outside an episode).
+    walled : bool
+        Whether walls enclose the mission area (the world's boundary is ``"walls"``).
+
+    Examples
+    --------
+    >>> setup = ControllerSetup(3, SwarmConfig(), np.random.default_rng(0), area_m=(20.0, 20.0))
+    >>> setup.full_circle, setup.walled
+    (True, False)
     """
 
     n_robots: int
     config: SwarmConfig
     rng: np.random.Generator
+    area_m: tuple[float, float] | None = None
+    walled: bool = False
+
+    @property
+    def full_circle(self) -> bool:
+        """Whether the lidar's scans cover 360 degrees (``sensor.fov_deg``)."""
+        return is_full_circle(self.config.sensor.fov_rad)
+
+    @classmethod
+    def for_world(cls, world: World, config: SwarmConfig,
+                  rng: np.random.Generator) -> ControllerSetup:
+        """The setup of an episode in ``world``: one robot per start, its map's size as the
+        mission area, walled if its boundary is ``"walls"``."""
+        return cls(len(world.starts), config, rng, area_m=tuple(world.size_m),
+                   walled=world.boundary == "walls")
 
 
 @dataclass(frozen=True)
