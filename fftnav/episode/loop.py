@@ -343,10 +343,12 @@ def _failure(i: int, trajectory: np.ndarray, collided: bool, config: SwarmConfig
     """Robot ``i``'s cause of failure (empty if it arrived), the other robots aligned by tick."""
     others = np.delete(by_tick[departure:departure + len(trajectory)], i, axis=1)
     ep = config.episode
-    return metrics.classify_failure(
+    thresholds = metrics.FailureThresholds.for_robot(r0_m=config.robot.r0_m,
+                                                     v_max_mps=config.robot.v_max_mps)
+    return metrics.classify_failure(metrics.failure_features(
         trajectory, goal, collided=collided, others=others, dt_s=1.0 / ep.control_hz,
         time_limit_s=ep.time_limit_s, success_radius_m=ep.success_radius_m,
-        **metrics.failure_thresholds(r0_m=config.robot.r0_m, v_max_mps=config.robot.v_max_mps))
+        thresholds=thresholds))
 
 
 def _row(i: int, policy: str, trajectory: np.ndarray, onboard: _Onboard, robots: _Robots,
