@@ -362,16 +362,18 @@ class SwarmNavEnv(ParallelEnv):
         dist = self._goal_distance()
         status = core.status()
         collided = core.obs.obstacle_contact & moving
-        arrived = moving & (status == Status.ARRIVED)
+        arrived = moving & (status == int(Status.ARRIVED))
         reward = (self.rewards.progress * (self._dist - dist) + self.rewards.step
                   + self.rewards.arrival * arrived + self.rewards.collision * collided)
         self._dist = dist
+        ended = (arrived | (status == int(Status.COLLIDED))).tolist()
+        timed_out = (status == int(Status.TIMED_OUT)).tolist()
         rewards, terminations, truncations, infos = {}, {}, {}, {}
         for agent in agents:
             i = self._index[agent]
             rewards[agent] = float(reward[i])
-            terminations[agent] = bool(arrived[i] or status[i] == Status.COLLIDED)
-            truncations[agent] = bool(status[i] == Status.TIMED_OUT)
+            terminations[agent] = ended[i]
+            truncations[agent] = timed_out[i]
             infos[agent] = {"arrived": bool(arrived[i]), "collided": bool(collided[i]),
                             "goal_distance_m": float(dist[i]), "pose": core.obs.poses[i].copy()}
         observations = self._observe(agents)
