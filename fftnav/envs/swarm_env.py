@@ -174,6 +174,9 @@ class SwarmNavEnv(ParallelEnv):
         self.rewards = rewards or Rewards()
         self.observations = observations or Observations()
         self.terminate_on_collision = bool(terminate_on_collision)
+        if not isinstance(world, (str, World)):
+            raise ValueError(f"world must be a world kind (str) or a World, got "
+                             f"world={world!r:.80}")
         self._fixed_world = world if isinstance(world, World) else None
         self._kind = "forest" if self._fixed_world is not None else world
         self._map_seed = check_integer("map_seed", map_seed, low=0)
@@ -256,7 +259,7 @@ class SwarmNavEnv(ParallelEnv):
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, Any]]]:
-        self._method = self._configure(dict(options or {}))
+        method = self._configure(dict(options or {}))
         if seed is None:
             seed = int(np.random.SeedSequence().generate_state(1)[0])
         seed = check_integer("seed", seed, low=0)
@@ -267,9 +270,10 @@ class SwarmNavEnv(ParallelEnv):
                 self._sim.close()
             self._sim, self._sim_key = SwarmSim(self.world, config=sim_config), key
             self._set_agents()
+        self._method = method
         core = self._core = EpisodeCore(
             self.world, self.config, self._sim, seed=seed,
-            controller=None if self._method is None else self._method.make,
+            controller=None if method is None else method.make,
             collisions_end=self.terminate_on_collision)
         core.begin_tick()
         core.observe(pipeline=self._pipeline())
@@ -393,8 +397,9 @@ class SwarmNavEnv(ParallelEnv):
         swarm = core.swarm if core.swarm is not None and core.swarm.tick == core.tick else None
         idx = np.array([self._index[a] for a in agents])
         seen = np.isin(idx, swarm.active) if swarm is not None else np.zeros(len(idx), bool)
-        sensed = core.sense(idx[~seen], pipeline=self.observations.pipeline) if not seen.all() \
-            else None
+        sensed = None
+        if not seen.all():
+            sensed = core.sense(idx[~seen], pipeline=self.observations.pipeline)
         if swarm is not None and self.observations.max_neighbours:
             self._own_messages = self._broadcasts(swarm)
         out = {}

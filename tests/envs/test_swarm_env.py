@@ -130,6 +130,7 @@ def test_collisions_need_not_terminate():
     (lambda: Rewards(step="1"), r"step must be a finite number, got step='1'"),
     (lambda: SwarmNavEnv(render_mode="human"),
      r"render_mode must be one of \[None, 'rgb_array'\], got render_mode='human'"),
+    (lambda: SwarmNavEnv(None), r"world must be a world kind \(str\) or a World, got world=None"),
     (lambda: Observations(max_neighbours=-1),
      r"max_neighbours must be an integer >= 0, got max_neighbours=-1"),
 ])
