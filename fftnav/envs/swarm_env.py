@@ -1,22 +1,28 @@
 """``SwarmNavEnv``: the fftnav swarm as a PettingZoo ``ParallelEnv`` for multi-agent learning.
 
-Agents ``robot_0 .. robot_{K-1}``, one per start of the world. Every step each live agent sends
-``(v_mps, w_radps)`` (a ``Box`` within the robot's limits) and receives a ``Dict`` observation.
-``step(actions)`` takes a dict mapping agents to finite arrays of shape ``(2,)`` (an agent
-without an action stands still); anything else, NaN or inf included, is a ``ValueError`` naming
-the agent. Finite values outside the ``Box`` are clipped to it, as the simulator clips commands
-to the robot's speed limits (Gymnasium's ``ClipAction``). The observation:
+The environment drives the same episode core as the benchmark's episodes
+(:class:`fftnav.episode.core.EpisodeCore`: simulator, FFT pipeline, message channel, and the rule
+of departures, arrivals, collisions and the time limit), with the agents' actions as commands.
+
+Agents ``robot_0 .. robot_{K-1}``, one per start of the world; ``agents`` are the robots in the
+world (waiting at their start or moving). Every step each agent sends ``(v_mps, w_radps)`` (a
+``Box`` within the robot's limits) and receives a ``Dict`` observation. ``step(actions)`` takes a
+dict mapping agents to finite arrays of shape ``(2,)`` (an agent without an action stands still;
+an agent waiting to depart, ``episode.departure``, stands still whatever its action); anything
+else, NaN or inf included, is a ``ValueError`` naming the agent. Finite values outside the
+``Box`` are clipped to the robot's speed limits by the simulator (as Gymnasium's
+``ClipAction``). The observation:
 
 ``scan``
     its lidar ranges (m, ``float32``, ``(M,)``; no return reads R, blind beams 0);
 ``goal``
     its goal in its own frame, ``(x_m, y_m)`` (x ahead, y to the left);
-``safe_mask`` (``observe_safe_mask=True``)
+``safe_mask`` (``Observations(safe_mask=True)``)
     the FFT pipeline's safe beams (``MultiBinary(M)``);
-``messages``, ``neighbours`` (``max_neighbours > 0``)
+``messages``, ``neighbours`` (``Observations(max_neighbours > 0)``)
     the latest compressed observations received from up to ``max_neighbours`` neighbours (raw
     bytes, zero-padded to ``MESSAGE_BYTES``, ``uint8``) and the senders' poses relative to the
-    receiver ``(x_m, y_m, yaw_rad)`` (zeros where there is no message). Every live robot
+    receiver ``(x_m, y_m, yaw_rad)`` (zeros where there is no message). Every moving robot
     broadcasts its compact message as ``comms.broadcast`` says (``on_obstacle``: when the goal
     direction is not safe; ``every_tick``) through the same lossy, delayed, range-limited
     channel as the benchmark's ``fusion``.
@@ -26,17 +32,35 @@ goal over the step (m), plus ``arrival`` once on arrival (within ``success_radiu
 ``collision`` (negative) once on touching an obstacle, plus ``step`` every step. An agent
 terminates on arrival or collision (it is then parked out of the world;
 ``terminate_on_collision=False`` keeps it driving, with the collision reward on every step in
-contact); all live agents are
-truncated at the time limit (``episode.time_limit_s``). ``render_mode="rgb_array"`` returns a
-top-down frame drawn like ``fftnav replay``'s (:meth:`SwarmNavEnv.render`).
+contact) and is truncated at the time limit (``episode.time_limit_s`` after its departure).
+``infos`` give each agent's ``arrived``, ``collided``, ``goal_distance_m`` and true ``pose``
+``(x_m, y_m, yaw_rad)`` after the step. ``render_mode="rgb_array"`` returns a top-down frame
+drawn like ``fftnav replay``'s (:meth:`SwarmNavEnv.render`).
 
 ``reset(seed=..., options=...)``: ``seed`` seeds the episode (sensor noise, packet loss);
-``options`` may set ``world_kind``, ``map_seed``, ``robots`` and any config key
+``options`` may set ``world_kind``, ``map_seed``, ``robots``, ``controller`` and any config key
 (``"packet_loss"``, ``"sensor.range_m"``, ...; :meth:`fftnav.config.SwarmConfig.replace`); a bad
 value raises ``ValueError``, a key that is none of these is ignored with a warning (PettingZoo's
-API test passes arbitrary options). A new
-world is generated (and the simulator rebuilt) only when the kind, map seed, robots or a config
-key of the simulator changes.
+API test passes arbitrary options). A new world is generated (and the simulator rebuilt) only
+when the kind, map seed, robots or a config key of the simulator changes.
+
+A scripted controller drives the environment as it drives an episode: ``options={"controller":
+NAME}`` (a decision policy or controller, :func:`fftnav.navigation.resolve.resolve`) makes it
+from the episode's :class:`~fftnav.navigation.controllers.ControllerSetup`, as
+:func:`~fftnav.episode.loop.run_episode` does, and the episode calls its ``hold``, ``release``
+and ``finish``; each step, its commands and messages come from the swarm the environment
+exposes (:attr:`SwarmNavEnv.controller`, :attr:`SwarmNavEnv.core`):
+
+>>> from fftnav.envs import SwarmNavEnv
+>>> env = SwarmNavEnv("forest", map_seed=3, robots=2)
+>>> _ = env.reset(seed=0, options={"controller": "bug-left", "time_limit_s": 0.5})
+>>> while env.agents:
+...     commands, outgoing = env.controller.step(env.core.swarm)
+...     _ = env.step({a: commands[env.index(a)] for a in env.agents},
+...                  messages={env.possible_agents[i]: m for i, m in outgoing.items()})
+>>> env.core.tick, [s.label for s in env.statuses()]
+(5, ['timed_out', 'timed_out'])
+>>> env.close()
 """
 
 from __future__ import annotations
@@ -53,17 +77,24 @@ from gymnasium import spaces
 from pettingzoo import ParallelEnv
 
 from fftnav.config import SwarmConfig
-from fftnav.episode.comms import Channel
+from fftnav.episode.core import EpisodeCore
+from fftnav.navigation.resolve import Resolved, resolve
 from fftnav.observe.safe import beam_index
 from fftnav.observe.scan import wrap_angle
 from fftnav.sim.swarm import SimConfig, SwarmSim
-from fftnav.validate import Checked, check_choice, check_integer, number_field
+from fftnav.states import Status
+from fftnav.validate import Checked, check_choice, check_integer, integer_field, number_field
 from fftnav.world import World, generate_world
 
-__all__ = ["MESSAGE_BYTES", "Rewards", "SwarmNavEnv"]
+__all__ = ["MESSAGE_BYTES", "Observations", "Rewards", "SwarmNavEnv"]
 
 #: Size of a message slot in the observation (the compact message of up to 31 extrema).
 MESSAGE_BYTES = 128
+
+#: How :meth:`SwarmNavEnv.render` draws a robot of each status (a kind of
+#: :data:`fftnav.report.frames.KINDS`).
+_DRAWN = {Status.WAITING: "waiting", Status.MOVING: "moving", Status.ARRIVED: "arrived",
+          Status.COLLIDED: "failed", Status.TIMED_OUT: "failed"}
 
 
 @dataclass(frozen=True)
@@ -75,6 +106,24 @@ class Rewards(Checked):
     arrival: float = number_field(10.0)
     collision: float = number_field(-10.0)
     step: float = number_field(0.0)
+
+
+@dataclass(frozen=True)
+class Observations(Checked):
+    """What an agent observes beside its scan and goal: ``safe_mask``, the FFT pipeline's safe
+    beams; ``max_neighbours``, message slots (0: no messages, nothing is broadcast).
+
+    >>> Observations(safe_mask=True, max_neighbours=4).pipeline
+    True
+    """
+
+    safe_mask: bool = False
+    max_neighbours: int = integer_field(0, low=0)
+
+    @property
+    def pipeline(self) -> bool:
+        """Whether they need the FFT pipeline."""
+        return bool(self.safe_mask or self.max_neighbours)
 
 
 def _is_config_key(key: Any) -> bool:
@@ -95,50 +144,52 @@ class SwarmNavEnv(ParallelEnv):
 
     Parameters
     ----------
-    world_kind : str
-        A registered world kind (``forest``, ``rocky``); ignored when ``world`` is given.
+    world : str or World
+        A registered world kind (``forest``, ``rocky``, ...), generated from ``map_seed`` and
+        ``robots``; or a fixed world (e.g. an imported ROS map).
     map_seed : int
         Seed of the generated world.
     robots : int
         Robots (agents) of a generated world.
-    world : World, optional
-        A fixed world (e.g. an imported ROS map) instead of a generated one.
     config : SwarmConfig, optional
         Robot, sensor, comms and episode parameters (default: the paper's).
     rewards : Rewards, optional
-    observe_safe_mask : bool
-        Add the FFT safe mask to the observations.
-    max_neighbours : int
-        Message slots per observation (0: no messages, nothing is broadcast).
+    observations : Observations, optional
+        The safe mask and the message slots in the observations (default: neither).
     terminate_on_collision : bool
         End an agent when it touches an obstacle (default, as in the benchmark); with False it
         keeps driving and gets the collision reward on every step in contact.
     render_mode : {None, "rgb_array"}
     """
 
-    metadata = {"render_modes": ["rgb_array"], "name": "fftnav_swarm_v0",
+    metadata = {"render_modes": ["rgb_array"], "name": "fftnav_swarm_v1",
                 "is_parallelizable": True, "render_fps": 10}
 
-    def __init__(self, *, world_kind: str = "forest", map_seed: int = 0, robots: int = 15,
-                 world: World | None = None, config: SwarmConfig | None = None,
-                 rewards: Rewards | None = None, observe_safe_mask: bool = False,
-                 max_neighbours: int = 0, terminate_on_collision: bool = True,
+    def __init__(self, world: str | World = "forest", *, map_seed: int = 0, robots: int = 15,
+                 config: SwarmConfig | None = None, rewards: Rewards | None = None,
+                 observations: Observations | None = None,
+                 terminate_on_collision: bool = True,
                  render_mode: str | None = None) -> None:
         self.render_mode = check_choice("render_mode", render_mode, (None, "rgb_array"))
         self.rewards = rewards or Rewards()
-        self.observe_safe_mask = bool(observe_safe_mask)
-        self.max_neighbours = check_integer("max_neighbours", max_neighbours, low=0)
+        self.observations = observations or Observations()
         self.terminate_on_collision = bool(terminate_on_collision)
-        self._fixed_world = world
-        self._kind, self._map_seed = world_kind, check_integer("map_seed", map_seed, low=0)
+        if not isinstance(world, (str, World)):
+            raise ValueError(f"world must be a world kind (str) or a World, got "
+                             f"world={world!r:.80}")
+        self._fixed_world = world if isinstance(world, World) else None
+        self._kind = "forest" if self._fixed_world is not None else world
+        self._map_seed = check_integer("map_seed", map_seed, low=0)
         self._robots = check_integer("robots", robots, low=1)
         self._base_config = config or SwarmConfig()
         self.config = self._base_config
-        self.world = world if world is not None else _world(world_kind, self._map_seed,
-                                                            self._robots,
-                                                            self.config.robot.r0_m)
+        self.world = self._fixed_world or _world(self._kind, self._map_seed, self._robots,
+                                                 self.config.robot.r0_m)
         self._sim: SwarmSim | None = None
         self._sim_key: tuple[Any, ...] | None = None
+        self._core: EpisodeCore | None = None
+        self._method: Resolved | None = None
+        self._own_messages: dict[int, bytes] = {}
         self._set_agents()
         self.agents: list[str] = []
 
@@ -159,10 +210,10 @@ class SwarmNavEnv(ParallelEnv):
             "scan": spaces.Box(0.0, r, (m,), np.float32),
             "goal": spaces.Box(-reach, reach, (2,), np.float32),
         }
-        if self.observe_safe_mask:
+        if self.observations.safe_mask:
             items["safe_mask"] = spaces.MultiBinary(m)
-        if self.max_neighbours:
-            n = self.max_neighbours
+        if self.observations.max_neighbours:
+            n = self.observations.max_neighbours
             items["messages"] = spaces.Box(0, 255, (n, MESSAGE_BYTES), np.uint8)
             items["neighbours"] = spaces.Box(
                 np.array([[-reach, -reach, -math.pi]] * n, np.float32),
@@ -180,25 +231,38 @@ class SwarmNavEnv(ParallelEnv):
     def action_space(self, agent: str) -> spaces.Box:
         return self._act_space
 
+    def index(self, agent: str) -> int:
+        """The robot index of ``agent`` (its start in the world)."""
+        return self._index[check_choice("agent", agent, self.possible_agents)]
+
+    # -- what a scripted controller sees -----------------------------------------------------
+
+    @property
+    def core(self) -> EpisodeCore | None:
+        """The episode being run (None before :meth:`reset`): its ``swarm`` is the
+        :class:`~fftnav.navigation.controllers.SwarmStep` of the current tick, what a
+        controller's ``step`` takes."""
+        return self._core
+
+    @property
+    def controller(self) -> Any:
+        """The controller named by ``reset(options={"controller": ...})``, or None."""
+        return None if self._method is None or self._core is None else self._core.controller
+
+    def statuses(self) -> list[Status]:
+        """Every robot's :class:`~fftnav.states.Status` at the current tick."""
+        if self._core is None:
+            raise ValueError("statuses() needs an episode: call reset() first")
+        return [Status(int(s)) for s in self._core.status()]
+
     # -- episode -----------------------------------------------------------------------------
 
     def reset(self, seed: int | None = None, options: dict[str, Any] | None = None
               ) -> tuple[dict[str, dict[str, np.ndarray]], dict[str, dict[str, Any]]]:
-        options = dict(options or {})
-        kind = options.pop("world_kind", self._kind)
-        map_seed = check_integer("map_seed", options.pop("map_seed", self._map_seed), low=0)
-        robots = check_integer("robots", options.pop("robots", self._robots), low=1)
-        known = {k: v for k, v in options.items() if _is_config_key(k)}
-        for key in options.keys() - known.keys():  # PettingZoo's API test passes arbitrary keys
-            warnings.warn(f"SwarmNavEnv.reset ignores the unknown option {key!r}", stacklevel=2)
-        self.config = self._base_config.replace(known) if known else self._base_config
-        if self._fixed_world is None:
-            self.world = _world(kind, map_seed, robots, self.config.robot.r0_m)
+        method = self._configure(dict(options or {}))
         if seed is None:
             seed = int(np.random.SeedSequence().generate_state(1)[0])
         seed = check_integer("seed", seed, low=0)
-        sim_ss, ep_ss = np.random.SeedSequence(seed).spawn(2)
-        self._rng = np.random.default_rng(ep_ss)
         sim_config = SimConfig.for_swarm(self.config)
         key = (self.world.to_json(), sim_config)
         if self._sim is None or key != self._sim_key:
@@ -206,34 +270,54 @@ class SwarmNavEnv(ParallelEnv):
                 self._sim.close()
             self._sim, self._sim_key = SwarmSim(self.world, config=sim_config), key
             self._set_agents()
-        self._pipe = self.config.pipeline()
-        k = len(self.world.starts)
-        self._channel = Channel(k, range_m=self.config.comms.comm_range_m,
-                                loss=self.config.comms.packet_loss,
-                                delay_ticks=self.config.comms.delay_ticks, rng=self._rng)
-        self._obs = self._sim.reset(seed=int(sim_ss.generate_state(1)[0]))
-        self._tick = 0
-        self._live = np.ones(k, dtype=bool)
-        self._trail = [self._obs.poses.copy()]  # drawn by render()
-        self._outcome = np.zeros(k, np.int8)  # 0 live, 1 arrived, 2 failed
-        self._goals = np.asarray(self.world.goals, dtype=np.float64)
+        self._method = method
+        core = self._core = EpisodeCore(
+            self.world, self.config, self._sim, seed=seed,
+            controller=None if method is None else method.make,
+            collisions_end=self.terminate_on_collision)
+        core.begin_tick()
+        core.observe(pipeline=self._pipeline())
         self._dist = self._goal_distance()
-        self.agents = list(self.possible_agents)
-        observations = self._observe()
-        return observations, {a: {} for a in self.agents}
+        self.agents = [a for a in self.possible_agents if core.robots.active[self._index[a]]]
+        return self._observe(self.agents), {a: {} for a in self.agents}
+
+    def _configure(self, options: dict[str, Any]) -> Resolved | None:
+        """Apply ``reset``'s options: the world, the config; the controller they name."""
+        kind = options.pop("world_kind", self._kind)
+        map_seed = check_integer("map_seed", options.pop("map_seed", self._map_seed), low=0)
+        robots = check_integer("robots", options.pop("robots", self._robots), low=1)
+        controller = options.pop("controller", None)
+        method = None if controller is None else resolve(controller)
+        known = {k: v for k, v in options.items() if _is_config_key(k)}
+        for key in options.keys() - known.keys():  # PettingZoo's API test passes arbitrary keys
+            warnings.warn(f"SwarmNavEnv.reset ignores the unknown option {key!r}", stacklevel=3)
+        self.config = self._base_config.replace(known) if known else self._base_config
+        if self._fixed_world is None:
+            self.world = _world(kind, map_seed, robots, self.config.robot.r0_m)
+        return method
+
+    def _pipeline(self) -> bool:
+        """Whether the episode runs the FFT pipeline: for the observations or the controller."""
+        assert self._core is not None
+        return self.observations.pipeline or (self._method is not None
+                                         and bool(self._core.controller.uses_pipeline))
 
     def _goal_distance(self) -> np.ndarray:
-        return np.hypot(*(self._obs.poses[:, :2] - self._goals).T)
+        assert self._core is not None
+        return np.hypot(*(self._core.obs.poses[:, :2] - self._core.goals).T)
 
     def _commands(self, actions: Mapping[str, Any]) -> np.ndarray:
-        """The agents' actions as commands ``(K, 2)`` (zero for an agent without one); a value
-        that is not a dict of agents to finite ``(2,)`` arrays is a ValueError naming it."""
+        """The agents' actions as commands ``(K, 2)`` (zero for an agent without one or not
+        moving); a value that is not a dict of agents to finite ``(2,)`` arrays is a ValueError
+        naming it."""
         if not isinstance(actions, Mapping):
             raise ValueError(f"actions must be a dict mapping each agent to an array "
                              f"(v_mps, w_radps) of shape (2,), got {type(actions).__name__}")
+        assert self._core is not None
+        moving = self._core.robots.moving(self._core.tick)
         commands = np.zeros((len(self.possible_agents), 2))
         for agent, action in actions.items():
-            check_choice("agent", agent, self.possible_agents)
+            i = self.index(agent)
             try:
                 value = np.asarray(action, dtype=np.float64)
             except (TypeError, ValueError):
@@ -244,81 +328,109 @@ class SwarmNavEnv(ParallelEnv):
                                  f"shape (2,), got {shape}: {action!r:.80}")
             if not np.isfinite(value).all():
                 raise ValueError(f"actions[{agent!r}] must be finite, got {value.tolist()}")
-            commands[self._index[agent]] = value
+            if moving[i]:
+                commands[i] = value
         return commands
 
-    def step(self, actions: dict[str, Any]) -> tuple[dict, dict, dict, dict, dict]:
-        if self._sim is None or not self.agents:
+    def _outgoing(self, messages: Mapping[str, Any] | None) -> dict[int, bytes]:
+        """The messages broadcast this tick, by robot: ``messages`` (agent -> bytes) if given,
+        else the environment's own (``Observations.max_neighbours``)."""
+        if messages is None:
+            return self._own_messages
+        if not isinstance(messages, Mapping):
+            raise ValueError(f"messages must be a dict mapping agents to bytes, got "
+                             f"{type(messages).__name__}")
+        outgoing = {}
+        for agent, payload in messages.items():
+            if not isinstance(payload, (bytes, bytearray)):
+                raise ValueError(f"messages[{agent!r}] must be bytes, got "
+                                 f"{type(payload).__name__}")
+            outgoing[self.index(agent)] = bytes(payload)
+        return outgoing
+
+    def step(self, actions: dict[str, Any], messages: Mapping[str, bytes] | None = None
+             ) -> tuple[dict, dict, dict, dict, dict]:
+        """One control tick: every agent's action (``actions``, agent -> ``(v_mps, w_radps)``)
+        and, optionally, the messages the robots broadcast (``messages``, agent -> bytes, e.g.
+        a scripted controller's; default: the environment's own, ``Observations``)."""
+        core = self._core
+        if self._sim is None or core is None or not self.agents:
             raise ValueError("step() needs a live episode: call reset() first")
-        commands = np.clip(self._commands(actions), self._act_space.low, self._act_space.high)
-        live = self._live.copy()
-        self._obs = self._sim.step(commands)
-        self._tick += 1
+        commands = self._commands(actions)
+        outgoing = self._outgoing(messages)
+        agents = list(self.agents)
+        moving = core.robots.moving(core.tick)
+        core.advance(commands, outgoing)
+        if core.begin_tick():
+            core.observe(pipeline=self._pipeline())
         dist = self._goal_distance()
-        ep = self.config.episode
-        collided = self._obs.obstacle_contact & live
-        arrived = (dist <= ep.success_radius_m) & live & ~collided
+        status = core.status()
+        collided = core.obs.obstacle_contact & moving
+        arrived = moving & (status == int(Status.ARRIVED))
         reward = (self.rewards.progress * (self._dist - dist) + self.rewards.step
                   + self.rewards.arrival * arrived + self.rewards.collision * collided)
         self._dist = dist
-        truncated = self._tick >= ep.max_ticks
-        agents = list(self.agents)
+        ended = (arrived | (status == int(Status.COLLIDED))).tolist()
+        timed_out = (status == int(Status.TIMED_OUT)).tolist()
         rewards, terminations, truncations, infos = {}, {}, {}, {}
         for agent in agents:
             i = self._index[agent]
             rewards[agent] = float(reward[i])
-            terminations[agent] = bool(arrived[i]
-                                       or (collided[i] and self.terminate_on_collision))
-            truncations[agent] = bool(truncated and not terminations[agent])
+            terminations[agent] = ended[i]
+            truncations[agent] = timed_out[i]
             infos[agent] = {"arrived": bool(arrived[i]), "collided": bool(collided[i]),
-                            "goal_distance_m": float(dist[i])}
+                            "goal_distance_m": float(dist[i]), "pose": core.obs.poses[i].copy()}
         observations = self._observe(agents)
-        self._trail.append(np.where(live[:, None], self._obs.poses, np.nan))
-        for agent in agents:
-            i = self._index[agent]
-            if terminations[agent] or truncations[agent]:
-                self._outcome[i] = 1 if arrived[i] else 2
-                self._live[i] = False
-                self._sim.park(i)
-        self.agents = [a for a in agents if self._live[self._index[a]]]
+        self.agents = [a for a in agents if core.robots.active[self._index[a]]]
         return observations, rewards, terminations, truncations, infos
 
-    def _observe(self, agents: list[str] | None = None) -> dict[str, dict[str, np.ndarray]]:
-        agents = self.agents if agents is None else agents
+    # -- observations ------------------------------------------------------------------------
+
+    def _observe(self, agents: list[str]) -> dict[str, dict[str, np.ndarray]]:
+        """The observations of ``agents`` at the current tick: the moving robots' from the
+        core's swarm, the others' (waiting, or left at this step) from their latest scans."""
+        core = self._core
+        assert core is not None
+        self._own_messages = {}
         if not agents:
             return {}
+        swarm = core.swarm if core.swarm is not None and core.swarm.tick == core.tick else None
         idx = np.array([self._index[a] for a in agents])
-        scans = self._obs.scans[idx]
-        ranges = self._pipe.normalise(scans) * self.config.sensor.range_m
-        poses = self._obs.poses
-        need_pipeline = self.observe_safe_mask or self.max_neighbours
-        if need_pipeline:
-            res = self._pipe.process(scans, with_p_s=False)
-        if self.max_neighbours:
-            self._channel.deliver(self._tick)
+        seen = np.isin(idx, swarm.active) if swarm is not None else np.zeros(len(idx), bool)
+        sensed = None
+        if not seen.all():
+            sensed = core.sense(idx[~seen], pipeline=self.observations.pipeline)
+        if swarm is not None and self.observations.max_neighbours:
+            self._own_messages = self._broadcasts(swarm)
         out = {}
-        for j, (agent, i) in enumerate(zip(agents, idx.tolist(), strict=True)):
-            x, y, yaw = poses[i]
-            d = self._goals[i] - (x, y)
-            c, s = math.cos(yaw), math.sin(yaw)
-            obs = {"scan": ranges[j].astype(np.float32),
-                   "goal": np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]], np.float32)}
-            if self.observe_safe_mask:
-                obs["safe_mask"] = res.safe_mask[j].astype(np.int8)
-            if self.max_neighbours:
-                obs["messages"], obs["neighbours"] = self._inbox(i)
-            out[agent] = obs
-        if self.max_neighbours:
-            self._broadcast(idx, res)
+        for agent, i, own in zip(agents, idx.tolist(), seen.tolist(), strict=True):
+            view = swarm if own else sensed
+            assert view is not None
+            out[agent] = self._agent_obs(i, view)
         return out
 
+    def _agent_obs(self, i: int, view: Any) -> dict[str, np.ndarray]:
+        """Robot ``i``'s observation from ``view`` (the swarm or a :class:`Sensed`)."""
+        assert self._core is not None
+        x, y, yaw = self._core.obs.poses[i]
+        d = self._core.goals[i] - (x, y)
+        c, s = math.cos(yaw), math.sin(yaw)
+        obs = {"scan": view.ranges_m[i].astype(np.float32),
+               "goal": np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]], np.float32)}
+        if self.observations.safe_mask:
+            obs["safe_mask"] = view.safe[i].astype(np.int8)
+        if self.observations.max_neighbours:
+            obs["messages"], obs["neighbours"] = self._inbox(i)
+        return obs
+
     def _inbox(self, i: int) -> tuple[np.ndarray, np.ndarray]:
-        n = self.max_neighbours
+        core = self._core
+        assert core is not None
+        n = self.observations.max_neighbours
         messages = np.zeros((n, MESSAGE_BYTES), np.uint8)
         rel = np.zeros((n, 3), np.float32)
-        packets = self._channel.inbox(i, tick=self._tick,
-                                      max_age_ticks=int(self.config.episode.control_hz))
-        x, y, yaw = self._obs.poses[i]
+        packets = core.channel.inbox(i, tick=core.tick, max_age_ticks=core.max_age_ticks)
+        x, y, yaw = core.obs.poses[i]
         c, s = math.cos(yaw), math.sin(yaw)
         packets = sorted(packets, key=lambda p: math.hypot(p.sender_pose[0] - x,
                                                            p.sender_pose[1] - y))[:n]
@@ -329,30 +441,27 @@ class SwarmNavEnv(ParallelEnv):
             rel[slot] = (c * dx + s * dy, -s * dx + c * dy, wrap_angle(pkt.sender_pose[2] - yaw))
         return messages, rel
 
-    def _broadcast(self, idx: np.ndarray, res: Any) -> None:
+    def _broadcasts(self, swarm: Any) -> dict[int, bytes]:
+        """The moving robots' compact messages, sent with their commands: every tick, or when
+        the goal direction is not safe (``comms.broadcast``)."""
+        idx, poses, sensor = swarm.active, swarm.poses, self.config.sensor
         every_tick = self.config.comms.broadcast == "every_tick"
-        poses = self._obs.poses
-        beta = np.arctan2(*(self._goals[idx] - poses[idx, :2]).T[::-1]) - poses[idx, 2]
-        goal_safe = res.safe_mask[np.arange(len(idx)),
-                                  self._pipe_beam(np.asarray(wrap_angle(beta)))]
-        for j, i in enumerate(idx.tolist()):
-            if every_tick or not goal_safe[j]:
-                self._channel.broadcast(i, res.messages[j], tick=self._tick, poses=poses,
-                                        active=self._live)
-
-    def _pipe_beam(self, angle: np.ndarray) -> np.ndarray:
-        sensor = self.config.sensor
-        return beam_index(angle, beams=sensor.beams, fov_rad=sensor.fov_rad)
+        beta = np.arctan2(*(swarm.goals[idx] - poses[idx, :2]).T[::-1]) - poses[idx, 2]
+        beams = beam_index(np.asarray(wrap_angle(beta)), beams=sensor.beams,
+                           fov_rad=sensor.fov_rad)
+        goal_safe = swarm.safe[idx, beams]
+        return {i: swarm.messages[j] for j, i in enumerate(idx.tolist())
+                if every_tick or not goal_safe[j]}
 
     # -- rendering ---------------------------------------------------------------------------
 
     def render(self) -> np.ndarray | None:
         """A top-down RGB frame ``(H, W, 3)`` uint8 at 5 cm per pixel, the first row the top of
         the world (``render_mode="rgb_array"``), else None. It is drawn like a replay's frames
-        (:class:`fftnav.report.frames.RasterRenderer`): every robot in the colour of its state
-        (moving, arrived, failed) with its heading and trail, a line to its goal while it
-        drives, a cross where it failed (collided, or truncated before its goal)."""
-        if self.render_mode != "rgb_array" or self._sim is None:
+        (:class:`fftnav.report.frames.RasterRenderer`): every robot in the colour of its status
+        (waiting, moving, arrived, failed) with its heading and trail, a line to its goal while
+        it drives, a cross where it failed (collided, or truncated before its goal)."""
+        if self.render_mode != "rgb_array" or self._sim is None or self._core is None:
             return None
         # report is the layer above envs: imported here, when a frame is asked for
         from fftnav.report.frames import KINDS, RasterRenderer, SwarmFrame
@@ -362,14 +471,11 @@ class SwarmNavEnv(ParallelEnv):
                 or renderer.r0_m != self.config.robot.r0_m):
             renderer = self._renderer = RasterRenderer(self.world, r0_m=self.config.robot.r0_m,
                                                        resolution_m=0.05)
-        trail = np.array(self._trail)  # (T, K, 3), NaN once a robot left
-        last = np.max(np.where(np.isfinite(trail[..., 0]), np.arange(len(trail))[:, None], 0),
-                      axis=0)
-        poses = trail[last, np.arange(trail.shape[1])]
-        kinds = np.array([KINDS.index(("moving", "arrived", "failed")[o])
-                          for o in self._outcome])
-        trails = [t[np.isfinite(t[:, 0]), :2] for t in trail.transpose(1, 0, 2)]
-        return renderer(SwarmFrame(poses=poses, kinds=kinds, trails=trails))
+        trajectories = self._core.trajectories()
+        poses = np.array([t[-1] for t in trajectories])
+        kinds = np.array([KINDS.index(_DRAWN[status]) for status in self.statuses()])
+        return renderer(SwarmFrame(poses=poses, kinds=kinds,
+                                   trails=[t[:, :2] for t in trajectories]))
 
     def close(self) -> None:
         if self._sim is not None:

@@ -10,7 +10,9 @@ range-limited broadcast ``fusion`` uses, with its bytes counted in ``bytes_sent`
 as :class:`Packet` objects.
 
 A controller is a subclass of :class:`Controller`; the episode makes one instance per episode
-(``Controller(setup)``) and calls it for every robot, so per-robot memory is kept by robot index.
+from its :class:`ControllerSetup` alone (``Controller(setup)``, through
+:meth:`fftnav.navigation.resolve.Resolved.make`, the same for every controller) and calls it for
+every robot, so per-robot memory is kept by robot index.
 Registered controllers (:data:`CONTROLLERS`) are the classic reactive baselines of
 :mod:`fftnav.navigation.baselines`: ``vfh``, ``ftg`` and ``fft-go``. The Bug planner with a
 decision policy is itself a controller (:class:`fftnav.navigation.bugcontrol.BugController`)
@@ -340,7 +342,10 @@ class Controller:
         """A few named scalars describing ``robot``'s state at this tick (none by default).
 
         Recordings keep them per tick (``fftnav episode --record``) and replays plot them;
-        use stable names and plain numbers (a mode as an integer code, a flag as 0 or 1).
+        use stable names and plain numbers (a flag as 0 or 1). The key ``"mode"``, if present,
+        holds a :class:`fftnav.states.State` code (``int(State.FOLLOW)``, ...): what the
+        controller is doing with the robot, which replays draw; a controller without such
+        states leaves it out.
         """
         return {}
 

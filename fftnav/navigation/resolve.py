@@ -15,8 +15,19 @@ controller), a :class:`~fftnav.navigation.policies.Policy` or a plain function
 has one, else the attribute's name (the entry point's name for an entry point). Anything else
 raises ``ValueError`` with one line, before any episode starts.
 
+Every episode makes its controller the same way, from the episode's
+:class:`~fftnav.navigation.controllers.ControllerSetup` alone: :meth:`Resolved.make` gives a
+decision policy to the Bug planner (:class:`~fftnav.navigation.bugcontrol.BugController`) and
+makes a controller class; a plugin's policy or controller is guarded, so that what it raises is
+a one-line :class:`~fftnav.plugins.PluginError` naming it, the call and its file and line.
+
 >>> resolve("fusion").policy.name, resolve("vfh").controller.name
 ('fusion', 'vfh')
+>>> import numpy as np
+>>> from fftnav.config import SwarmConfig
+>>> setup = ControllerSetup(2, SwarmConfig(), np.random.default_rng(0), area_m=(20.0, 20.0))
+>>> type(resolve("bug-left").make(setup)).__name__, resolve("vfh").make(setup).setup is setup
+('BugController', True)
 >>> try:
 ...     resolve("fusoin")
 ... except ValueError as exc:
@@ -26,6 +37,7 @@ did you mean 'fusion'?
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 import inspect
 import re
@@ -33,14 +45,25 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fftnav.navigation import baselines  # noqa: F401  (registers vfh, ftg, fft-go)
+from fftnav.navigation.bugcontrol import BugController
 from fftnav.navigation.controllers import (
     CONTROLLERS,
     ENTRY_POINT_GROUP,
     Controller,
+    ControllerSetup,
     ControllerSpec,
 )
 from fftnav.navigation.policies import POLICIES, Policy
-from fftnav.plugins import PluginError, entry_points, is_reference, load_reference, reference_file
+from fftnav.plugins import (
+    PluginError,
+    PluginProxy,
+    entry_points,
+    is_reference,
+    load_reference,
+    plugin_call,
+    reference_file,
+    source_file,
+)
 from fftnav.registry import Registry, first_line
 
 __all__ = ["ENTRY_POINT_GROUP", "Resolved", "registered_names", "resolve"]
@@ -75,6 +98,43 @@ class Resolved:
     policy: Policy | None = None
     controller: type[Controller] | None = None
     file: Path | None = None
+
+    @property
+    def plugin(self) -> bool:
+        """Whether it is a plugin's (not one of :func:`registered_names`)."""
+        return self.reference not in registered_names()
+
+    def make(self, setup: ControllerSetup) -> Controller:
+        """The controller of one episode, made from ``setup`` alone: the Bug planner deciding
+        with the decision policy, or the controller class; a plugin's is guarded (what it
+        raises, in ``__init__``, ``act``, ``decide`` or any other call, is a one-line
+        :class:`~fftnav.plugins.PluginError` naming it, the call and its file and line)."""
+        if self.policy is not None:
+            return BugController(setup, self._guarded_policy() if self.plugin else self.policy)
+        assert self.controller is not None  # resolve() finds one or the other
+        if self.plugin:
+            return self._guarded_controller(setup)
+        return self.controller(setup)
+
+    def _guarded_policy(self) -> Policy:
+        """The plugin's decision policy whose errors are one-line PluginErrors naming it."""
+        assert self.policy is not None
+        decide = self.policy.decide
+        name = getattr(decide, "__name__", "decide")
+        return dataclasses.replace(self.policy, decide=functools.partial(
+            plugin_call, self.reference, name, source_file(decide), decide))
+
+    def _guarded_controller(self, setup: ControllerSetup) -> Controller:
+        """The plugin's controller, made and then called through
+        :class:`~fftnav.plugins.PluginProxy`."""
+        cls = self.controller
+        assert cls is not None
+        source = source_file(cls)
+        controller = plugin_call(self.reference, f"{cls.__name__}.__init__", source, cls, setup,
+                                 defined=cls.__init__)
+        calls = ({} if cls.step is not Controller.step  # the base's step calls act per robot
+                 else {"step": (f"{cls.__name__}.act", controller.act)})
+        return PluginProxy(controller, self.reference, source, calls)  # type: ignore[return-value]
 
 
 def registered_names() -> tuple[str, ...]:

@@ -10,7 +10,7 @@ import pytest
 pytest.importorskip("pettingzoo", reason="the optional extra fftnav[marl] is not installed")
 from pettingzoo.test import parallel_api_test, parallel_seed_test  # noqa: E402
 
-from fftnav.envs import Rewards, SwarmNavEnv  # noqa: E402
+from fftnav.envs import Observations, Rewards, SwarmNavEnv  # noqa: E402
 from fftnav.report.frames import kind_rgb  # noqa: E402
 from fftnav.world import Circle, World  # noqa: E402
 
@@ -18,18 +18,19 @@ UP = math.pi / 2
 
 
 def _small(**kwargs):
-    return SwarmNavEnv(world_kind="forest", map_seed=3, robots=4, **kwargs)
+    return SwarmNavEnv("forest", map_seed=3, robots=4, **kwargs)
 
 
 @pytest.mark.filterwarnings("ignore:SwarmNavEnv.reset ignores")
 def test_pettingzoo_parallel_api_test():
-    env = _small(observe_safe_mask=True, max_neighbours=2, render_mode="rgb_array")
+    env = _small(observations=Observations(safe_mask=True, max_neighbours=2),
+                 render_mode="rgb_array")
     parallel_api_test(env, num_cycles=60)
     env.close()
 
 
 def test_pettingzoo_parallel_seed_test():
-    parallel_seed_test(lambda: _small(max_neighbours=2))
+    parallel_seed_test(lambda: _small(observations=Observations(max_neighbours=2)))
 
 
 def _world(obstacles, starts, goals):
@@ -129,7 +130,8 @@ def test_collisions_need_not_terminate():
     (lambda: Rewards(step="1"), r"step must be a finite number, got step='1'"),
     (lambda: SwarmNavEnv(render_mode="human"),
      r"render_mode must be one of \[None, 'rgb_array'\], got render_mode='human'"),
-    (lambda: SwarmNavEnv(max_neighbours=-1),
+    (lambda: SwarmNavEnv(None), r"world must be a world kind \(str\) or a World, got world=None"),
+    (lambda: Observations(max_neighbours=-1),
      r"max_neighbours must be an integer >= 0, got max_neighbours=-1"),
 ])
 def test_bad_parameters_are_refused_naming_them(make, match):

@@ -8,8 +8,9 @@ import math
 import numpy as np
 import pytest
 
-from fftnav.config import CommsConfig, EpisodeConfig, SwarmConfig
+from fftnav.config import CommsConfig, EpisodeConfig, SensorConfig, SwarmConfig
 from fftnav.episode import run_episode
+from fftnav.episode.core import episode_seeds
 from fftnav.navigation.controllers import Action, Controller
 from fftnav.plugins import PluginError
 from fftnav.world import Circle, World
@@ -151,6 +152,52 @@ def test_finish_is_called_for_a_robot_timed_out_while_another_still_drives():
     rows = run_episode(world, f"{__name__}:Straight", seed=0, config=cfg).rows
     assert [(r.arrived, r.collided) for r in rows] == [(False, False), (False, False)]
     assert Straight.finished == [0, 1]
+
+
+def _facts(setup):
+    """The world's facts and the episode's generator, as a controller is given them."""
+    return (setup.n_robots, setup.config, setup.area_m, setup.walled, setup.full_circle,
+            setup.rng.bit_generator.state)
+
+
+class Facts(Controller):
+    """Stands still and keeps what it was made from."""
+
+    uses_pipeline = False
+    seen: list[tuple] = []
+
+    def __init__(self, setup):
+        super().__init__(setup)
+        Facts.seen.append(_facts(setup))
+
+    def act(self, obs):
+        return 0.0, 0.0
+
+
+def test_a_plugin_controller_gets_exactly_the_world_facts_the_bug_controller_uses(monkeypatch):
+    """A walled 8 m x 14 m world seen by a 270-degree lidar: the Bug controller (run by a
+    decision policy) and a plugin controller are made from the same facts, those of the world,
+    and the episode's generator as the seed makes it, before any draw."""
+    from fftnav.navigation import resolve as resolve_module
+    from fftnav.navigation.bugcontrol import BugController
+
+    bug = []
+
+    class Recorded(BugController):
+        def __init__(self, setup, policy):
+            bug.append(_facts(setup))
+            super().__init__(setup, policy)
+
+    monkeypatch.setattr(resolve_module, "BugController", Recorded)
+    world = World("test", 0, (8.0, 14.0), (), np.array([[2.0, 1.0, UP], [6.0, 1.0, UP]]),
+                  np.array([[2.0, 12.0], [6.0, 12.0]]), boundary="walls")
+    cfg = SwarmConfig(sensor=SensorConfig(fov_deg=270.0),
+                      episode=EpisodeConfig(time_limit_s=0.5))
+    Facts.seen = []
+    run_episode(world, f"{__name__}:Facts", seed=2, config=cfg)
+    run_episode(world, "bug-left", seed=2, config=cfg)
+    expected = (2, cfg, (8.0, 14.0), True, False, episode_seeds(2)[1].bit_generator.state)
+    assert Facts.seen == [expected] and bug == [expected]
 
 
 @pytest.mark.slow

@@ -254,3 +254,87 @@ def test_decider_fuses_in_the_goal_frame_whatever_the_world_orientation(turn):
     assert p_s == pytest.approx(ref.p_s, abs=1e-12)
     assert p == pytest.approx(ref.p, abs=1e-12)
     assert ref.sides.tolist() == [1] and ref.p != ref.p_s  # the neighbour is fused, on the left
+
+
+class _Hooked:
+    """A controller factory whose controllers drive straight at their goals and log every hook
+    with the number of ticks they have driven."""
+
+    def __init__(self):
+        self.log = []
+
+    def __call__(self, setup):
+        from fftnav.navigation.controllers import Controller
+
+        log = self.log
+
+        class Straight(Controller):
+            uses_pipeline = False
+            ticks = 0
+
+            def step(self, swarm):
+                Straight.ticks += 1
+                return super().step(swarm)
+
+            def act(self, obs):
+                return self.v_max_mps, 2.0 * obs.goal_bearing_rad
+
+            def hold(self, robot):
+                log.append(("hold", robot, Straight.ticks))
+
+            def release(self, robot):
+                log.append(("release", robot, Straight.ticks))
+
+            def finish(self, robot):
+                log.append(("finish", robot, Straight.ticks))
+
+        return Straight(setup)
+
+
+def test_the_core_departs_arrives_collides_and_times_out_each_robot_once_at_its_tick():
+    """Staggered by 1 s: robot 0 arrives 1 m ahead, robot 1 (departs at tick 10) drives into a
+    trunk, robot 2 (departs at tick 20) is 12 m from its goal: out of time at 20 + 30 ticks."""
+    from fftnav.episode.core import EpisodeCore
+    from fftnav.sim.swarm import SimConfig, SwarmSim
+    from fftnav.states import Status
+
+    world = _world([Circle((4.0, 2.5), 0.3, 1.0)], [[1, 1, UP], [4, 1, UP], [7, 1, UP]],
+                   [[1, 2], [4, 6], [7, 13]], size=(8.0, 14.0))
+    cfg = SwarmConfig(episode=EpisodeConfig(time_limit_s=3.0, departure="staggered",
+                                            stagger_s=1.0))
+    hooked = _Hooked()
+    with SwarmSim(world, config=SimConfig.for_swarm(cfg)) as sim:
+        core = EpisodeCore(world, cfg, sim, seed=0, controller=hooked)
+        with pytest.raises(ValueError, match=r"advance\(\) needs the swarm of tick 0: call "
+                                             r"observe\(\) first, got the swarm of tick None"):
+            core.advance(np.zeros((3, 2)), {})
+        statuses, active = [], []
+        while True:
+            alive = core.begin_tick()
+            statuses.append([Status(int(s)) for s in core.status()])
+            if not alive:
+                break
+            swarm = core.observe()
+            active.append(swarm.active.tolist())
+            assert swarm.present.tolist() == [s.label in ("waiting", "moving")
+                                              for s in statuses[-1]]
+            core.advance(*core.controller.step(swarm))
+        core.end()
+        paths = core.trajectories()
+    first = {(i, s): statuses.index(next(row for row in statuses if row[i] == s))
+             for i in range(3) for s in Status if any(row[i] == s for row in statuses)}
+    # robot 0: arrived at the first tick its pose is within 0.3 m of its goal
+    near = np.hypot(*(paths[0][:, :2] - [1.0, 2.0]).T) <= 0.3
+    assert near.tolist() == [False] * (len(near) - 1) + [True] and 13 <= len(near) - 1 <= 15
+    assert first[0, Status.ARRIVED] == len(near) - 1
+    # robot 1: waits 10 ticks, then drives to the trunk (its edge 2.2 m minus r0 = 0.15 m)
+    assert first[1, Status.MOVING] == 10 and first[1, Status.COLLIDED] - 10 == len(paths[1]) - 1
+    assert paths[1][-1, 1] == pytest.approx(2.05, abs=0.06)
+    # robot 2: its 3 s start at its departure, tick 20
+    assert first[2, Status.MOVING] == 20 and first[2, Status.TIMED_OUT] == 50
+    assert len(paths[2]) == 31 and len(statuses) == 51
+    assert active[0] == [0] and active[10] == [0, 1] and active[20] == [1, 2]
+    assert sorted(hooked.log) == sorted([
+        ("hold", 1, 0), ("hold", 2, 0), ("release", 1, 10), ("release", 2, 20),
+        ("finish", 0, first[0, Status.ARRIVED]), ("finish", 1, first[1, Status.COLLIDED]),
+        ("finish", 2, 50)])

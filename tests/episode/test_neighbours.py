@@ -29,7 +29,7 @@ class _Coin:
         raise AssertionError
 
 
-def _observe(decider, ch, poses, goals, res, present):
+def _observe(decider, ch, poses, goals, res, *, present):
     """The decider sees the swarm at tick 100 through a SwarmStep, as in an episode."""
     k = len(poses)
     decider.observe(SwarmStep(
@@ -64,7 +64,7 @@ def _scene():
     ch.deliver(100)
     decider = Decider(cfg, np.random.default_rng(0), full_circle=True)
     everyone = np.ones(len(poses), dtype=bool)
-    _observe(decider, ch, poses, goals, res, everyone)
+    _observe(decider, ch, poses, goals, res, present=everyone)
     return decider, ch, (poses, goals, res)
 
 
@@ -91,7 +91,7 @@ def test_each_neighbour_gets_its_reason_and_the_counts_add_up():
     decider.fused_probability(0)
     assert sum(decider.neighbour_reasons[0].values()) == 14
     # a robot that is gone (arrived) is no candidate
-    _observe(decider, ch, poses, goals, res, np.array([True] * 7 + [False]))
+    _observe(decider, ch, poses, goals, res, present=np.array([True] * 7 + [False]))
     decider.fused_probability(0)
     assert sum(decider.neighbour_reasons[0].values()) == 20
     assert set(metrics.NEIGHBOUR_REASONS) == set(counts)

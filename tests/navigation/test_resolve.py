@@ -4,12 +4,16 @@ from __future__ import annotations
 
 import textwrap
 
+import numpy as np
 import pytest
 
+from fftnav.config import SwarmConfig
 from fftnav.navigation.baselines import VFHController
-from fftnav.navigation.controllers import CONTROLLERS, Controller
+from fftnav.navigation.bugcontrol import BugController
+from fftnav.navigation.controllers import CONTROLLERS, Controller, ControllerSetup
 from fftnav.navigation.policies import LEFT, POLICIES, Policy
 from fftnav.navigation.resolve import ENTRY_POINT_GROUP, registered_names, resolve
+from fftnav.plugins import PluginError, PluginProxy
 
 PLUGIN = textwrap.dedent("""\
     from fftnav.navigation.controllers import Controller
@@ -126,3 +130,22 @@ def test_an_installed_package_registers_a_controller_by_entry_point(tmp_path, mo
     monkeypatch.syspath_prepend(str(tmp_path))
     found = resolve("spinner")
     assert found.name == "spinner" and found.controller.__name__ == "Spin"
+
+
+def test_every_policy_and_controller_is_made_from_the_setup_alone(plugin):
+    """A decision policy goes to the Bug controller, a controller class is made; a plugin's
+    are guarded: what they raise names them."""
+    setup = ControllerSetup(2, SwarmConfig(), np.random.default_rng(0), area_m=(20.0, 20.0))
+    bug = resolve("bug-left").make(setup)
+    assert type(bug) is BugController and bug.setup is setup
+    assert bug.policy is POLICIES["bug-left"]
+    vfh = resolve("vfh").make(setup)
+    assert type(vfh) is VFHController and vfh.setup is setup
+    spin = resolve(f"{plugin}:Spin").make(setup)
+    assert isinstance(spin, PluginProxy) and spin.setup is setup and spin.act(None) == (0.0, 1.0)
+    left = resolve(f"{plugin}:always_left").make(setup)
+    assert type(left) is BugController and left.setup is setup
+    assert left.policy.name == "always_left" and left.policy.decide(None) == LEFT
+    with pytest.raises(PluginError, match=r"^plugin '.*:always_left': always_left raised "
+                                          r"TypeError: .*\(at .*my_controllers\.py:\d+\)$"):
+        left.policy.decide(None, "one too many")
