@@ -1,12 +1,13 @@
-"""How often collab's side rule decides, quoted in docs/planner.md ("Why the map rule rarely
-decides at walls", third session).
+"""How often collab's side rule decides (docs/history.md: why the map rule rarely decided at
+walls, and the rule's revision).
 
 Run from the repository root: ``.venv/bin/python experiments/collab_side_rule.py`` (the rule as it
-is, about 1 min on 2 cores) or with ``--margin 2 --unknown-cost 1`` (the rule before the third
-session). Runs ``collab`` on walls maps of the core comparison (``experiments/collab/core.toml``)
-and counts, over every call of the shared-side rule (decisions and re-decisions when news
-arrived): the calls that chose a side, those where no way existed or no neighbour's segment was
-about the obstacle ahead, and the quantiles of the difference between the two ways.
+is, about 1 min on 2 cores) or with ``--margin 2 --unknown-cost 1`` (the rule before its
+revision: a 2 m margin, unseen cells as cheap as seen ones). Runs ``collab`` on walls maps of
+the core comparison (``experiments/collab/core.toml``) and counts, over every call of the
+shared-side rule (decisions and re-decisions when news arrived): the calls that chose a side,
+those where no way existed or no neighbour's segment was about the obstacle ahead, and the
+quantiles of the difference between the two ways.
 """
 
 from __future__ import annotations

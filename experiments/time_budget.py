@@ -5,8 +5,9 @@ ran out of the 120 s. This script reads the recordings an experiment keeps (by d
 the episodes in which a robot failed; :mod:`fftnav.episode.recording`) and splits every moving
 robot's control ticks with :func:`fftnav.metrics.motions`: driving (``v != 0``), correcting its
 heading (rotating in place one way for less than 1 s), turning (one way for 1 s or more, as to
-go back) and standing, overall and by the planner's mode at the tick (the controller's
-``state/mode``: heading for the goal, following a boundary, escaping, waiting). It also counts
+go back) and standing, overall and by the planner's state at the tick (the controller's
+``state/mode``, a :class:`fftnav.states.State` code: heading for the goal, following a boundary,
+escaping, guided, waiting for the robots in its way). It also counts
 the *swings*: rotating ticks that reverse the rotation of the tick before (a robot swinging
 left and right on the spot). Robots that failed and robots that arrived in the same episodes
 are counted apart.
@@ -19,8 +20,8 @@ walls and traps maps with 240 s for this: are the robots that fail at 120 s trap
 Run from the repository root: ``python experiments/time_budget.py [FOLDER]`` (default
 ``results/collab/fresh``; a few seconds) -> ``FOLDER/time_budget.csv`` (one row per robot of
 each recorded episode: seconds moving, driving, correcting, turning and standing, the turns,
-the distance left to its goal, and the seconds and rotating seconds in each mode) and
-``FOLDER/time_budget.md`` (the shares per env, policy and outcome, and by mode; the AR by
+the distance left to its goal, and the seconds and rotating seconds in each state) and
+``FOLDER/time_budget.md`` (the shares per env, policy and outcome, and by state; the AR by
 time limit).
 """
 
@@ -33,14 +34,14 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from fftnav.episode.recording import STATUS, read_recording
+from fftnav.episode.recording import read_recording
 from fftnav.metrics import MOTIONS, motions
-from fftnav.navigation.bugcontrol import STATE_MODES
+from fftnav.states import State, Status
 
 ROOT = Path(__file__).resolve().parents[1]
-#: The planner's modes in the controller's state (BugController.state) that a moving robot is
-#: in, by code.
-MODES = {STATE_MODES.index(name): name for name in ("goal", "follow", "escape", "wait")}
+#: The planner's states a moving robot is in (``state/mode``), by code.
+MODES = {int(s): s.label for s in (State.GOAL, State.FOLLOW, State.ESCAPE, State.GUIDED,
+                                  State.WAIT)}
 TURN_S = 1.0
 #: Time limits (s) of the AR table, up to the run's own.
 LIMITS_S = (60.0, 90.0, 120.0, 150.0, 180.0, 210.0, 240.0)
@@ -50,7 +51,7 @@ def budget(path: Path) -> list[dict]:
     """One row per robot of the recording at ``path``: where its moving ticks went."""
     rec = read_recording(path)
     dt = 1.0 / rec.config.episode.control_hz
-    moving = rec.status[:-1] == STATUS.index("moving")  # the last tick has no command
+    moving = rec.status[:-1] == Status.MOVING  # the last tick has no command
     kinds = motions(rec.command[:-1], moving, control_hz=rec.config.episode.control_hz,
                     turn_s=TURN_S)
     mode = rec.state["mode"][:-1]
@@ -88,7 +89,7 @@ def _title(folder: Path) -> str:
 
 
 def report(table: pd.DataFrame, folder: Path) -> str:
-    """The shares of moving time, per env, policy and outcome, and by mode."""
+    """The shares of moving time, per env, policy and outcome, and by the planner's state."""
     lines = [_title(folder),
              "Written by `python experiments/time_budget.py` from the recordings the experiment "
              "kept (the episodes in which a robot did not arrive), with "
@@ -106,8 +107,8 @@ def report(table: pd.DataFrame, folder: Path) -> str:
             f"| {_pct(g.stand_s, g.moving_s)} | {_pct(g.swing_s, g.moving_s)} "
             f"| {g.turns.mean():.1f} "
             f"| {g.goal_left_m.mean() if not arrived else float('nan'):.1f} |")
-    lines += ["", "By the planner's mode, every policy together: the share of the moving time "
-              "spent in the mode, and within it the share spent rotating in place.", "",
+    lines += ["", "By the planner's state, every policy together: the share of the moving "
+              "time spent in the state, and within it the share spent rotating in place.", "",
               "| env | outcome | " + " | ".join(MODES.values()) + " |",
               "|---|---|" + "---|" * len(MODES)]
     for (env, arrived), g in table.groupby(["env", "arrived"]):

@@ -11,7 +11,7 @@ import numpy as np
 import pytest
 
 from fftnav.config import EpisodeConfig, SwarmConfig
-from fftnav.episode import run_episode
+from fftnav.episode import episode_csv, run_episode
 from fftnav.world import Circle, World
 
 DOC = (Path(__file__).resolve().parents[1] / "docs" / "policies.md").read_text()
@@ -58,6 +58,38 @@ def test_decision_policy_example_resolves_and_decides(tmp_path):
     decide = found.policy.decide
     assert decide(DecisionContext(0, lambda: 0.9, lambda: 0.52, rng)) == 1  # own P_s decides
     assert decide(DecisionContext(0, lambda: 0.9, lambda: 0.2, rng)) == -1  # fused P is clear
+
+
+def test_message_kind_example_sends_its_beacons_and_keeps_each_episodes_state(tmp_path,
+                                                                               monkeypatch):
+    """The Beacon kind, named by file path: its robots broadcast 8 bytes a second, each read
+    packet is counted by the episode's own instance (a second episode starts from zero, and
+    runs as the first)."""
+    from fftnav.navigation import bugcontrol
+    from fftnav.navigation.resolve import resolve
+
+    path = _plugin(tmp_path, "class Beacon", "beacon.py")
+    found = resolve(f"{path}:OWN_BEACON")
+    assert found.name == "own-beacon" and found.policy.messages.__name__ == "Beacon"
+    kinds = []
+    init = bugcontrol.BugController.__init__
+
+    def keep(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        kinds.append(self.messages)
+
+    monkeypatch.setattr(bugcontrol.BugController, "__init__", keep)
+    world = World("test", 0, (8.0, 12.0), (Circle((4.0, 6.0), 0.8, 1.0),),
+                  np.array([[3.7, 2.0, UP], [4.3, 0.8, UP]]), np.array([[3.7, 11.0], [4.3, 11.0]]))
+    config = SwarmConfig(episode=EpisodeConfig(time_limit_s=20.0))
+    rows = [run_episode(world, f"{path}:OWN_BEACON", seed=0, config=config).rows
+            for _ in range(2)]
+    assert episode_csv(rows[0]) == episode_csv(rows[1])
+    assert [r.policy for r in rows[0]] == ["own-beacon"] * 2
+    assert all(r.messages_sent > 0 and r.bytes_sent == 8 * r.messages_sent for r in rows[0])
+    assert kinds[0] is not kinds[1] and type(kinds[0]).__name__ == "Beacon"
+    assert [kinds[0].read(i) for i in range(2)] == [kinds[1].read(i) for i in range(2)]
+    assert min(kinds[1].read(i) for i in range(2)) > 0
 
 
 def test_environment_example_runs():

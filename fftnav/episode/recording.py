@@ -10,7 +10,9 @@ Format: a NumPy ``.npz`` archive (a zip of ``.npy`` arrays, deflate-compressed),
 column. It needs nothing beyond NumPy to read, each column loads on its own, and the deflate
 pass shrinks the scans (mostly "no return") several times. The ``meta`` entry is UTF-8 JSON
 with ``format`` (:data:`FORMAT`) and ``version`` (:data:`VERSION`); the reader refuses other
-formats and newer versions. The columns, with G ticks, N robots and M beams:
+formats and newer versions, and reads every earlier one: version 1 differs only in that its
+``state/mode`` never holds ``GUIDED`` (5), so its codes 0-4 read the same. The columns, with
+G ticks, N robots and M beams:
 
 ========================= ================ ==================================================
 column                    dtype, shape     meaning
@@ -18,15 +20,18 @@ column                    dtype, shape     meaning
 ``time_s``                float64 (G,)     episode time at the start of the tick (s)
 ``pose``                  float32 (G,N,3)  x (m), y (m), yaw (rad) the tick's scan was taken at
 ``command``               float32 (G,N,2)  the command of the tick: v (m/s), w (rad/s)
-``status``                uint8 (G,N)      :data:`STATUS` index: waiting, moving, arrived,
-                                           collided, timed_out (at the start of the tick)
+``status``                uint8 (G,N)      :class:`~fftnav.states.Status` code: 0 waiting,
+                                           1 moving, 2 arrived, 3 collided, 4 timed_out
+                                           (at the start of the tick)
 ``scan``                  uint8/16 (G,N,M) range in steps of ``meta["scan_step_m"]`` (0.02 m:
                                            at most 1 cm error); 0 for robots not moving
 ``safe_bits``             uint8 (G,N,M/8)  the safe mask, ``numpy.packbits`` along beams
 ``contact_obstacle``      bool (G,N)       Bullet contact with an obstacle during the tick
 ``contact_robot``         bool (G,N)       ... with another robot
 ``state/<name>``          float32 (G,N)    the controller's state after the tick's step, NaN
-                                           when absent
+                                           when absent; the Bug controller's ``state/mode``
+                                           is a :class:`~fftnav.states.State` code: 0 goal,
+                                           1 follow, 2 escape, 3 done, 4 wait, 5 guided
 ``sent_tick``             int32 (S,)       messages broadcast: tick, sender
 ``sent_robot``            int16 (S,)
 ``sent_offset``           int64 (S+1,)     ``sent_bytes[sent_offset[k]:sent_offset[k+1]]``
@@ -59,19 +64,19 @@ import numpy as np
 
 from fftnav.config import SwarmConfig
 from fftnav.files import check_input, check_target, write_atomic
+from fftnav.states import State, Status
 from fftnav.world.model import World
 
-__all__ = ["FORMAT", "SCAN_STEP_M", "STATUS", "VERSION", "Recording", "RecordingError",
-           "Tape", "read_recording", "write_recording"]
+__all__ = ["FORMAT", "SCAN_STEP_M", "VERSION", "Recording", "RecordingError", "Tape",
+           "read_recording", "write_recording"]
 
 #: The ``format`` of a recording's ``meta``.
 FORMAT = "fftnav-recording"
-#: Schema version written; the reader reads this version and earlier ones.
-VERSION = 1
+#: Schema version written (2: ``state/mode`` may hold ``State.GUIDED``); the reader reads this
+#: version and earlier ones.
+VERSION = 2
 #: Quantisation step of the recorded scans (m): the error is at most half of it.
 SCAN_STEP_M = 0.02
-#: Robot statuses, by their code in ``status``.
-STATUS = ("waiting", "moving", "arrived", "collided", "timed_out")
 
 
 class RecordingError(ValueError):
@@ -151,10 +156,10 @@ class Tape:
     def tick(self, time_s: float, poses: np.ndarray, status: np.ndarray, *,
              commands: np.ndarray, ranges_m: np.ndarray, safe: np.ndarray | None,
              state: Mapping[int, Mapping[str, float]]) -> None:
-        """One control tick: poses at the scan, statuses (codes of :data:`STATUS`), commands,
-        ranges (m, finite, >= 0) and safe masks of every robot (zeros for robots not moving;
-        arrays the episode does not modify afterwards), the controller's state of the moving
-        robots. The scans are quantised now, the rest packed by :meth:`columns`."""
+        """One control tick: poses at the scan, statuses (:class:`~fftnav.states.Status` codes),
+        commands, ranges (m, finite, >= 0) and safe masks of every robot (zeros for robots not
+        moving; arrays the episode does not modify afterwards), the controller's state of the
+        moving robots. The scans are quantised now, the rest packed by :meth:`columns`."""
         for values in state.values():
             self.state_names.update(dict.fromkeys(values))
         scan = ranges_m * (1.0 / SCAN_STEP_M) + 0.5  # rounded by the cast (ranges >= 0)
@@ -219,7 +224,8 @@ class Tape:
     def _meta(self, rows: Sequence[Mapping[str, Any]]) -> dict[str, Any]:
         return {"format": FORMAT, "version": VERSION, "policy": self.policy, "seed": self.seed,
                 "scan_step_m": SCAN_STEP_M, "beams": len(self.angles_rad),
-                "angles_rad": self.angles_rad.tolist(), "status": list(STATUS),
+                "angles_rad": self.angles_rad.tolist(), "status": list(Status.labels()),
+                "states": list(State.labels()),
                 "world": json.loads(self.world.to_json()),
                 "config": self.config.to_sections(),
                 "rows": [_jsonable(row) for row in rows]}

@@ -3,13 +3,15 @@
 :class:`BugController`: the FFT pipeline's safe masks feed the
 :class:`~fftnav.navigation.bug.BugPlanner`, which asks the decision policy for a side when a goal
 direction is blocked. What its robots broadcast and how they read it is the policy's message
-kind (:mod:`fftnav.navigation.messages`): with ``"observation"`` (``fusion``) a robot whose goal
-direction is blocked broadcasts its compressed observation (or every tick, with
-``comms.broadcast = "every_tick"``); with ``"walls"`` (``collab``) robots share the wall segments
-they see (:mod:`fftnav.navigation.collab`), drawn into the receivers' own maps, and the policy
-may ask which side the way through that map passes
-(:meth:`~fftnav.navigation.ownmap.OwnMaps.side_costs`). Like every controller it sees the swarm
-only through :class:`~fftnav.navigation.controllers.SwarmStep`. Its rows carry the policy's name,
+kind (:mod:`fftnav.navigation.messages`), of which it makes one instance per episode: with
+``"observation"`` (``fusion``) a robot whose goal direction is blocked broadcasts its compressed
+observation (or every tick, with ``comms.broadcast = "every_tick"``); with ``"walls"``
+(``collab``) robots share the wall segments they see (:mod:`fftnav.navigation.collab`), drawn
+into the receivers' own maps, and the policy may ask which side the way through that map passes
+(:meth:`~fftnav.navigation.ownmap.OwnMaps.side_costs`). Like every controller it is built from
+its :class:`~fftnav.navigation.controllers.ControllerSetup` alone and sees the swarm only
+through :class:`~fftnav.navigation.controllers.SwarmStep`. Its state (:meth:`BugController.state`)
+is the planner's :class:`~fftnav.states.State` of each robot; its rows carry the policy's name,
 its decision counters, the planner's diagnostics and the neighbour accounting.
 """
 
@@ -21,12 +23,13 @@ from collections.abc import Callable
 import numpy as np
 
 from fftnav import metrics
-from fftnav.navigation.bug import BugPlanner, Mode
+from fftnav.navigation.bug import BugPlanner
 from fftnav.navigation.controllers import Controller, ControllerSetup, SwarmStep
 from fftnav.navigation.decider import Decider
+from fftnav.navigation.messages import MessageKind
 from fftnav.navigation.policies import DecisionContext, Policy
 
-__all__ = ["SIDE_MARGIN_M", "SIDE_RADIUS_M", "STATE_MODES", "UNKNOWN_COST", "BugController"]
+__all__ = ["SIDE_MARGIN_M", "SIDE_RADIUS_M", "UNKNOWN_COST", "BugController"]
 
 #: ``collab``'s map says which side only when one side's way is this much shorter (m).
 SIDE_MARGIN_M = 1.0
@@ -36,13 +39,6 @@ SIDE_MARGIN_M = 1.0
 UNKNOWN_COST = 3.0
 #: The two sides' ways are compared through the cells this far (m) from the robot.
 SIDE_RADIUS_M = 1.0
-
-
-#: The names of ``state()["mode"]``, by code (escape, a flag of a follow, is 2).
-STATE_MODES: tuple[str, ...] = ("goal", "follow", "escape", "done", "wait")
-#: ``state()["mode"]`` of each planner mode.
-_MODE_CODES = {mode: STATE_MODES.index(name) for mode, name in (
-    (Mode.GO_TO_GOAL, "goal"), (Mode.FOLLOW, "follow"), (Mode.DONE, "done"), (Mode.WAIT, "wait"))}
 
 
 class BugController(Controller):
@@ -66,18 +62,10 @@ class BugController(Controller):
         self.policy, self.rng = policy, setup.rng
         self.name = policy.name  # type: ignore[misc]  # its rows carry the policy's name
         self.decider = Decider(setup.config, setup.rng, full_circle=setup.full_circle)
-        self.heard = np.zeros(n, dtype=np.int64)  # messages read (the message kind counts)
-        self._seen = np.zeros(n, dtype=np.int64)  # messages read at the last (re)decision
-        #: Messages that arrived but are not read yet, ``(tick, payload)`` per robot, and
-        #: whether a robot's own scans have shown a wall longer than R (``walls``' gate).
-        self.held: list[list[tuple[int, np.ndarray]]] = [[] for _ in range(n)]
-        self.long_wall_seen = np.zeros(n, dtype=bool)
-        #: Per robot, each neighbour's position, tick and goal distance from its last message
-        #: that arrived: ``{sender: (x_m, y_m, tick, goal_m)}``; and the goal distance each
-        #: robot last announced (m, as its neighbours read it; inf before its first message).
-        self.neighbours: list[dict[int, tuple[float, float, int, float]]] = [
-            {} for _ in range(n)]
-        self.announced_m = np.full(n, np.inf)
+        #: The policy's message kind in this episode (None: its robots send nothing).
+        self.messages: MessageKind | None = (None if policy.messages is None
+                                             else policy.messages(setup))
+        self._read = np.zeros(n, dtype=np.int64)  # messages read at the last (re)decision
         self.poses = np.zeros((n, 3))
         self.goals = np.zeros((n, 2))
         self._swarm: SwarmStep | None = None
@@ -96,7 +84,7 @@ class BugController(Controller):
         """The side (+1 left, -1 right of the goal) whose way to the goal through robot ``i``'s
         map (its own scans and the walls its neighbours shared) is shorter by at least
         SIDE_MARGIN_M; None if neither is."""
-        self._seen[i] = self.heard[i]
+        self._read[i] = self._messages_read(i)
         maps = self.planner.maps
         if maps is None:
             return None
@@ -106,24 +94,27 @@ class BugController(Controller):
             return None
         return 1 if left < right else -1
 
+    def _messages_read(self, i: int) -> int:
+        """How many messages robot ``i`` has read (its message kind counts them)."""
+        return 0 if self.messages is None else self.messages.read(i)
+
     def _reconsider(self, i: int, side: int) -> int:
         """A following robot asks its policy again when news arrived since it last decided."""
-        if self.heard[i] == self._seen[i]:
+        if self._messages_read(i) == self._read[i]:
             return side
         return self._decide(i)
 
     def _asks(self, question: str) -> Callable[[int], bool] | None:
-        """The planner's hook ``robot -> bool`` that asks the policy's message kind
-        ``question`` (``"waits"``: the right of way; ``"guides"``: the guided way) at the
-        current tick; None for a policy without messages (never)."""
-        kind = self.policy.messages
-        if kind is None:
+        """The planner's hook ``robot -> bool`` that asks the message kind ``question``
+        (``"waits"``: the right of way; ``"guides"``: the guided way) at the current tick;
+        None for a policy without messages (never)."""
+        if self.messages is None:
             return None
-        ask = getattr(kind, question)
+        ask = getattr(self.messages, question)
 
         def answer(i: int) -> bool:
             assert self._swarm is not None
-            return bool(ask(self, self._swarm, i))
+            return bool(ask(self._swarm, i))
 
         return answer
 
@@ -132,12 +123,13 @@ class BugController(Controller):
         that broadcast this tick."""
         self.poses, self.goals, self._swarm = swarm.poses, swarm.goals, swarm
         self.decider.observe(swarm)
-        kind = self.policy.messages
+        kind = self.messages
         if kind is not None:
-            kind.receive(self, swarm, swarm.present_mask())
+            kind.receive(swarm, self.planner.maps)
         commands, blocked = self.planner.step(swarm.time_s, swarm.poses, swarm.goals,
-                                              swarm.safe, swarm.ranges_m, swarm.y1)
-        outgoing = kind.send(self, swarm, blocked) if kind is not None else {}
+                                              safe=swarm.safe, ranges_m=swarm.ranges_m,
+                                              y1=swarm.y1)
+        outgoing = kind.send(swarm, blocked, self.planner.maps) if kind is not None else {}
         return commands, outgoing
 
     def finish(self, robot: int) -> None:
@@ -150,34 +142,26 @@ class BugController(Controller):
         self.planner.release(robot)
 
     def state(self, robot: int) -> dict[str, float]:
-        """``mode`` (0 go to goal, 1 follow, 2 escape, 3 done, 4 waiting), ``side`` (+1 left,
-        -1 right, 0 none), ``decisions`` taken, and the last ``p_own`` (P_s) and ``p_fused``
-        (fused P) computed for its decisions (NaN before; ``fusion`` computes both, ``own-only``
-        only P_s, the baselines neither)."""
-        mem = self.planner.memory[robot]
-        mode = _MODE_CODES[mem.mode]
-        if mem.escape and mode <= 1:
-            mode = 2
-        decisions = self.planner.decisions
+        """``mode``: the planner's :class:`~fftnav.states.State` code (0 goal, 1 follow, 2
+        escape, 3 done, 4 wait, 5 guided); ``side`` (+1 left, -1 right while it follows or
+        escapes, else 0); ``decisions`` taken; and the last ``p_own`` (P_s) and ``p_fused``
+        (fused P) computed for its decisions (NaN before; ``fusion`` computes both,
+        ``own-only`` only P_s, the baselines neither)."""
+        memory = self.planner.memory[robot]
         nan = math.nan
-        return {"mode": mode, "side": mem.side if mode in (1, 2) else 0,
-                "decisions": int(decisions[robot, 0] + decisions[robot, 1]),
+        return {"mode": int(memory.state), "side": memory.side,
+                "decisions": self.planner.stats.decided(robot),
                 "p_own": self.decider.last_p_own.get(robot, nan),
                 "p_fused": self.decider.last_p_fused.get(robot, nan)}
 
     def counters(self, robot: int) -> dict[str, int | float]:
-        planner, dt = self.planner, 1.0 / self.config.episode.control_hz
+        """The planner's counters (:meth:`~fftnav.navigation.memory.PlannerStats.row`) and the
+        decider's: decisions that fused neighbours or were flipped by them, and why each other
+        robot was fused or not."""
         return {
-            "decisions_left": int(planner.decisions[robot, 0]),
-            "decisions_right": int(planner.decisions[robot, 1]),
+            **self.planner.stats.row(robot, control_hz=self.config.episode.control_hz),
             "decisions_with_neighbours": self.decider.with_neighbours[robot],
             "decisions_flipped_by_neighbours": self.decider.flipped[robot],
-            "follow_time_s": float(planner.follow_ticks[robot] * dt),
-            "stall_time_s": float(planner.stall_ticks[robot] * dt),
-            "loop_flips": int(planner.loop_flips[robot]),
-            "escape_time_s": float(planner.escape_ticks[robot] * dt),
-            "sides_remembered": int(planner.sides_remembered[robot]),
-            "sides_reconsidered": int(planner.reconsidered[robot]),
             **{f"neighbours_{reason}": self.decider.neighbour_reasons[robot][reason]
                for reason in metrics.NEIGHBOUR_REASONS},
         }

@@ -26,8 +26,7 @@ import numpy as np
 from scipy.ndimage import binary_dilation
 from scipy.sparse.csgraph import dijkstra
 
-from fftnav.observe import kernels
-from fftnav.observe.kernels import njit
+from fftnav.navigation import kernels
 from fftnav.optimal.gridgraph import grid_graph
 from fftnav.validate import check_number
 
@@ -61,9 +60,6 @@ class OwnMaps:
     clearance_m : float
         Cells within this distance of an occupied cell are closed to paths (the robot radius
         and a margin).
-    robot_radius_m : float
-        :meth:`set_robots`: cells within this distance of where other robots are known to stand
-        are not occupied (default 0.45 m: a robot's radius and half a second of its travel).
     squeeze_m : float, optional
         ``plan(..., squeeze=True)``: when no way leaves the robot's cell at ``clearance_m`` (its
         pocket is closed, as by another robot standing next to it and seen as an obstacle), the
@@ -75,15 +71,22 @@ class OwnMaps:
         ``plan(..., walls_only=True)`` also closes the cells whose centres lie outside it
         (nothing beyond its boundary walls is ever seen, so no wall segment closes it).
         Default: none (an open world).
+
+    Attributes
+    ----------
+    robot_radius_m : float
+        :meth:`set_robots`: cells within this distance of where other robots are known to stand
+        are not occupied (0.45 m: a robot's radius and half a second of its travel; a class
+        attribute, so a subclass may change it).
     """
+
+    robot_radius_m: float = 0.45
 
     def __init__(self, n_robots: int, lo: np.ndarray, hi: np.ndarray, *, resolution_m: float,
                  range_m: float, clearance_m: float, squeeze_m: float | None = None,
-                 robot_radius_m: float = 0.45,
                  walled_m: tuple[float, float] | None = None) -> None:
         for name, value in (("resolution_m", resolution_m), ("range_m", range_m)):
             check_number(name, value, low=0, low_open=True)
-        check_number("robot_radius_m", robot_radius_m, low=0)
         check_number("clearance_m", clearance_m, low=0)
         if squeeze_m is not None:
             check_number("squeeze_m", squeeze_m, low=0, high=clearance_m)
@@ -103,7 +106,6 @@ class OwnMaps:
         squeezed = None if squeeze_m is None else self._disc_of(squeeze_m)
         same = squeezed is None or np.array_equal(squeezed, self._disc)
         self._squeeze = None if same else squeezed  # None: no narrower way to try
-        self.robot_radius_m = float(robot_radius_m)
         #: Per robot, where it knows other robots stand (:meth:`set_robots`), (n, 2) m.
         self.robots: dict[int, np.ndarray] = {}
         #: Plans per robot that found no way at the clearance and planned again squeezed.
@@ -157,9 +159,10 @@ class OwnMaps:
             ux, uy = np.cos(ang), np.sin(ang)
             corner = self.cell(np.array([x, y]) - self.range_m - 2 * self.res)
             if kernels_available():  # the same cells, by a compiled loop
-                _mark(ux, uy, rr, float(x), float(y), samples, self.lo, self.res, self.range_m,
-                      CLEAR_BEFORE_HIT_M, int(corner[0]), int(corner[1]), size, tick,
-                      self.last_free[i], self.last_hit[i])
+                kernels.mark_scan(ux, uy, rr, float(x), float(y), samples, self.lo, self.res,
+                                  self.range_m, CLEAR_BEFORE_HIT_M, int(corner[0]),
+                                  int(corner[1]), size, tick, self.last_free[i],
+                                  self.last_hit[i])
                 continue
             along = samples[None, :] <= (rr[:, None] - CLEAR_BEFORE_HIT_M)
             px = x + ux[:, None] * samples[None, :]
@@ -386,43 +389,3 @@ def kernels_available() -> bool:
     """Whether :meth:`OwnMaps.update` marks cells by the compiled loop (numba installed)."""
     return kernels.AVAILABLE
 
-
-@njit(cache=True, nogil=True)
-def _mark(ux: np.ndarray, uy: np.ndarray, rr: np.ndarray, x: float, y: float,
-          samples: np.ndarray, lo: np.ndarray, res: float, range_m: float, clear_m: float,
-          corner_row: int, corner_col: int, size: int, tick: int, last_free: np.ndarray,
-          last_hit: np.ndarray) -> None:
-    """:meth:`OwnMaps.update` of one scan (beams of directions ``(ux, uy)`` and readings
-    ``rr``) into one robot's ``last_free`` / ``last_hit``: the same IEEE operations in the same
-    order as the numpy version (the points ``x + u * s``, the cells ``floor((p - lo) / res)``,
-    the 3 x 3 dilation of the hit cells in the window at ``corner``), so the same cells."""
-    rows, cols = last_free.shape
-    near = np.zeros((size, size), dtype=np.bool_)
-    limit = range_m * (1.0 - 1e-6)
-    for b in range(rr.shape[0]):
-        if rr[b] < limit:
-            col = np.int64(np.floor((x + ux[b] * rr[b] - lo[0]) / res))
-            row = np.int64(np.floor((y + uy[b] * rr[b] - lo[1]) / res))
-            if 0 <= row < rows and 0 <= col < cols:
-                last_hit[row, col] = tick
-                if 0 <= row - corner_row < size and 0 <= col - corner_col < size:
-                    near[row - corner_row, col - corner_col] = True
-    ring = np.zeros((size, size), dtype=np.bool_)  # binary_dilation by a 3 x 3 square
-    for a in range(size):
-        for c in range(size):
-            if near[a, c]:
-                for da in range(max(a - 1, 0), min(a + 2, size)):
-                    for dc in range(max(c - 1, 0), min(c + 2, size)):
-                        ring[da, dc] = True
-    for b in range(rr.shape[0]):
-        reach = rr[b] - clear_m
-        for s in range(samples.shape[0]):
-            if not samples[s] <= reach:
-                continue
-            col = np.int64(np.floor((x + ux[b] * samples[s] - lo[0]) / res))
-            row = np.int64(np.floor((y + uy[b] * samples[s] - lo[1]) / res))
-            if not (0 <= row < rows and 0 <= col < cols):
-                continue
-            a, c = row - corner_row, col - corner_col
-            if not (0 <= a < size and 0 <= c < size and ring[a, c]):
-                last_free[row, col] = tick

@@ -80,9 +80,10 @@ class DecisionContext:
     shared_side: Callable[[], int | None] = lambda: None
 
 
-def _message_kind(messages: str | MessageKind | None) -> MessageKind | None:
-    """The registered kind named ``messages`` (a kind object or None passes through)."""
-    if messages is None or isinstance(messages, MessageKind):
+def _message_kind(messages: str | type[MessageKind] | None) -> type[MessageKind] | None:
+    """The registered kind named ``messages`` (a :class:`MessageKind` subclass or None passes
+    through)."""
+    if messages is None or (isinstance(messages, type) and issubclass(messages, MessageKind)):
         return messages
     return MESSAGE_KINDS.lookup(messages)
 
@@ -97,10 +98,11 @@ class Policy:
         The name its rows carry.
     decide : callable
         ``(DecisionContext) -> LEFT | RIGHT``.
-    messages : MessageKind or None
-        What its robots broadcast and how they read it
+    messages : type of MessageKind or None
+        What its robots broadcast and how they read it: a kind's class
         (:data:`~fftnav.navigation.messages.MESSAGE_KINDS`: ``"observation"``, ``"walls"``; a
-        name is looked up there); None: nothing.
+        name is looked up there), of which the Bug controller makes one instance per episode;
+        None: nothing.
     description : str
         One line.
     reconsiders : bool
@@ -110,7 +112,7 @@ class Policy:
 
     name: str
     decide: Callable[[DecisionContext], int]
-    messages: MessageKind | None
+    messages: type[MessageKind] | None
     description: str
     reconsiders: bool = False
 

@@ -9,16 +9,18 @@ import math
 import subprocess
 import sys
 import zipfile
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
 import pytest
 
-from fftnav.config import EpisodeConfig, SwarmConfig
+from fftnav.config import PAPER_MOTION, EpisodeConfig, SwarmConfig
 from fftnav.episode import episode_csv, read_recording, run_episode
-from fftnav.episode.recording import SCAN_STEP_M, STATUS, VERSION, RecordingError, write_recording
+from fftnav.episode.recording import SCAN_STEP_M, VERSION, RecordingError, write_recording
 from fftnav.navigation.controllers import Action, Controller
-from fftnav.world import Circle, World, generate_world
+from fftnav.states import State, Status
+from fftnav.world import Circle, Polygon, World, generate_world
 
 CFG = SwarmConfig(episode=EpisodeConfig(time_limit_s=12.0))
 
@@ -76,7 +78,7 @@ def test_scans_masks_commands_and_messages_are_those_the_controller_had(spied):
         assert np.abs(rec.scan_m[tick, robot] - ranges).max() <= SCAN_STEP_M / 2 + 1e-9
         np.testing.assert_array_equal(rec.safe[tick, robot], safe)
         np.testing.assert_allclose(rec.command[tick, robot], (v, w), rtol=1e-6, atol=1e-6)
-        assert rec.status[tick, robot] == STATUS.index("moving")
+        assert rec.status[tick, robot] == Status.MOVING
     sent = {(t, r): p for t, r, p in zip(rec.sent_tick, rec.sent_robot, rec.sent_payloads,
                                          strict=True)}
     assert sent == {(t, r): m for t, r, _, _, _, m, _ in seen if m is not None}
@@ -103,7 +105,7 @@ def test_poses_state_and_final_status_follow_the_episode(spied):
         np.testing.assert_array_equal(rec.state["acts"][ticks, i], np.arange(1, len(ticks) + 1))
         end = {"arrived": result.rows[i].arrived, "collided": result.rows[i].collided}
         how = next((k for k, v in end.items() if v), "timed_out")
-        assert STATUS[rec.status[-1, i]] == how
+        assert Status(rec.status[-1, i]).label == how
     assert set(rec.state) == {"acts", "half"}
     assert rec.policy == "Spy" and rec.seed == 3
     assert rec.world.to_json() == _world().to_json()
@@ -117,17 +119,101 @@ def test_bug_controller_state_names_its_mode_and_side():
     rec = read_recording(io.BytesIO(run_episode(world, "fusion", seed=1, config=CFG,
                                                 record=True).recording()))
     assert set(rec.state) == {"mode", "side", "decisions", "p_own", "p_fused"}
-    moving = rec.status == STATUS.index("moving")
+    moving = rec.status == Status.MOVING
     modes = rec.state["mode"][moving]
-    assert set(np.unique(modes)) <= {0.0, 1.0, 2.0}
-    following = moving & (rec.state["mode"] == 1)
+    assert set(np.unique(modes)) <= {State.GOAL, State.FOLLOW, State.ESCAPE}
+    following = moving & np.isin(rec.state["mode"], [State.FOLLOW, State.ESCAPE])
     assert following.any() and set(np.unique(rec.state["side"][following])) <= {-1.0, 1.0}
-    assert (rec.state["side"][moving & (rec.state["mode"] == 0)] == 0).all()
+    assert (rec.state["side"][moving & (rec.state["mode"] == State.GOAL)] == 0).all()
     for name in ("p_own", "p_fused"):  # fusion computes both at each decision
         values = rec.state[name][moving]
         asked = ~np.isnan(values)
         assert asked.any() and ((values[asked] >= 0) & (values[asked] <= 1)).all()
         np.testing.assert_array_equal(asked, rec.state["decisions"][moving] > 0)
+
+
+def _barrier_world():
+    """A wall across the map with one gap on the right; four robots below it
+    (tests/navigation/test_collab.py)."""
+    walls = (Polygon(((0.0, 4.0), (7.0, 4.0), (7.0, 4.3), (0.0, 4.3)), 1.0),
+             Polygon(((8.5, 4.0), (10.0, 4.0), (10.0, 4.3), (8.5, 4.3)), 1.0))
+    xs = [1.5, 3.5, 5.5, 7.5]
+    return World("t", 0, (10.0, 9.0), walls, np.array([[x, 1.0, math.pi / 2] for x in xs]),
+                 np.array([[x, 8.0] for x in xs]), "walls")
+
+
+def _headon(width_m):
+    """A 6 m corridor ``width_m`` wide; one robot starts at each end (experiments/headon.py)."""
+    half = width_m / 2.0
+
+    def box(x0, y0, x1, y1):
+        return Polygon(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), 1.0)
+
+    return World("headon", 0, (12.0, 8.0),
+                 (box(3.0, 4.0 + half, 9.0, 4.2 + half), box(3.0, 3.8 - half, 9.0, 4.0 - half)),
+                 np.array([[3.5, 4.0, 0.0], [8.5, 4.0, math.pi]]),
+                 np.array([[11.0, 4.0], [1.0, 4.0]]))
+
+
+def _recorded_with_planner(monkeypatch, world, policy, seed, config):
+    """The recording of an episode and its Bug planner (the oracle of the states: its
+    counters)."""
+    from fftnav.navigation import bugcontrol
+
+    planners = []
+    init = bugcontrol.BugController.__init__
+
+    def keep(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        planners.append(self.planner)
+
+    monkeypatch.setattr(bugcontrol.BugController, "__init__", keep)
+    result = run_episode(world, policy, seed=seed, config=config, record=True)
+    return read_recording(io.BytesIO(result.recording())), planners[0]
+
+
+def test_guided_escaping_and_waiting_robots_report_their_states(monkeypatch):
+    """``state/mode`` holds fftnav.states.State codes: a collab robot steering along its
+    guided way reports GUIDED (5) on exactly the ticks the planner counts as guided, an
+    escaping one ESCAPE (2) with its side, a robot standing for the robots in its way (the right
+    of way) WAIT (4) on exactly the ticks the planner counts as waiting; and none of them
+    reports GOAL (0) on those ticks."""
+    config = SwarmConfig(episode=EpisodeConfig(time_limit_s=60.0, departure="staggered",
+                                               stagger_s=4.0)).replace(PAPER_MOTION)
+    rec, planner = _recorded_with_planner(monkeypatch, _barrier_world(), "collab", 5, config)
+    moving = rec.status == Status.MOVING
+    mode = np.where(moving, rec.state["mode"], np.nan)
+    assert ((mode == State.GUIDED).sum(axis=0) == planner.stats.guided_ticks).all()
+    assert planner.stats.guided_ticks.sum() > 0
+    escaping = mode == State.ESCAPE
+    assert escaping.any() and set(np.unique(rec.state["side"][escaping])) <= {-1.0, 1.0}
+    assert (rec.state["side"][mode == State.GUIDED] == 0).all()
+    rec, planner = _recorded_with_planner(monkeypatch, _headon(0.8), "collab", 0, SwarmConfig())
+    mode = np.where(rec.status == Status.MOVING, rec.state["mode"], np.nan)
+    assert planner.stats.wait_ticks.sum() > 0
+    assert ((mode == State.WAIT).sum(axis=0) == planner.stats.wait_ticks).all()
+
+
+def test_a_version_1_recording_still_reads():
+    """tests/data/recording_v1.npz was written by fftnav 0.2.0 (recording version 1):
+    ``fftnav episode --world barrier.json --policy fusion --seed 0 --record recording_v1.npz
+    --set time_limit_s=20 --set episode.departure=staggered --set episode.stagger_s=2 --set
+    sensor.beams=90``, barrier.json being the wall with a gap of ``_barrier_world`` with two
+    robots, at x = 5.5 and 7.5 m. Its codes read as today's: robot 1 waits at its start, then
+    moves and arrives; robot 0 heads for its goal, follows the wall, escapes and runs out of
+    time. A recording written now is of version 2 and names its state codes."""
+    rec = read_recording(Path(__file__).resolve().parents[1] / "data" / "recording_v1.npz")
+    assert rec.meta["version"] == 1 < VERSION == 2
+    assert rec.meta["status"] == list(Status.labels())
+    assert [r["arrived"] for r in rec.rows] == [False, True]
+    assert rec.status[0].tolist() == [Status.MOVING, Status.WAITING]
+    assert rec.status[-1].tolist() == [Status.TIMED_OUT, Status.ARRIVED]
+    modes = rec.state["mode"][rec.status == Status.MOVING]
+    assert set(np.unique(modes)) == {State.GOAL, State.FOLLOW, State.ESCAPE}
+    assert rec.n_robots == 2 and rec.safe.shape[2] == 90
+    now = json.loads(np.load(io.BytesIO(run_episode(_world(), "fusion", seed=0, config=CFG,
+                                                    record=True).recording()))["meta"].tobytes())
+    assert now["version"] == 2 and now["states"] == list(State.labels())
 
 
 class Circle15(Controller):
@@ -145,7 +231,7 @@ def test_a_15_robot_120_s_episode_with_noisy_scans_takes_at_most_3_mb():
                          record=True)
     data = result.recording()
     rec = read_recording(io.BytesIO(data))
-    assert rec.n_ticks == 1201 and (rec.status[:-1] == STATUS.index("moving")).all()
+    assert rec.n_ticks == 1201 and (rec.status[:-1] == Status.MOVING).all()
     assert len(data) <= 3_000_000
 
 
@@ -248,8 +334,8 @@ def test_cli_record_path_that_cannot_be_written_is_refused_before_the_episode(tm
 def test_the_obstacle_contact_is_on_the_tick_the_robot_collided(spied):
     result, rec, _ = spied
     assert result.rows[0].collided and not result.rows[1].collided
-    moving = np.flatnonzero(rec.status[:, 0] == STATUS.index("moving"))
+    moving = np.flatnonzero(rec.status[:, 0] == Status.MOVING)
     last = int(moving[-1])  # the tick whose command drove robot 0 into the trunk
     assert np.flatnonzero(rec.contact_obstacle[:, 0]).tolist() == [last]
-    assert STATUS[rec.status[last + 1, 0]] == "collided"
+    assert rec.status[last + 1, 0] == Status.COLLIDED
     assert not rec.contact_obstacle[:, 1].any() and not rec.contact_robot.any()

@@ -5,8 +5,11 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from fftnav.navigation.bug import BugPlanner, Mode, PlannerParams, motion_command
+from fftnav.config import PlannerConfig
+from fftnav.navigation.bug import BugPlanner, PlannerParams, motion_command
+from fftnav.navigation.memory import Hit
 from fftnav.navigation.policies import LEFT, RIGHT
+from fftnav.states import State
 
 M = 360
 FOV = 2 * math.pi
@@ -34,8 +37,8 @@ def _planner(side, n=1, **kw):
 def _step(planner, t, pose, goal, safe):
     safe = np.atleast_2d(safe)
     ranges = np.where(safe, 3.0, 0.3)
-    return planner.step(t, np.array([pose], float), np.array([goal], float), safe, ranges,
-                        ranges.astype(float))
+    return planner.step(t, np.array([pose], float), np.array([goal], float), safe=safe,
+                        ranges_m=ranges, y1=ranges.astype(float))
 
 
 def test_clear_goal_drives_straight_and_misaligned_goal_rotates_toward_it():
@@ -58,7 +61,7 @@ def test_blocked_goal_asks_the_policy_once_and_turns_to_that_side(side, sign):
     cmd, blocked = _step(p, 0.0, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
     assert blocked[0] and calls == [0]
     assert cmd[0, 0] == 0.0 and np.sign(cmd[0, 1]) == sign
-    assert p.memory[0].mode == Mode.FOLLOW and p.decisions[0].tolist() == (
+    assert p.state(0) is State.FOLLOW and p.stats.decisions[0].tolist() == (
         [1, 0] if side == LEFT else [0, 1]
     )
     # still blocked next tick: keeps the side without a new decision
@@ -70,9 +73,9 @@ def test_leave_rule_needs_clear_goal_and_progress():
     p, _ = _planner(LEFT)
     _step(p, 0.0, (0, 0, 0), (10, 0), _mask([(-30, 30)]))  # hit at d = 10
     _step(p, 0.1, (0, 0.5, 0), (10, 0), _mask())  # clear but farther: stay in FOLLOW
-    assert p.memory[0].mode == Mode.FOLLOW
+    assert p.state(0) is State.FOLLOW
     _step(p, 0.2, (1.0, 0.5, 0), (10, 0), _mask())  # clear and closer: leave
-    assert p.memory[0].mode == Mode.GO_TO_GOAL
+    assert p.state(0) is State.GOAL
 
 
 def test_loop_detection_starts_an_escape_after_the_timeout_once():
@@ -82,11 +85,62 @@ def test_loop_detection_starts_an_escape_after_the_timeout_once():
     escaped_at = None
     for k in range(200):
         _step(p, 0.1 * k, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
-        if escaped_at is None and p.memory[0].escape:
+        if escaped_at is None and p.state(0) is State.ESCAPE:
             escaped_at = 0.1 * k
     assert escaped_at == pytest.approx(5.1, abs=0.01)
-    assert calls == [0] and p.memory[0].side == LEFT and p.loop_flips[0] == 1
-    assert p.escape_ticks[0] > 0
+    assert calls == [0] and p.memory[0].side == LEFT and p.stats.loop_flips[0] == 1
+    assert p.stats.escape_ticks[0] > 0
+
+
+def test_an_escape_ends_by_the_leave_rule_and_the_robot_heads_for_its_goal():
+    """FOLLOW, then ESCAPE after the loop timeout, each with its side; once the goal direction
+    is clear and the robot got closer than at the hit point, GOAL with no side (the follow's
+    side is kept for the record), and a new blocked goal direction is a new decision (FOLLOW,
+    the escape over)."""
+    p, calls = _planner(LEFT, loop_timeout_s=5.0)
+    _step(p, 0.0, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+    assert p.state(0) is State.FOLLOW and p.memory[0].side == LEFT
+    for k in range(1, 60):
+        _step(p, 0.1 * k, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
+    assert p.state(0) is State.ESCAPE and p.memory[0].side == LEFT
+    _step(p, 6.0, (1.0, 0.5, 0), (10, 0), _mask())  # clear and 0.9 m closer: the leave rule
+    assert p.state(0) is State.GOAL and p.memory[0].side == 0
+    assert p.memory[0].follow.side == LEFT and calls == [0]
+    _step(p, 6.1, (1.0, 0.5, 0), (10, 0), _mask([(-30, 30)]))
+    assert p.state(0) is State.FOLLOW and calls == [0, 0]
+
+
+def test_a_held_robot_waits_unmapped_until_released_and_a_finished_one_is_done():
+    """hold: WAIT, zero commands, its scans stay out of its map; release: GOAL, it drives;
+    finish: DONE, zero commands."""
+    p, _ = _planner(LEFT, n=2, map_every=1)
+    p.hold(1)
+    safe = np.stack([_mask(), _mask([(-30, 30)])])
+    ranges = np.where(safe, 3.0, 0.5)
+    poses, goals = np.zeros((2, 3)), np.array([[10.0, 0.0], [10.0, 0.0]])
+    cmd, _ = p.step(0.0, poses, goals, safe=safe, ranges_m=ranges, y1=ranges)
+    assert cmd[1].tolist() == [0.0, 0.0] and p.state(1) is State.WAIT
+    assert (p.maps.last_hit[0] >= 0).any() and not (p.maps.last_hit[1] >= 0).any()
+    p.release(1)
+    assert p.state(1) is State.GOAL
+    cmd, _ = p.step(0.1, poses, goals, safe=safe, ranges_m=ranges, y1=ranges)
+    assert cmd[1, 1] != 0.0 and p.state(1) is State.FOLLOW and (p.maps.last_hit[1] >= 0).any()
+    p.finish(1)
+    cmd, _ = p.step(0.2, poses, goals, safe=safe, ranges_m=ranges, y1=ranges)
+    assert cmd[1].tolist() == [0.0, 0.0] and p.state(1) is State.DONE
+
+
+def test_the_motions_default_is_the_configs():
+    """motion_command's ``drive`` defaults to ``[planner]``'s (steered): driving at full speed
+    within the tolerance, it turns toward the heading by the rotation command's rate."""
+    import inspect
+
+    default = inspect.signature(motion_command).parameters["drive"].default
+    assert default == PlannerConfig().drive == "steered"
+    kw = dict(tol_rad=0.1, v_max_mps=0.5, w_max_radps=1.5, control_hz=10.0)
+    assert motion_command(0.05, **kw) == motion_command(0.05, drive=PlannerConfig().drive, **kw)
+    assert motion_command(0.05, **kw) == (0.5, 0.5) != motion_command(0.05, drive="straight",
+                                                                      **kw)
 
 
 def test_the_way_tolerance_applies_only_along_the_own_maps_way():
@@ -99,14 +153,14 @@ def test_the_way_tolerance_applies_only_along_the_own_maps_way():
     wide, _ = _planner(LEFT, way_heading_tol_deg=90.0, **paper)
     escaping = turned = 0
     for k in range(200):
-        before = int(wide.escape_ticks[0])
+        before = int(wide.stats.escape_ticks[0])
         a, _ = _step(narrow, 0.1 * k, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
         b, _ = _step(wide, 0.1 * k, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
-        if wide.escape_ticks[0] == before:  # not along the way: the shared tolerance
+        if wide.stats.escape_ticks[0] == before:  # not along the way: the shared tolerance
             assert a.tolist() == b.tolist()
             continue
         escaping += 1
-        assert wide.memory[0].on_way and b[0, 1] == 0.0 and b[0, 0] == 0.5
+        assert wide.state(0) is State.ESCAPE and b[0, 1] == 0.0 and b[0, 0] == 0.5
         turned += a[0, 0] == 0.0
     assert escaping > 100 and turned > 0
 
@@ -118,7 +172,7 @@ def test_steered_motion_closes_the_heading_error_that_straight_motion_keeps(targ
     unicycle's heading after 0.1 s), leaves an error no larger than the one it started from,
     and none where the yaw rate allows, while the straight one keeps the whole error."""
     kw = dict(tol_rad=math.radians(tol_deg), v_max_mps=0.5, w_max_radps=1.5, control_hz=10.0)
-    straight = motion_command(target, **kw)
+    straight = motion_command(target, drive="straight", **kw)
     steered = motion_command(target, drive="steered", **kw)
     if abs(target) > kw["tol_rad"]:
         assert straight == steered and straight[0] == 0.0
@@ -157,8 +211,8 @@ def test_near_goal_an_obstacle_behind_the_goal_does_not_block_it():
     p, calls = _planner(LEFT)
     safe = _mask([(-30, 30)])
     ranges = np.where(safe, 3.0, 0.5)[None]  # obstacle 0.5 m ahead, goal 0.3 m ahead
-    cmd, blocked = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[0.3, 0]]), safe[None],
-                          ranges, ranges)
+    cmd, blocked = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[0.3, 0]]), safe=safe[None],
+                          ranges_m=ranges, y1=ranges)
     assert not blocked[0] and calls == [] and cmd.tolist() == [[0.5, 0.0]]
 
 
@@ -168,7 +222,8 @@ def test_no_safe_beam_rotates_toward_the_side_when_the_open_direction_is_too_clo
     ranges = np.full((1, M), 0.2)
     y1 = ranges.copy()
     y1[0, 180] = 0.25  # most open straight ahead but only 0.2 m: cannot drive
-    cmd = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[10, 0]]), safe, ranges, y1)[0]
+    cmd = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[10, 0]]), safe=safe, ranges_m=ranges,
+                 y1=y1)[0]
     assert cmd.tolist() == [[0.0, -1.5]]
 
 
@@ -176,8 +231,8 @@ def test_done_robots_get_zero_commands():
     p, _ = _planner(LEFT, n=2)
     p.finish(1)
     safe = np.stack([_mask(), _mask()])
-    cmd = p.step(0.0, np.zeros((2, 3)), np.array([[10, 0], [10, 0]]), safe, safe * 3.0,
-                 safe * 1.0)[0]
+    cmd = p.step(0.0, np.zeros((2, 3)), np.array([[10, 0], [10, 0]]), safe=safe,
+                 ranges_m=safe * 3.0, y1=safe * 1.0)[0]
     assert cmd[1].tolist() == [0.0, 0.0] and cmd[0].tolist() == [0.5, 0.0]
 
 
@@ -218,8 +273,8 @@ def test_stall_fallback_turns_one_way_until_it_faces_the_only_opening():
         ranges = np.where(np.abs(world_dir - 120.0) < 45.0, 0.5, 0.28)[None]
         safe = np.zeros((1, M), bool)  # nothing reads l_th = 0.6 m
         y1 = np.minimum(ranges, 0.6) / 3.0
-        cmd = p.step(0.1 * tick, np.array([[0, 0, yaw]]), np.array([[10, 0]]), safe, ranges,
-                     y1)[0][0]
+        cmd = p.step(0.1 * tick, np.array([[0, 0, yaw]]), np.array([[10, 0]]), safe=safe,
+                     ranges_m=ranges, y1=y1)[0][0]
         if cmd[0] > 0:
             drove_at = yaw
             break
@@ -238,12 +293,13 @@ def test_partial_field_of_view_uses_its_own_beam_angles():
     ranges = np.full((1, 181), 3.0)
     ranges[0, 120] = 0.25  # beam 120 of 181 over 180 deg is at +30 deg
     cmd, blocked = p.step(0.0, np.array([[0, 0, 0.0]]), np.array([[10, 0]]),
-                          np.ones((1, 181), bool), ranges, ranges / 3.0)
+                          safe=np.ones((1, 181), bool), ranges_m=ranges, y1=ranges / 3.0)
     assert blocked[0] and cmd[0, 0] == 0.0
     # a goal behind a 180 degree lidar is not "blocked": the robot turns to look at it
     p2 = BugPlanner(1, l_th_m=0.6, r0_m=0.15, fov_rad=fov, decide=lambda i: LEFT)
     cmd, blocked = p2.step(0.0, np.array([[0, 0, 0.0]]), np.array([[-10, 1]]),
-                           np.ones((1, 181), bool), np.full((1, 181), 3.0), np.ones((1, 181)))
+                           safe=np.ones((1, 181), bool), ranges_m=np.full((1, 181), 3.0),
+                           y1=np.ones((1, 181)))
     assert not blocked[0] and cmd[0, 0] == 0.0 and cmd[0, 1] == 1.5
 
 
@@ -271,13 +327,18 @@ def test_every_policy_still_escapes_a_pocket_open_toward_it():
 
 def test_tried_sides_memory_takes_the_other_side_only_without_progress():
     planner = BugPlanner(1, l_th_m=0.6, r0_m=0.15, fov_rad=2 * np.pi, decide=lambda i: 1)
-    mem = planner.memory[0]
-    mem.hits.append((2.0, 3.0, 10.0, 1))  # passed left at (2, 3), 10 m from the goal
-    assert planner._tried_side(mem, np.array([2.5, 3.2]), 10.0) == -1  # back, no progress
-    assert planner._tried_side(mem, np.array([2.5, 3.2]), 9.0) is None  # progress made
-    assert planner._tried_side(mem, np.array([3.5, 3.0]), 10.0) is None  # elsewhere
-    mem.hits.append((2.2, 3.0, 10.2, -1))  # the latest try there went right
-    assert planner._tried_side(mem, np.array([2.1, 3.0]), 10.3) == 1
+    memory = planner.memory[0]
+    memory.hits.append(Hit(2.0, 3.0, 10.0, 1))  # passed left at (2, 3), 10 m from the goal
+
+    def tried(xy, dist):
+        return memory.tried_side(np.array(xy), dist, radius_m=planner.params.memory_radius_m,
+                                 progress_m=planner.params.progress_m)
+
+    assert tried([2.5, 3.2], 10.0) == -1  # back, no progress
+    assert tried([2.5, 3.2], 9.0) is None  # progress made
+    assert tried([3.5, 3.0], 10.0) is None  # elsewhere
+    memory.hits.append(Hit(2.2, 3.0, 10.2, -1))  # the latest try there went right
+    assert tried([2.1, 3.0], 10.3) == 1
 
 
 def test_a_robot_on_the_wrong_side_of_a_wall_joined_to_the_map_edge_turns_back():
@@ -315,9 +376,9 @@ def test_an_escape_whose_way_does_not_shorten_closes_it_and_plans_another():
     flips_at, ways = [], []
     for k in range(500):
         t = 0.1 * k
-        before = int(p.loop_flips[0])
+        before = int(p.stats.loop_flips[0])
         _step(p, t, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
-        if p.loop_flips[0] > before:
+        if p.stats.loop_flips[0] > before:
             flips_at.append(round(t, 1))
             ways.append(p.maps.way_length(0, np.zeros(2)))
     # the escape begins at 5.1 s; its way is planned every second and found no shorter
@@ -329,7 +390,7 @@ def test_an_escape_whose_way_does_not_shorten_closes_it_and_plans_another():
     for k in range(500):
         x = min(max(0.0, 0.01 * (k - 60)), 4.0)  # drives along its way once escaping
         _step(moving, 0.1 * k, (x, 0, 0), (10, 0), _mask([(-30, 30)]))
-    assert moving.memory[0].escape and moving.loop_flips[0] == 1
+    assert moving.state(0) is State.ESCAPE and moving.stats.loop_flips[0] == 1
     assert not moving.maps.blocked[0].any()
 
 
@@ -358,7 +419,7 @@ def test_two_robots_that_close_each_others_pocket_squeeze_out(monkeypatch):
 
     monkeypatch.setattr(OwnMaps, "__init__", keep)
     monkeypatch.setattr(OwnMaps, "set_robots", lambda self, robot, xy: None)
-    monkeypatch.setattr(Walls, "guides", lambda self, control, swarm, robot: False)
+    monkeypatch.setattr(Walls, "guides", lambda self, swarm, robot: False)
     world = generate_world("traps", 71, robots=15)
     seed = episode_seed("traps", 71)
     # the robots end in that corner with the paper's motion (straight, or rotation in place
@@ -392,14 +453,14 @@ def test_a_robot_with_the_right_of_way_waits_only_boxed_in_and_at_most_give_way_
     p.wait = wait
     # blocked ahead, but the sides are open: it takes a side at once, wait not asked
     cmd, _ = _step(p, 0.0, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
-    assert asked == [] and calls == [0] and p.memory[0].mode == Mode.FOLLOW
+    assert asked == [] and calls == [0] and p.state(0) is State.FOLLOW
     p, calls = _planner(LEFT, give_way_s=2.0)
     p.wait = wait
     boxed = _mask([(-100, 100)])  # only the rear half open: going on means turning back
     for k in range(20):  # 2 s standing in one place
         cmd, blocked = _step(p, 0.1 * k, (0, 0, 0), (10, 0), boxed)
         assert cmd.tolist() == [[0.0, 0.0]] and blocked[0]
-    assert calls == [] and p.wait_ticks[0] == 20 and p.memory[0].mode == Mode.GO_TO_GOAL
+    assert calls == [] and p.stats.wait_ticks[0] == 20 and p.state(0) is State.WAIT
     cmd, _ = _step(p, 2.0, (0, 0, 0), (10, 0), boxed)  # waited give_way_s: decides
     assert calls == [0] and cmd[0, 1] != 0.0 and len(asked) == 20
     p, calls = _planner(LEFT)
@@ -425,11 +486,11 @@ def test_a_guided_robot_steers_round_a_known_wall_and_gives_the_way_up_when_it_l
     start, goal = (2.0, 6.0, 0.0), (10.0, 6.0)
     p = planner()
     cmd, _ = _step(p, 0.0, start, goal, _mask())
-    assert cmd.tolist() == [[0.5, 0.0]] and p.guided_ticks[0] == 0  # nothing known: straight
+    assert cmd.tolist() == [[0.5, 0.0]] and p.stats.guided_ticks[0] == 0  # nothing known: straight
     p.maps.add_walls(0, 1, wall)
     cmd, _ = _step(p, 1.0, start, goal, _mask())
     assert cmd[0, 0] == 0.0 and cmd[0, 1] > 0  # turns left, toward the way over the wall's end
-    assert p.guided_ticks[0] == 1 and p.memory[0].mode == Mode.GO_TO_GOAL
+    assert p.stats.guided_ticks[0] == 1 and p.state(0) is State.GUIDED
     unguided = planner()
     unguided.guide = None
     _step(unguided, 0.0, start, goal, _mask())
@@ -442,14 +503,15 @@ def test_a_guided_robot_steers_round_a_known_wall_and_gives_the_way_up_when_it_l
     for k in range(10, 56):  # in place from 1 s: plans at 1, 2, ... s; gives up at 5 s
         cmd, _ = _step(p, 0.1 * k, start, goal, _mask())
         if k < 50:
-            assert cmd[0, 0] == 0.0 and cmd[0, 1] > 0 and p.guides_quit[0] == 0
+            assert cmd[0, 0] == 0.0 and cmd[0, 1] > 0 and p.stats.guides_quit[0] == 0
         else:
-            assert cmd.tolist() == [[0.5, 0.0]] and p.guides_quit[0] == 1
+            assert cmd.tolist() == [[0.5, 0.0]] and p.stats.guides_quit[0] == 1
     cmd, _ = _step(p, 7.0, (4.0, 6.0, 0.0), goal, _mask())  # 2 m closer: still straight
-    assert cmd.tolist() == [[0.5, 0.0]] and not p.memory[0].guided
+    assert cmd.tolist() == [[0.5, 0.0]] and not p.memory[0].ways.guided
+    assert p.state(0) is State.GOAL
     p.maps.add_walls(0, 10**6, wall)  # seen again (the scans of this test see nothing)
     cmd, _ = _step(p, 8.0, (5.5, 7.0, 0.0), goal, _mask())  # more than R closer: guided again
-    assert p.memory[0].guided
+    assert p.memory[0].ways.guided and p.state(0) is State.GUIDED
 
 
 def test_a_robot_the_planner_may_guide_escapes_through_the_walls_and_gives_up_sooner():
@@ -465,9 +527,9 @@ def test_a_robot_the_planner_may_guide_escapes_through_the_walls_and_gives_up_so
                                             guide_bound_s=5.0), guide=guide)
         at, ways = [], []
         for k in range(300):
-            before = int(p.loop_flips[0])
+            before = int(p.stats.loop_flips[0])
             _step(p, 0.1 * k, (0, 0, 0), (10, 0), _mask([(-30, 30)]))
-            if p.loop_flips[0] > before:
+            if p.stats.loop_flips[0] > before:
                 at.append(0.1 * k)
                 ways.append(p.maps.way_length(0, np.zeros(2)))
         return at, ways

@@ -194,7 +194,7 @@ def test_collab_decides_and_moves_as_own_only_where_no_wall_is_longer_than_the_r
 
     def gate_open(self, *args, **kwargs):
         setup(self, *args, **kwargs)
-        self.long_wall_seen[:] = True
+        self.messages.gate[:] = True
 
     monkeypatch.setattr(bugcontrol.BugController, "__init__", gate_open)
     assert not same_moves(own, run_episode(world, "collab", seed=1, config=cfg))
@@ -239,16 +239,17 @@ def test_two_collab_robots_meeting_head_on_in_a_corridor_pass_each_other(monkeyp
 
 
 @settings(max_examples=300, deadline=None)
-@given(st.floats(-5, 5), st.floats(-5, 5), st.floats(0, 2 * math.pi), st.floats(0.3, 1.15),
-       st.integers(0, 200), st.integers(0, 200), st.integers(0, 14), st.integers(0, 14))
-def test_of_two_robots_in_each_others_way_exactly_one_waits(x, y, heading, gap, goal_a, goal_b,
-                                                            a, b):
+@given(xy=st.tuples(st.floats(-5, 5), st.floats(-5, 5)), heading=st.floats(0, 2 * math.pi),
+       gap=st.floats(0.3, 1.15), goals=st.tuples(st.integers(0, 200), st.integers(0, 200)),
+       robots=st.tuples(st.integers(0, 14), st.integers(0, 14)))
+def test_of_two_robots_in_each_others_way_exactly_one_waits(xy, heading, gap, goals, robots):
     """Two robots facing each other (each in the other's way, goals beyond each other) that
     compare the same announced goal distances agree: exactly one goes first, the one nearer
     its goal (the lower index at a tie); a robot with nobody in its way never waits."""
+    (goal_a, goal_b), (a, b) = goals, robots
     assume(a != b)
     u = np.array([math.cos(heading), math.sin(heading)])
-    pa = np.array([x, y])
+    pa = np.array(xy)
     pb = pa + gap * u
     ga, gb = goal_a / 10.0, goal_b / 10.0
     wa = waits_for(pa, pb + 5 * u, index=a, goal_m=ga, neighbours=[[*pb, gb, b]])
@@ -286,12 +287,12 @@ def test_in_a_corridor_too_narrow_to_pass_the_robot_with_the_right_of_way_goes_s
     asked = []
     waits = Walls.waits
 
-    def spy(self, control, swarm, robot):
-        near = self._near(control, robot, swarm.tick)
+    def spy(self, swarm, robot):
+        near = self.near(robot, swarm.tick)
         for goal_m, j in near[:, 2:4]:
-            assert goal_m == control.announced_m[int(j)]
+            assert goal_m == self.announced_m[int(j)]
         asked.append((robot, len(near)))
-        return waits(self, control, swarm, robot)
+        return waits(self, swarm, robot)
 
     monkeypatch.setattr(Walls, "waits", spy)
     rows = run_episode(world, "collab", seed=0).rows
@@ -300,7 +301,7 @@ def test_in_a_corridor_too_narrow_to_pass_the_robot_with_the_right_of_way_goes_s
     assert run_episode(world, "collab", seed=0).rows == rows
     assert all(r.arrived for r in rows)
     assert rows[0].path_length_m < 1.02 * rows[0].optimal_length_m
-    monkeypatch.setattr(Walls, "waits", lambda self, control, swarm, robot: False)
+    monkeypatch.setattr(Walls, "waits", lambda self, swarm, robot: False)
     alone = run_episode(world, "collab", seed=0).rows
     assert all(r.arrived for r in alone)
     assert alone[0].path_length_m > 1.5 * alone[0].optimal_length_m
@@ -352,10 +353,10 @@ def test_guided_robots_steer_for_the_gap_and_only_collab_is_guided(monkeypatch):
             for p in ("own-only", "fusion", "collab")}
     own, fusion, collab = planners
     assert own.guide is None and fusion.guide is not None  # fusion's kind is asked: it says no
-    assert not fusion.guided_ticks.any()
-    assert collab.guided_ticks.sum() > 0
+    assert not fusion.stats.guided_ticks.any()
+    assert collab.stats.guided_ticks.sum() > 0
     assert all(r.arrived for r in rows["collab"] + rows["own-only"])
     # the robots farthest from the gap go there before they meet the wall: shorter paths
     short = [o.path_length_m - c.path_length_m for o, c in zip(rows["own-only"], rows["collab"],
                                                                strict=True)]
-    assert min(short) >= 0.0 and short[0] > 0.5 and collab.guided_ticks[0] > 0
+    assert min(short) >= 0.0 and short[0] > 0.5 and collab.stats.guided_ticks[0] > 0

@@ -1,5 +1,6 @@
-"""The compiled corridor test equals the numpy one bit for bit (the oracle: bug.corridor_free
-with the compiled path switched off), on random and real-looking scans."""
+"""The compiled corridor test (fftnav.navigation.kernels) equals the numpy one bit for bit (the
+oracle: bug.corridor_free with the compiled path switched off), on random and real-looking
+scans."""
 
 from __future__ import annotations
 
@@ -11,11 +12,11 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 from hypothesis.extra import numpy as hnp
 
-from fftnav.navigation import bug, corridor
+from fftnav.navigation import bug, kernels
 from fftnav.observe.scan import beam_angles_rad
 from fftnav.world.scenes import trunk_scans
 
-pytestmark = pytest.mark.skipif(not corridor.AVAILABLE, reason="numba is not installed")
+pytestmark = pytest.mark.skipif(not kernels.AVAILABLE, reason="numba is not installed")
 
 READING = st.one_of(st.floats(0.0, 1.0), st.floats(0.0, 4.0),
                     st.sampled_from([0.0, math.nan, -1.0, 0.25, 0.45, 3.0]))
@@ -23,11 +24,11 @@ READING = st.one_of(st.floats(0.0, 1.0), st.floats(0.0, 4.0),
 
 def both(ranges, angles, **kw):
     fast = bug.corridor_free(ranges, angles, **kw)
-    corridor_available, corridor.AVAILABLE = corridor.AVAILABLE, False
+    available, kernels.AVAILABLE = kernels.AVAILABLE, False
     try:
         slow = bug.corridor_free(ranges, angles, **kw)
     finally:
-        corridor.AVAILABLE = corridor_available
+        kernels.AVAILABLE = available
     return fast, slow
 
 
@@ -60,5 +61,5 @@ def test_angles_of_another_length_are_refused():
     """The compiled loop reads one angle per beam: a shorter array is refused, not read past."""
     with pytest.raises(ValueError, match=r"angles_rad \(M,\), got ranges_m.shape=\(2, 360\), "
                                          r"angles_rad.shape=\(180,\)"):
-        corridor.corridor_free_compiled(np.ones((2, 360)), np.zeros(180), half_width_m=0.2,
+        kernels.corridor_free_compiled(np.ones((2, 360)), np.zeros(180), half_width_m=0.2,
                                         lookahead_m=0.4, reach_m=0.5)
