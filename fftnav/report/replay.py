@@ -2,10 +2,10 @@
 episode as a GIF (Pillow) or an MP4 (imageio-ffmpeg, the optional extra ``video``), all drawn
 by :mod:`fftnav.report.frames`; the HTML player is :mod:`fftnav.report.replay_html`.
 
-A robot's drawn state at a tick (:func:`robot_kinds`) comes from its status and, while it
-drives, from its controller's ``mode`` state (0 go to goal: moving, 1 follow: following,
-2 escape: escaping; controllers without a ``mode`` draw as moving): waiting, arrived, and failed
-for a robot that collided or timed out.
+A robot's drawn kind at a tick (:func:`robot_kinds`) comes from the recording's ``status``
+column (:class:`fftnav.states.Status`) and, while it moves, its controller's ``state/mode``
+(:class:`fftnav.states.State`; controllers without a ``mode`` draw as moving), by
+:func:`fftnav.report.frames.kinds_of`.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import to_rgb
 
-from fftnav.episode.recording import STATUS, Recording
+from fftnav.episode.recording import Recording
+from fftnav.report import new_figure
 from fftnav.report.frames import (
     KIND_COLOURS,
     KINDS,
@@ -32,6 +32,7 @@ from fftnav.report.frames import (
     ScanView,
     SwarmFrame,
     kind_rgb,
+    kinds_of,
 )
 from fftnav.validate import check_integer, check_number
 
@@ -51,20 +52,15 @@ WIDTH_PX = 640
 
 
 def robot_kinds(rec: Recording) -> np.ndarray:
-    """Every robot's drawn state at every tick, ``(G, N)`` codes of
-    :data:`fftnav.report.frames.KINDS` (module docstring)."""
-    kinds = np.full(rec.status.shape, KINDS.index("moving"), dtype=np.uint8)
+    """Every robot's drawn kind at every tick, ``(G, N)`` codes of
+    :data:`fftnav.report.frames.KINDS`: :func:`~fftnav.report.frames.kinds_of` of the
+    recording's statuses and modes, each robot keeping its last mode where it has none (the
+    end tick)."""
     mode = rec.state.get("mode")
-    if mode is not None:  # the end tick has no state: each robot keeps its last mode
+    if mode is not None:
         last = np.where(np.isnan(mode), 0, np.arange(len(mode))[:, None])
         mode = mode[np.maximum.accumulate(last, axis=0), np.arange(mode.shape[1])]
-        for code, kind in ((1, "following"), (2, "escaping")):
-            kinds[mode == code] = KINDS.index(kind)
-    kinds[rec.status == STATUS.index("waiting")] = KINDS.index("waiting")
-    kinds[rec.status == STATUS.index("arrived")] = KINDS.index("arrived")
-    kinds[np.isin(rec.status, [STATUS.index("collided"), STATUS.index("timed_out")])] = (
-        KINDS.index("failed"))
-    return kinds
+    return kinds_of(rec.status, mode)
 
 
 def end_s(rec: Recording) -> float:
@@ -139,7 +135,7 @@ def frame_ticks(rec: Recording, *, from_s: float | None = None, to_s: float | No
 def _figure(rec: Recording) -> tuple[Any, FramePainter]:
     w, h = rec.world.size_m
     height_px = 2 * round(WIDTH_PX * (1.08 * h + 0.9) / (1.04 * w) / 2)  # even, for H.264
-    fig = plt.figure(figsize=(WIDTH_PX / 100, height_px / 100), dpi=100)
+    fig = new_figure(figsize=(WIDTH_PX / 100, height_px / 100), dpi=100)
     ax = fig.add_axes((0.02, 0.02, 0.96, 0.9))
     ax.set_axis_off()
     painter = FramePainter(ax, rec.world, rec.config.robot.r0_m, scale_bar=True)
@@ -171,14 +167,11 @@ class _Panels:
         images = []
         for rec, picked, kinds, (fig, painter) in zip(self.recs, self.picked, self.kinds,
                                                       self.figures, strict=True):
-            images.append(_draw(painter, fig, rec, rec.tick_at(time_s + 1e-9), picked, kinds))
+            painter.update(recording_frame(rec, rec.tick_at(time_s + 1e-9), picked, kinds))
+            images.append(_pixels(fig))
         height = max(image.shape[0] for image in images)
         return np.hstack([np.pad(image, ((0, height - image.shape[0]), (0, 0), (0, 0)),
                                  constant_values=255) for image in images])
-
-    def close(self) -> None:
-        for fig, _ in self.figures:
-            plt.close(fig)
 
 
 def write_image(rec: Recording, path: str | Path, *, at_s: float = 0.0,
@@ -186,11 +179,7 @@ def write_image(rec: Recording, path: str | Path, *, at_s: float = 0.0,
     """Write one frame, at ``at_s`` (s), as a PNG (with the recordings ``beside`` at the same
     time to its right); returns the path."""
     at_s = check_number("at_s", at_s, low=0.0, high=end_s(rec))
-    panels = _Panels([rec, *beside], robot)
-    try:
-        rgb = panels.pixels(at_s)
-    finally:
-        panels.close()
+    rgb = _Panels([rec, *beside], robot).pixels(at_s)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     from PIL import Image
@@ -223,21 +212,12 @@ def write_video(rec: Recording, path: str | Path, *, robot: int | None = None,
     ticks = frame_ticks(rec, from_s=from_s, to_s=to_s, speed=speed, fps=fps)
     panels = _Panels([rec, *beside], robot)
     path.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        frames = (panels.pixels(float(rec.time_s[g])) for g in ticks)
-        if suffix == ".gif":
-            _write_gif(path, frames, fps)
-        else:
-            _write_mp4(imageio_ffmpeg, path, frames, fps)
-    finally:
-        panels.close()
+    frames = (panels.pixels(float(rec.time_s[g])) for g in ticks)
+    if suffix == ".gif":
+        _write_gif(path, frames, fps)
+    else:
+        _write_mp4(imageio_ffmpeg, path, frames, fps)
     return path
-
-
-def _draw(painter: FramePainter, fig: Any, rec: Recording, tick: int, picked: int,
-          kinds: np.ndarray) -> np.ndarray:
-    painter.update(recording_frame(rec, tick, picked, kinds))
-    return _pixels(fig)
 
 
 def _gif_palette() -> Any:

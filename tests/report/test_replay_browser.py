@@ -29,7 +29,7 @@ from fftnav.episode.recording import read_recording
 from fftnav.report.frames import KINDS, kind_rgb
 from fftnav.report.replay import robot_kinds
 from fftnav.report.replay_html import write_html
-from tests.report.recordings import MODES, TICKS, make_recording, pose, status
+from tests.report.recordings import TICKS, expected_kind, make_recording, pose
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
 
@@ -184,16 +184,6 @@ def _robot_pixels(tools: DevTools, shot: np.ndarray, tick: int) -> dict[int, tup
     return out
 
 
-def _expected_kind(robot: int, tick: int) -> str:
-    """The state the recording's oracle says robot ``robot`` is in at ``tick``."""
-    code = status(robot, tick)
-    if code in (3, 4):
-        return "failed"
-    if code == 2:
-        return "arrived"
-    return ("moving", "following", "escaping")[int(MODES[robot])]
-
-
 def read_recording_of(tools: DevTools):
     """The recording the page was written from (the fixture's folder)."""
     path = tools.evaluate("location.pathname").replace(".html", ".npz")
@@ -204,7 +194,7 @@ def test_start_frame_draws_every_robot_in_its_state_colour(page):
     shot = page.screenshot()
     assert page.evaluate("window.fftnavPlayer.tick") == 0
     for i, rgb in _robot_pixels(page, shot, 0).items():
-        assert rgb == kind_rgb(_expected_kind(i, 0)), (i, rgb)
+        assert rgb == kind_rgb(expected_kind(i, 0)), (i, rgb)
     assert not _errors(page.events)
 
 
@@ -219,13 +209,13 @@ def test_playing_moves_the_robots_to_their_recorded_poses(page):
     shot = page.screenshot()
     kinds = robot_kinds(read_recording_of(page))[tick]
     for i, rgb in _robot_pixels(page, shot, tick).items():
-        assert _expected_kind(i, tick) == KINDS[kinds[i]]
-        assert rgb == kind_rgb(_expected_kind(i, tick)), (i, rgb)
+        assert expected_kind(i, tick) == KINDS[kinds[i]]
+        assert rgb == kind_rgb(expected_kind(i, tick)), (i, rgb)
     page.evaluate("window.fftnavPlayer.seek(2.0)")  # mid-episode: robot 0 still moving
     assert page.evaluate("window.fftnavPlayer.tick") == 20
     shot = page.screenshot()
     for i, rgb in _robot_pixels(page, shot, 20).items():
-        assert rgb == kind_rgb(_expected_kind(i, 20)), (i, rgb)
+        assert rgb == kind_rgb(expected_kind(i, 20)), (i, rgb)
     assert not _errors(page.events)
 
 
