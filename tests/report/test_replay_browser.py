@@ -16,6 +16,7 @@ import io
 import json
 import os
 import queue
+import re
 import shutil
 import subprocess
 import threading
@@ -30,6 +31,7 @@ from fftnav.report.frames import KINDS, kind_rgb
 from fftnav.report.replay import robot_kinds
 from fftnav.report.replay_html import write_html
 from tests.report.recordings import TICKS, expected_kind, make_recording, pose
+from tests.report.small_results import fftnav, make_small_results
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
 
@@ -130,6 +132,25 @@ class DevTools:
         os.close(self._write)
 
 
+def _open(browser: str, html, profile) -> DevTools:
+    """A DevTools session on ``html`` once its player is ready."""
+    tools = DevTools(browser, str(profile))
+    target = tools.call("Target.createTarget", url="about:blank")["targetId"]
+    tools.session = tools.call("Target.attachToTarget", targetId=target,
+                               flatten=True)["sessionId"]
+    for domain in ("Runtime", "Log", "Page", "Network"):
+        tools.call(f"{domain}.enable")
+    tools.call("Emulation.setDeviceMetricsOverride", width=1100, height=800,
+               deviceScaleFactor=1, mobile=False)
+    tools.call("Page.navigate", url=html.as_uri())
+    deadline = time.monotonic() + 10
+    while not tools.evaluate("!!(window.fftnavPlayer && window.fftnavPlayer.ready)"):
+        assert time.monotonic() < deadline, "the player did not start"
+        time.sleep(0.05)
+    assert tools.evaluate("window.fftnavPlayer.ready") is True
+    return tools
+
+
 @pytest.fixture(scope="module")
 def page(tmp_path_factory):
     browser = _browser()
@@ -137,21 +158,8 @@ def page(tmp_path_factory):
     make_recording(folder / "r.npz")
     html = folder / "r.html"
     write_html(read_recording(folder / "r.npz"), html, robot=1, speed=4.0)
-    tools = DevTools(browser, str(folder / "profile"))
+    tools = _open(browser, html, folder / "profile")
     try:
-        target = tools.call("Target.createTarget", url="about:blank")["targetId"]
-        tools.session = tools.call("Target.attachToTarget", targetId=target,
-                                   flatten=True)["sessionId"]
-        for domain in ("Runtime", "Log", "Page", "Network"):
-            tools.call(f"{domain}.enable")
-        tools.call("Emulation.setDeviceMetricsOverride", width=1100, height=800,
-                   deviceScaleFactor=1, mobile=False)
-        tools.call("Page.navigate", url=html.as_uri())
-        deadline = time.monotonic() + 10
-        while not tools.evaluate("!!(window.fftnavPlayer && window.fftnavPlayer.ready)"):
-            assert time.monotonic() < deadline, "the player did not start"
-            time.sleep(0.05)
-        assert tools.evaluate("window.fftnavPlayer.ready") is True
         yield tools
     finally:
         tools.close()
@@ -230,3 +238,33 @@ def test_a_click_picks_the_robot_under_the_pointer(page):
     assert page.evaluate("document.getElementById('robot-title').textContent") == "robot 2"
     page.evaluate("window.fftnavPlayer.setLayer('trails', false)")
     assert not _errors(page.events)
+
+
+def test_a_recording_made_on_demand_opens_in_the_player(tmp_path):
+    """The done-when of recordings on demand: a failure listed in a results folder's report.md,
+    made by ``fftnav replay RESULTS_DIR --task TASK --out r.html`` without the recording the
+    run kept, opens in the player, every robot drawn where and as the run's own recording
+    says."""
+    browser = _browser()
+    results = make_small_results(tmp_path)
+    listed = re.search(r"--task (\S+) --out", (results / "report.md").read_text()).group(1)
+    kept = read_recording(results / "records" / f"{listed}.npz")  # the oracle, then removed
+    shutil.rmtree(results / "records")
+    done = fftnav("replay", results, "--task", listed, "--out", tmp_path / "r.html",
+                  cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    tools = _open(browser, tmp_path / "r.html", tmp_path / "profile")
+    try:
+        tools.evaluate("window.fftnavPlayer.seek(2.0)")
+        tick = tools.evaluate("window.fftnavPlayer.tick")
+        assert tick == kept.tick_at(2.0 + 1e-9)
+        shot = tools.screenshot()
+        kinds = robot_kinds(kept)[tick]
+        for i in range(kept.n_robots):
+            x, y = kept.pose[tick, i, :2]
+            px, py = tools.evaluate(f"window.fftnavPlayer.toPage({x}, {y})")
+            rgb = tuple(int(c) for c in shot[int(round(py)), int(round(px))])
+            assert rgb == kind_rgb(KINDS[kinds[i]]), (i, rgb)
+        assert not _errors(tools.events)
+    finally:
+        tools.close()
