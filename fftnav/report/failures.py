@@ -31,8 +31,8 @@ from fftnav.runner import run
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import Task, task_id, task_world
 
-__all__ = ["POSITION_COLUMNS", "REPLAY_COLUMN", "draw_failure_positions", "failure_lines", "failure_positions",
-           "failure_table", "last_positions", "record_path", "shown_path"]
+__all__ = ["POSITION_COLUMNS", "REPLAY_COLUMN", "draw_failure_positions", "failure_lines",
+           "failure_positions", "failure_table", "last_positions", "record_path", "shown_path"]
 
 #: The column of :func:`failure_table` naming the episodes to replay.
 REPLAY_COLUMN = "replay --task"
