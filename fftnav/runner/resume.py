@@ -19,7 +19,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from fftnav import __version__
+import fftnav
 from fftnav.config import PlannerConfig
 from fftnav.files import load_npz, write_atomic
 from fftnav.plugins import file_sha256, plugin_sources
@@ -183,7 +183,7 @@ def canonical_config(config: ExperimentConfig, columns: tuple[str, ...]) -> str:
     plugins = {str(source): file_sha256(source) for found in config.resolved.values()
                if found.file for source in plugin_sources(found.file)}
     worlds = {path: file_sha256(Path(path)) for path in config.world_files.values()}
-    return json.dumps({**fields, "out": None, "source": None, "fftnav_version": __version__,
+    return json.dumps({**fields, "out": None, "source": None, "fftnav_version": fftnav.__version__,
                        "csv_columns": list(columns),
                        **({"plugin_sha256": plugins} if plugins else {}),
                        **({"world_sha256": worlds} if worlds else {})},

@@ -285,7 +285,11 @@ def read_episodes(path: Path) -> pd.DataFrame:
 
 def run_info(outcome: RunOutcome, *, workers: int | None, executor: str,
              scheduler: str | None) -> dict[str, object]:
-    """Versions, git revision, executor and timing of this invocation (kept out of the CSVs)."""
+    """Versions, git revision, executor and timing of this invocation (kept out of the CSVs).
+    The fftnav version is the running package's ``fftnav.__version__`` (not the install's
+    metadata, which an editable install keeps from when it was installed)."""
+    import fftnav
+
     def pkg(name: str) -> str:
         try:
             return version(name)
@@ -293,7 +297,7 @@ def run_info(outcome: RunOutcome, *, workers: int | None, executor: str,
             return "not installed"
 
     return {
-        "fftnav_version": pkg("fftnav"),
+        "fftnav_version": fftnav.__version__,
         "git_revision": git_revision(),
         "python": platform.python_version(),
         "numpy": pkg("numpy"),
