@@ -90,8 +90,8 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
                                       policies=config.policy_names),
                     *failure_lines(config, out, episodes, figures)]
     path = out / "report.md"
-    write_atomic(path, "\n".join(_report_lines(config, info, summary, paired, pictures,
-                                               sections)))
+    write_atomic(path, "\n".join(_report_lines(config, info=info, summary=summary, paired=paired,
+                                               pictures=pictures, sections=sections)))
     return path
 
 
@@ -135,7 +135,7 @@ def report_folder(config: ExperimentConfig, out_dir: str | Path, *,
         return write_report(config, out)
 
 
-def _report_lines(config: ExperimentConfig, info: dict[str, Any], summary: pd.DataFrame,
+def _report_lines(config: ExperimentConfig, *, info: dict[str, Any], summary: pd.DataFrame,
                   paired: pd.DataFrame, pictures: list[Path], sections: list[str]) -> list[str]:
     """The lines of ``report.md``: the run, the results beside the paper's Table I, the paired
     tests, the ``sections`` (map difficulty, failures), the figures and the config."""

@@ -29,7 +29,7 @@ SCENE_SEED = 12
 TARGET_RAD = 0.0
 
 
-def _response(ax_t, ax_f, h, n0, cutoff, name, label_t):
+def _response(ax_t, ax_f, h, *, n0, cutoff, name, label_t):
     ax_t.plot(np.arange(len(h)), h, "C0.-", ms=3, lw=1)
     ax_t.set(title=f"({label_t}) {name}(n), N = {len(h)}", xlabel="n (samples)", ylabel=name)
     f = np.arange(n0 // 2 + 1) / n0
@@ -135,7 +135,7 @@ def _draw_fig3(scene: _Scene, path: Path) -> Path:
     pipe, b, res, deg, s, xy = scene.pipe, scene.pipe.bank, scene.res, scene.deg, scene.s, scene.xy
     fig = new_figure(figsize=(15, 8.5), layout="constrained")
     ax = fig.subplots(2, 3)
-    _response(ax[0, 0], ax[0, 1], b.h1, b.n0, b.cutoff_3db_h1, "h1", "a")
+    _response(ax[0, 0], ax[0, 1], b.h1, n0=b.n0, cutoff=b.cutoff_3db_h1, name="h1", label_t="a")
     ax[0, 0].set_xlim(b.tau - 1.5 * b.window_beams, b.tau + 1.5 * b.window_beams)
     _scene_axes(ax[0, 2], scene.centres, scene.radii, xy,
                 "(c) scan and the safe headings nearest to ahead")
@@ -182,7 +182,7 @@ def _draw_fig5(scene: _Scene, path: Path) -> Path:
     rec = reconstruct(sig, pipe.angles_rad, full_circle=True)
     fig = new_figure(figsize=(12, 8.5), layout="constrained")
     ax = fig.subplots(2, 2)
-    _response(ax[0, 0], ax[0, 1], b.h2, b.n0, b.cutoff_3db_h2, "h2", "a")
+    _response(ax[0, 0], ax[0, 1], b.h2, n0=b.n0, cutoff=b.cutoff_3db_h2, name="h2", label_t="a")
     ax[1, 0].plot(deg, scene.s, color="0.7", lw=1, label="s = d / R")
     ax[1, 0].plot(deg, res.y2[0], "C0", label="y2 = h2 * s")
     sd = np.degrees(sig[:, 0])

@@ -182,3 +182,24 @@ def test_gif_frames_are_the_png_frames_on_the_gif_palette(recording, tmp_path):
     for kind in ("moving", "following", "escaping", "failed"):  # exact on the palette
         where = (png == kind_rgb(kind)).all(-1)
         assert where.sum() > 20 and (last[where] == kind_rgb(kind)).all()
+
+
+def test_every_gif_frame_over_the_ones_before_is_the_png_of_its_time(recording, tmp_path):
+    """Frames after the first carry only what changed (the rest transparent): decoded in
+    order, each is the PNG of its time, at any width."""
+    gif = write_video(recording, tmp_path / "r.gif", robot=2, from_s=1.0, to_s=5.0, speed=20,
+                      width_px=320)
+    with Image.open(gif) as frames:
+        assert frames.n_frames == 3 and frames.size[0] == 320  # 1, 3, 5 s
+        decoded = []
+        for k in range(frames.n_frames):
+            frames.seek(k)
+            decoded.append(np.asarray(frames.convert("RGB")).astype(int))
+    for at_s, frame in zip((1.0, 3.0, 5.0), decoded, strict=True):
+        png = write_image(recording, tmp_path / f"{at_s}.png", at_s=at_s, robot=2, width_px=320)
+        png = np.asarray(Image.open(png).convert("RGB")).astype(int)
+        assert frame.shape == png.shape
+        assert (np.abs(frame - png).max(axis=-1) > 40).mean() < 0.002, at_s
+    assert not np.array_equal(decoded[0], decoded[2])
+    with pytest.raises(ValueError, match=r"width_px must be an integer in \[160, 4096\], got "):
+        write_image(recording, tmp_path / "x.png", width_px=100)
