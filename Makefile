@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install install-browser test lint benchmark bench figures collab collab-planners replays clean
+.PHONY: install install-browser test lint benchmark bench figures collab replays clean
 
 install: $(STAMP)
 
@@ -55,31 +55,6 @@ collab: $(STAMP)
 	$(BIN)/python experiments/time_budget.py results/collab/fresh_noise_240
 	$(BIN)/fftnav run experiments/collab.toml
 
-# collab-planners: how the planner's motion was chosen (docs/results.md, tenth and eleventh
-# rounds of issue 21): the heading tolerance and the steered motion on the tuning and the fresh
-# maps. Their committed folders were written by fftnav 0.1.0, so they are rerun from scratch
-# (--fresh); their [planner] keys set the motion, so they give the same episodes.
-collab-planners: $(STAMP)
-	$(BIN)/fftnav run --fresh experiments/collab/fresh_noise_tol10.toml
-	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_tol10.toml
-	$(BIN)/python experiments/noise_seeds.py --set planner.heading_tol_deg=10 --set planner.way_heading_tol_deg=10 --set planner.drive=straight --out results/collab/noise_seeds_tol10.csv
-	$(BIN)/fftnav run --fresh experiments/table1_tol10.toml
-	$(BIN)/fftnav run --fresh experiments/collab/fresh_way10.toml
-	$(BIN)/fftnav figure sweep experiments/collab/fresh_way10.toml
-	$(BIN)/fftnav run --fresh experiments/collab/fresh_noise_way10.toml
-	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_way10.toml
-	$(BIN)/fftnav run --fresh experiments/collab/tolerance_tuning.toml
-	$(BIN)/fftnav run --fresh experiments/collab/drive_tuning.toml
-	$(BIN)/fftnav run --fresh experiments/collab/drive_tuning_steered20.toml
-	$(BIN)/fftnav run --fresh experiments/collab/drive_tuning_steered30.toml
-	$(BIN)/fftnav run --fresh experiments/collab/drive_holdout_straight10.toml
-	$(BIN)/fftnav run --fresh experiments/collab/drive_holdout_steered20.toml
-	$(BIN)/fftnav run --fresh experiments/collab/fresh_steered20.toml
-	$(BIN)/fftnav figure sweep experiments/collab/fresh_steered20.toml
-	$(BIN)/fftnav run --fresh experiments/collab/fresh_noise_steered20.toml
-	$(BIN)/fftnav figure sweep experiments/collab/fresh_noise_steered20.toml
-	$(BIN)/python experiments/noise_seeds.py --set planner.heading_tol_deg=20 --set planner.way_heading_tol_deg=20 --set planner.drive=steered --out results/collab/noise_seeds_steered20.csv
-
 bench: $(STAMP)
 	$(BIN)/fftnav bench pipeline --csv results/pipeline_latency.csv
 	$(BIN)/fftnav bench sim --env forest --csv results/sim_speed.csv
@@ -92,9 +67,10 @@ figures: $(STAMP)
 	$(BIN)/fftnav figure filters --out results/figures
 	$(BIN)/fftnav figure depth3d --out results/figures
 
-# replays: the README's GIF and docs/analysis.md's frame per cause of failure, from the
-# committed recordings (results/table1/records, results/collab/core/records and
-# results/collab/fresh/records).
+# replays: the README's GIF and docs/analysis.md's frame per cause of failure, from recordings
+# made on demand: each episode rerun from its committed folder (results/table1,
+# results/collab/core, results/collab/fresh), its rows checked against that folder's
+# episodes.csv first (`fftnav replay RESULTS_DIR --task TASK`).
 replays: $(STAMP)
 	$(BIN)/python experiments/replay_figures.py
 

@@ -51,14 +51,16 @@ def cmd_figure_report(args: argparse.Namespace) -> int:
 
 
 def cmd_figure_failures(args: argparse.Namespace) -> int:
-    """The robots of one episode of a results folder that did not arrive (docs/planner.md)."""
+    """The robots of one episode of a results folder that did not arrive (docs/planner.md);
+    an episode whose paths the folder does not keep is rerun, checked against its rows."""
     from fftnav.files import check_target
     from fftnav.report.experiment import draw_failures
     from fftnav.runner import load_config
 
     check_target(args.out, flag="--out", make_folder=True, image=True)
     config = load_config(args.config)
-    draw_failures(config, args.results or config.out, args.env, args.map, args.policy, args.out)
+    draw_failures(config, args.results or config.out, env=args.env, map_seed=args.map,
+                  policy=args.policy, path=args.out)
     print(args.out)
     return 0
 

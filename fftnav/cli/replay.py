@@ -1,5 +1,8 @@
-"""``fftnav replay``: watch a recorded episode (``fftnav episode --record``, an experiment's
-``records/``) as an HTML player, a GIF, an MP4 or one PNG frame (docs/analysis.md)."""
+"""``fftnav replay``: watch an episode as an HTML player, a GIF, an MP4 or one PNG frame
+(docs/analysis.md): a recording (``fftnav episode --record``, an experiment's ``records/``), or
+an episode of a results folder made on demand (``fftnav replay RESULTS_DIR --task TASK``:
+rerun from the folder's config and seeds, recorded, its rows checked against the folder's
+``episodes.csv``)."""
 
 from __future__ import annotations
 
@@ -16,12 +19,13 @@ FORMATS = (".html", ".gif", ".mp4", ".png")
 
 #: The library's parameter names in messages -> the flags a user typed.
 FLAGS = {"from_s": "--from", "to_s": "--to", "at_s": "--at", "robot": "--robot",
-         "speed": "--speed"}
+         "speed": "--speed", "task": "--task", "results_dir": "RESULTS_DIR"}
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
-    """Read the recording, write --out in the format of its suffix, say what was written; a
-    refused value is named by its flag."""
+    """Read the recordings (or make them: ``--task``), write --out in the format of its suffix,
+    say what was written; a refused value is named by its flag (a parameter's name where it
+    is the subject or the value of a message: ``robot must ...``, ``robot=4``)."""
     try:
         return _replay(args)
     except CliError:
@@ -29,12 +33,12 @@ def cmd_replay(args: argparse.Namespace) -> int:
     except ValueError as exc:
         text = str(exc)
         for name, flag in FLAGS.items():
-            text = re.sub(rf"(?<![\w-]){name}\b", flag, text)
+            text = re.sub(rf"(?<![\w-]){name}\b(?=\s*must\b|=|,)", flag, text)
         raise CliError(text) from None
 
 
-def _replay(args: argparse.Namespace) -> int:
-    suffix = Path(args.out).suffix.lower()
+def _check_options(args: argparse.Namespace, suffix: str) -> None:
+    """Refuse what the output format or the sources cannot take, before anything runs."""
     if suffix not in FORMATS:
         raise CliError(f"--out must end in one of {', '.join(FORMATS)}, got --out={args.out!r}")
     if suffix == ".mp4":
@@ -48,16 +52,38 @@ def _replay(args: argparse.Namespace) -> int:
         raise CliError("--at picks the frame of a .png; use --from and --to for a window")
     if suffix == ".png" and (args.start is not None or args.stop is not None):
         raise CliError("a .png is one frame: pick it with --at S")
-    from fftnav.episode.recording import read_recording
+    if args.task and len(args.recording) != 1:
+        raise CliError(f"--task names episodes of one results folder, got "
+                       f"{len(args.recording)} paths: {' '.join(args.recording)}")
+    sources = len(args.task or args.recording)
+    if suffix == ".html" and sources > 1:
+        raise CliError(f"an .html player shows one recording, got {sources}; "
+                       "side by side: --out X.gif, X.mp4 or X.png")
+
+
+def _recordings(args: argparse.Namespace) -> tuple[list, str]:
+    """The recordings to draw and what to add to the closing line: read from the paths, or
+    each ``--task`` rerun from the results folder (checked against its rows)."""
+    if not args.task:
+        from fftnav.episode.recording import read_recording
+
+        return [read_recording(path) for path in args.recording], ""
+    from fftnav.runner.rerun import rerun_task
+
+    folder = args.recording[0]
+    recs = [rerun_task(folder, task).recording() for task in args.task]
+    return recs, (f" (rerun of {', '.join(args.task)}: the rows of "
+                  f"{Path(folder) / 'episodes.csv'})")
+
+
+def _replay(args: argparse.Namespace) -> int:
+    suffix = Path(args.out).suffix.lower()
+    _check_options(args, suffix)
     from fftnav.files import atomic_path, check_target
     from fftnav.report import replay
 
     check_target(args.out, flag="--out", make_folder=True)
-
-    if suffix == ".html" and len(args.recording) > 1:
-        raise CliError(f"an .html player shows one recording, got {len(args.recording)}; "
-                       "side by side: --out X.gif, X.mp4 or X.png")
-    rec, *beside = (read_recording(path) for path in args.recording)
+    (rec, *beside), made = _recordings(args)
     with atomic_path(args.out, keep_suffix=True) as tmp:  # no partial file on any failure
         if suffix == ".png":
             replay.write_image(rec, tmp, at_s=args.at or 0.0, robot=args.robot, beside=beside)
@@ -70,16 +96,23 @@ def _replay(args: argparse.Namespace) -> int:
             replay.write_video(rec, tmp, robot=args.robot, from_s=args.start, to_s=args.stop,
                                speed=args.speed, beside=beside)
     out = Path(args.out)
-    sys.stderr.write(f"{out}: {out.stat().st_size / 1e6:.2f} MB\n")
+    sys.stderr.write(f"{out}: {out.stat().st_size / 1e6:.2f} MB{made}\n")
     return 0
 
 
 def register(sub: argparse._SubParsersAction) -> None:
-    p = sub.add_parser("replay", help="watch a recorded episode: HTML player, GIF, MP4 or PNG")
+    p = sub.add_parser("replay", help="watch an episode (a recording, or one of a results "
+                       "folder made on demand): HTML player, GIF, MP4 or PNG")
     p.add_argument("recording", metavar="PATH", nargs="+",
                    help="a recording (fftnav episode --record, an experiment's records/); "
                    "more than one: drawn side by side at the same times (GIF, MP4, PNG), the "
-                   "window and the robot those of the first")
+                   "window and the robot those of the first. With --task: one results folder "
+                   "(RESULTS_DIR, written by fftnav run)")
+    p.add_argument("--task", action="append", metavar="ENV-MAP_SEED-POLICY",
+                   help="an episode of RESULTS_DIR (e.g. rocky-1014-bug-left; report.md lists "
+                   "the failures): rerun from the folder's config and seeds, recorded, and "
+                   "refused unless its rows are the folder's episodes.csv rows; repeated: "
+                   "side by side")
     p.add_argument("--out", required=True, metavar="X.html|X.gif|X.mp4|X.png",
                    help="what to write, by its suffix: a self-contained HTML player, a GIF, an "
                    "MP4 (needs the extra 'video': imageio-ffmpeg) or one PNG frame")

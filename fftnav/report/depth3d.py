@@ -5,13 +5,12 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Circle, Rectangle
 
 from fftnav.episode.flight3d import FlightResult
 from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
-from fftnav.report import save_figure
+from fftnav.report import new_figure, save_figure
 from fftnav.sim.drone import DroneSim, make_forest3d
 
 __all__ = ["draw_depth3d_figure", "draw_flight_figure"]
@@ -57,7 +56,8 @@ def draw_depth3d_figure(out_dir: Path, *, seed: int = 0) -> list[Path]:
     paths = []
     for name, title in (("depth", "(a) depth observation of the forest"),
                         ("safe", f"(b) safe direction domain ({mask.mean():.0%} of the image)")):
-        fig, ax = plt.subplots(figsize=(10, 3.2), constrained_layout=True)
+        fig = new_figure(figsize=(10, 3.2), layout="constrained")
+        ax = fig.subplots()
         if name == "depth":
             im = ax.imshow(depth, extent=extent, cmap="viridis", vmin=0, vmax=bank.range_m,
                            aspect="equal")
@@ -75,7 +75,6 @@ def draw_depth3d_figure(out_dir: Path, *, seed: int = 0) -> list[Path]:
                title=title, xticks=np.arange(-180, 181, 45), yticks=[-45, 0, 45])
         path = out_dir / f"fig4_{name}.png"
         save_figure(fig, path, dpi=120)
-        plt.close(fig)
         paths.append(path)
     return paths
 
@@ -100,8 +99,8 @@ def draw_flight_figure(result: FlightResult, path: Path) -> Path:
     gap = np.min(np.hypot(f.canopies[:, None, 0] - traj[None, :, 0],
                           f.canopies[:, None, 1] - traj[None, :, 1]), axis=1) - f.canopies[:, 3]
     near = gap < 1.0
-    fig, (top, side) = plt.subplots(2, 1, figsize=(10, 7.5), constrained_layout=True,
-                                    gridspec_kw={"height_ratios": [20, 8]})
+    fig = new_figure(figsize=(10, 7.5), layout="constrained")
+    top, side = fig.subplots(2, 1, height_ratios=[20, 8])
     for (x, y, z, rc), (_, _, rt, h), shown in zip(f.canopies, f.trunks, near, strict=True):
         top.add_patch(Circle((x, y), rc, color="forestgreen", alpha=0.25, lw=0))
         top.add_patch(Circle((x, y), rt, color="saddlebrown"))
@@ -124,5 +123,4 @@ def draw_flight_figure(result: FlightResult, path: Path) -> Path:
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     save_figure(fig, path, dpi=110)
-    plt.close(fig)
     return path

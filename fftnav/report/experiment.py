@@ -90,8 +90,8 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
                                       policies=config.policy_names),
                     *failure_lines(config, out, episodes, figures)]
     path = out / "report.md"
-    write_atomic(path, "\n".join(_report_lines(config, info, summary, paired, pictures,
-                                               sections)))
+    write_atomic(path, "\n".join(_report_lines(config, info=info, summary=summary, paired=paired,
+                                               pictures=pictures, sections=sections)))
     return path
 
 
@@ -135,7 +135,7 @@ def report_folder(config: ExperimentConfig, out_dir: str | Path, *,
         return write_report(config, out)
 
 
-def _report_lines(config: ExperimentConfig, info: dict[str, Any], summary: pd.DataFrame,
+def _report_lines(config: ExperimentConfig, *, info: dict[str, Any], summary: pd.DataFrame,
                   paired: pd.DataFrame, pictures: list[Path], sections: list[str]) -> list[str]:
     """The lines of ``report.md``: the run, the results beside the paper's Table I, the paired
     tests, the ``sections`` (map difficulty, failures), the figures and the config."""
@@ -290,30 +290,50 @@ def _ci(value: float, low: float, high: float, digits: int) -> str:
     return _fmt(value, digits) + interval
 
 
-def draw_failures(config: ExperimentConfig, results: str | Path, env: str, map_seed: int,
+def draw_failures(config: ExperimentConfig, results: str | Path, *, env: str, map_seed: int,
                   policy: str, path: str | Path) -> Path:
     """The robots of one episode of a results folder that did not arrive
-    (:func:`fftnav.report.trajectories.plot_failures`); the folder may be that of a run still
-    going or interrupted (the task's own CSV is read then)."""
+    (:func:`fftnav.report.trajectories.plot_failures`).
+
+    The paths come from the folder's ``trajectories/<task>.npz`` (the first
+    ``trajectory_maps`` maps of a run; the folder may be that of a run still going or
+    interrupted, whose task CSV is read then) or, where the folder has none (any other map, or
+    a clone of the repository, which keeps no trajectories), from the episode rerun on demand
+    and checked against the folder's rows (:func:`fftnav.runner.rerun.rerun_task`).
+
+    Raises
+    ------
+    ValueError
+        No such episode in the folder (naming the close ones), or a rerun whose rows differ.
+    """
     results = Path(results)
     stem = f"{env}-{map_seed}-{policy}"
     npz = results / "trajectories" / f"{stem}.npz"
-    if not npz.exists():
-        raise ValueError(f"no trajectories {npz} (only the first experiment.trajectory_maps "
-                         "maps keep them)")
+    if npz.exists():
+        rows = _task_rows(results, env, map_seed, policy)
+        with np.load(npz) as z:
+            paths = [z[f"arr_{i}"] for i in range(len(z.files))]
+    else:
+        from fftnav.runner.rerun import rerun_task
+
+        rerun = rerun_task(results, stem)
+        rows, paths = rerun.result.rows, rerun.result.trajectories or []
+    return plot_failures(task_world(config, env, map_seed), paths, rows, path,
+                         control_hz=config.swarm.episode.control_hz)
+
+
+def _task_rows(results: Path, env: str, map_seed: int, policy: str) -> list[EpisodeRow]:
+    """The rows of one task of a results folder: from ``episodes.csv``, else (a run going on)
+    from the task's own CSV."""
     if (results / "episodes.csv").exists():
         table = pd.read_csv(results / "episodes.csv")
     else:
         columns = json.loads((results / "config.json").read_text())["csv_columns"]
-        table = pd.read_csv(results / "episodes" / f"{stem}.csv", header=None, names=columns)
+        table = pd.read_csv(results / "episodes" / f"{env}-{map_seed}-{policy}.csv",
+                            header=None, names=columns)
     table = table[(table.env == env) & (table.map_seed == map_seed)
                   & (table.policy == policy)].sort_values("robot")
     if "failure" in table:  # an empty cell (a robot that arrived) reads as NaN
         table["failure"] = table["failure"].fillna("")
-    rows = [EpisodeRow(**{c: r[c] for c in EPISODE_COLUMNS if c in r})
+    return [EpisodeRow(**{c: r[c] for c in EPISODE_COLUMNS if c in r})
             for r in table.to_dict("records")]
-    with np.load(npz) as z:
-        paths = [z[f"arr_{i}"] for i in range(len(z.files))]
-    return plot_failures(task_world(config, env, map_seed), paths, rows, path,
-                         control_hz=config.swarm.episode.control_hz)
-

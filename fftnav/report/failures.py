@@ -1,16 +1,20 @@
 """The report's section "Why robots failed": failure causes per env and policy, where they happened.
 
 Reads the ``failure`` column of ``episodes.csv`` (one cause of
-:data:`fftnav.metrics.FAILURE_CAUSES` per robot that did not arrive, docs/metrics.md) and the
-results folder's files: ``records/<task_id>.npz`` (an episode's recording, linked from the
-table when it exists) and ``trajectories/<task_id>.npz`` (the robots' paths of the first
-``trajectory_maps`` maps), from which :func:`failure_positions` takes where each failed robot
-ended (the recording first). ``figures/failure_positions.png`` draws those positions per env
-in the map frame.
+:data:`fftnav.metrics.FAILURE_CAUSES` per robot that did not arrive, docs/metrics.md). The table
+names every episode with a failure by its task (``env-map_seed-policy``), and the section says
+how to make its recording on demand: ``fftnav replay RESULTS_DIR --task TASK --out X.html``
+reruns the episode from the folder's config and seeds and checks its rows against
+``episodes.csv`` (:mod:`fftnav.runner.rerun`). Where each failed robot ended
+(:func:`failure_positions`) comes from the files a run leaves beside its results and git does
+not keep: ``records/<task_id>.npz`` (the recordings ``[record] episodes`` keeps) and
+``trajectories/<task_id>.npz`` (the robots' paths of the first ``trajectory_maps`` maps);
+``figures/failure_positions.png`` draws those positions per env in the map frame.
 """
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -27,9 +31,11 @@ from fftnav.runner import run
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import Task, task_id, task_world
 
-__all__ = ["POSITION_COLUMNS", "draw_failure_positions", "failure_lines", "failure_positions",
-           "failure_table", "last_positions", "record_path"]
+__all__ = ["POSITION_COLUMNS", "REPLAY_COLUMN", "draw_failure_positions", "failure_lines",
+           "failure_positions", "failure_table", "last_positions", "record_path", "shown_path"]
 
+#: The column of :func:`failure_table` naming the episodes to replay.
+REPLAY_COLUMN = "replay --task"
 #: Columns of :func:`failure_positions`.
 POSITION_COLUMNS: tuple[str, ...] = ("env", "map_seed", "policy", "robot", "cause", "x", "y")
 _MARKERS = ("X", "o", "s", "^", "D", "v", "P", "*")
@@ -48,16 +54,14 @@ def _failed(episodes: pd.DataFrame) -> pd.DataFrame:
     return failed
 
 
-def failure_table(episodes: pd.DataFrame, out: str | Path, *, envs: Sequence[str],
+def failure_table(episodes: pd.DataFrame, *, envs: Sequence[str],
                   policies: Sequence[str]) -> pd.DataFrame:
-    """Failure counts by cause per env and policy, with links to the failures' recordings.
+    """Failure counts by cause per env and policy, with the episodes to replay.
 
     Parameters
     ----------
     episodes : pandas.DataFrame
         ``episodes.csv``, with its ``failure`` column.
-    out : str or Path
-        The results folder (where ``report.md`` is): recordings are looked for in it.
     envs, policies : sequence of str
         The rows, in this order (pairs without episodes are left out).
 
@@ -65,9 +69,9 @@ def failure_table(episodes: pd.DataFrame, out: str | Path, *, envs: Sequence[str
     -------
     pandas.DataFrame
         Columns env, policy, robots, failed, one column per registered cause of
-        :data:`fftnav.metrics.FAILURE_CAUSES` (in its order), then ``recordings``: the map
-        seeds with a failure whose recording exists, each a Markdown link relative to the
-        folder (``[1003](records/rocky-1003-bug-left.npz)``), or ``-``.
+        :data:`fftnav.metrics.FAILURE_CAUSES` (in its order), then :data:`REPLAY_COLUMN`: the
+        task of every episode with a failure, in map order (``rocky-1003-bug-left``, what
+        ``fftnav replay RESULTS_DIR --task`` takes), as code, or ``-``.
     """
     failed = _failed(episodes)
     rows = []
@@ -79,12 +83,11 @@ def failure_table(episodes: pd.DataFrame, out: str | Path, *, envs: Sequence[str
             fails = failed[(failed["env"] == env) & (failed["policy"] == policy)]
             row = {"env": env, "policy": policy, "robots": len(mine), "failed": len(fails)}
             row |= {cause: int((fails["failure"] == cause).sum()) for cause in FAILURE_CAUSES}
-            links = [f"[{seed}](records/{record_path(out, env, seed, policy).name})"
-                     for seed in sorted(set(fails["map_seed"]))
-                     if record_path(out, env, seed, policy).is_file()]
-            row["recordings"] = ", ".join(links) or "-"
+            tasks = [f"`{task_id(env, int(seed), policy)}`"
+                     for seed in sorted(set(fails["map_seed"]))]
+            row[REPLAY_COLUMN] = ", ".join(tasks) or "-"
             rows.append(row)
-    columns = ["env", "policy", "robots", "failed", *FAILURE_CAUSES, "recordings"]
+    columns = ["env", "policy", "robots", "failed", *FAILURE_CAUSES, REPLAY_COLUMN]
     return pd.DataFrame(rows, columns=columns)
 
 
@@ -176,6 +179,30 @@ def draw_failure_positions(config: ExperimentConfig, positions: pd.DataFrame, pa
     return path
 
 
+def shown_path(path: Path) -> str:
+    """``path`` as a command names it: relative to the current directory when inside it.
+
+    >>> shown_path(Path.cwd() / "results" / "table1")
+    'results/table1'
+    """
+    absolute = Path(os.path.abspath(path))
+    if absolute.is_relative_to(Path.cwd()):
+        return absolute.relative_to(Path.cwd()).as_posix() or "."
+    return str(path)
+
+
+def _replay_lines(out: Path, table: pd.DataFrame) -> list[str]:
+    """How to make the recording of an episode of the table, on demand."""
+    tasks = [t.strip("`") for cell in table[REPLAY_COLUMN] if cell != "-"
+             for t in cell.split(", ")]
+    if not tasks:
+        return []
+    return [f"Make the recording of one (an offline player; `.gif`, `.mp4`, `.png` too): "
+            f"`fftnav replay {shown_path(out)} --task {tasks[0]} --out {tasks[0]}.html` reruns "
+            "that episode from this folder's config and seeds and checks that its rows are "
+            "those of `episodes.csv` (docs/analysis.md, \"Replaying an episode\").", ""]
+
+
 def failure_lines(config: ExperimentConfig, out: Path, episodes: pd.DataFrame,
                   figures: Path) -> list[str]:
     """The report's section "Why robots failed" (its figure written into ``figures``)."""
@@ -184,16 +211,16 @@ def failure_lines(config: ExperimentConfig, out: Path, episodes: pd.DataFrame,
         return [*head, "(`episodes.csv` has no `failure` column: rerun the experiment to "
                 "classify its failures)", ""]
     envs, policies = config.envs, config.policy_names
-    table = failure_table(episodes, out, envs=envs, policies=policies)
+    table = failure_table(episodes, envs=envs, policies=policies)
     lines = [
         *head,
         "Robots that did not arrive, by cause (the `failure` column of `episodes.csv`; each "
         "cause's definition and thresholds: docs/metrics.md, \"Why robots failed\"). "
-        "`recordings`: the maps whose failed episode has a recording in `records/` (replay "
-        "one with `fftnav replay`).",
+        f"`{REPLAY_COLUMN}`: the episodes with a failure.",
         "",
         *markdown_table(table),
         "",
+        *_replay_lines(out, table),
     ]
     positions = failure_positions(out, episodes)
     total = int(table["failed"].sum())

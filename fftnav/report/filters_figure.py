@@ -11,14 +11,14 @@ import math
 from pathlib import Path
 from typing import NamedTuple
 
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.patches import Circle
 
 from fftnav.observe.compress import reconstruct
 from fftnav.observe.geometry import SIM_ROBOT
 from fftnav.observe.pipeline import Pipeline, PipelineResult
 from fftnav.observe.safe import nearest_safe_headings
-from fftnav.report import save_figure
+from fftnav.report import new_figure, save_figure
 from fftnav.world.scenes import random_trunks, ray_cast_circles
 
 __all__ = ["draw_filter_figures", "SCENE_SEED", "TARGET_RAD"]
@@ -29,7 +29,7 @@ SCENE_SEED = 12
 TARGET_RAD = 0.0
 
 
-def _response(ax_t, ax_f, h, n0, cutoff, name, label_t):
+def _response(ax_t, ax_f, h, *, n0, cutoff, name, label_t):
     ax_t.plot(np.arange(len(h)), h, "C0.-", ms=3, lw=1)
     ax_t.set(title=f"({label_t}) {name}(n), N = {len(h)}", xlabel="n (samples)", ylabel=name)
     f = np.arange(n0 // 2 + 1) / n0
@@ -55,8 +55,8 @@ def _response(ax_t, ax_f, h, n0, cutoff, name, label_t):
 
 def _scene_axes(ax, centres, radii, xy, title):
     for c, r in zip(centres, radii, strict=True):
-        ax.add_patch(plt.Circle(c, r, color="0.6"))
-    ax.add_patch(plt.Circle((0, 0), SIM_ROBOT.r0_m, color="C1"))
+        ax.add_patch(Circle(c, r, color="0.6"))
+    ax.add_patch(Circle((0, 0), SIM_ROBOT.r0_m, color="C1"))
     ax.plot(xy[:, 0], xy[:, 1], ".", ms=2, color="C0")
     ax.set(
         xlim=(-3.3, 3.3),
@@ -133,8 +133,9 @@ def draw_filter_figures(out_dir: Path) -> list[Path]:
 def _draw_fig3(scene: _Scene, path: Path) -> Path:
     """Fig. 3: h1's response, the scan, the clipped and filtered scan, the safe directions."""
     pipe, b, res, deg, s, xy = scene.pipe, scene.pipe.bank, scene.res, scene.deg, scene.s, scene.xy
-    fig, ax = plt.subplots(2, 3, figsize=(15, 8.5), layout="constrained")
-    _response(ax[0, 0], ax[0, 1], b.h1, b.n0, b.cutoff_3db_h1, "h1", "a")
+    fig = new_figure(figsize=(15, 8.5), layout="constrained")
+    ax = fig.subplots(2, 3)
+    _response(ax[0, 0], ax[0, 1], b.h1, n0=b.n0, cutoff=b.cutoff_3db_h1, name="h1", label_t="a")
     ax[0, 0].set_xlim(b.tau - 1.5 * b.window_beams, b.tau + 1.5 * b.window_beams)
     _scene_axes(ax[0, 2], scene.centres, scene.radii, xy,
                 "(c) scan and the safe headings nearest to ahead")
@@ -170,7 +171,6 @@ def _draw_fig3(scene: _Scene, path: Path) -> Path:
         f"{b.window_beams} beams, fc = 1/{1 / b.fc:.0f}, N0 = {b.n0})"
     )
     save_figure(fig, path, dpi=110)
-    plt.close(fig)
     return path
 
 
@@ -180,8 +180,9 @@ def _draw_fig5(scene: _Scene, path: Path) -> Path:
     pipe, b, res, deg = scene.pipe, scene.pipe.bank, scene.res, scene.deg
     sig, mins = res.sigma[0], res.is_min[0]
     rec = reconstruct(sig, pipe.angles_rad, full_circle=True)
-    fig, ax = plt.subplots(2, 2, figsize=(12, 8.5), layout="constrained")
-    _response(ax[0, 0], ax[0, 1], b.h2, b.n0, b.cutoff_3db_h2, "h2", "a")
+    fig = new_figure(figsize=(12, 8.5), layout="constrained")
+    ax = fig.subplots(2, 2)
+    _response(ax[0, 0], ax[0, 1], b.h2, n0=b.n0, cutoff=b.cutoff_3db_h2, name="h2", label_t="a")
     ax[1, 0].plot(deg, scene.s, color="0.7", lw=1, label="s = d / R")
     ax[1, 0].plot(deg, res.y2[0], "C0", label="y2 = h2 * s")
     sd = np.degrees(sig[:, 0])
@@ -215,5 +216,4 @@ def _draw_fig5(scene: _Scene, path: Path) -> Path:
         f"fc = 1/{1 / b.fc:.0f}); P_s = {res.p_s[0]:.3f}"
     )
     save_figure(fig, path, dpi=110)
-    plt.close(fig)
     return path

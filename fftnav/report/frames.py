@@ -3,13 +3,19 @@ GIF, MP4), ``fftnav episode --plot`` and :meth:`fftnav.envs.SwarmNavEnv.render` 
 the three views agree.
 
 A frame (:class:`SwarmFrame`) is the top-down map with its obstacles and goals, every robot as a
-disc of radius ``r0_m`` filled with the colour of its state (:data:`KIND_COLOURS`), its heading
-as a short dark tick out of the disc, its trail, a dashed line to its goal while it drives, a
-cross where it failed (with the cause, when known), the picked robot's scan (returns as dots)
-and safe sectors (green fans out to the sensor range), a line for each message delivered in the
-tick (sender to receiver) and the clock. :class:`FramePainter` draws the map once and updates
+disc of radius ``r0_m`` filled with the colour of its drawn kind (:data:`KIND_COLOURS`), its
+heading as a short dark tick out of the disc, its trail, a dashed line to its goal while it
+drives, a cross where it failed (with the cause, when known), the picked robot's scan (returns as
+dots) and safe sectors (green fans out to the sensor range), a line for each message delivered in
+the tick (sender to receiver) and the clock. :class:`FramePainter` draws the map once and updates
 the robots' artists frame by frame (the videos); :func:`draw_frame` draws one frame and
 :class:`RasterRenderer` returns frames as pixels.
+
+A robot's drawn kind comes from the one state vocabulary, :mod:`fftnav.states`
+(:func:`kinds_of`): its :class:`~fftnav.states.Status` (waiting, arrived, or failed for
+collided and timed out) and, while it moves, the planner's :class:`~fftnav.states.State`
+(``mode``; none: moving). The replays (PNG, GIF, MP4, the HTML player) and
+:meth:`fftnav.envs.SwarmNavEnv.render` all draw by it.
 
 >>> KINDS[:3]
 ('waiting', 'moving', 'following')
@@ -31,17 +37,29 @@ from matplotlib.colors import to_rgb
 from matplotlib.patches import Circle
 
 from fftnav.report.world_plot import draw_world
+from fftnav.states import State, Status
 from fftnav.world.model import World
 
-__all__ = ["KINDS", "KIND_COLOURS", "MESSAGE_ALPHA", "MESSAGE_COLOUR", "SAFE_ALPHA",
-           "SAFE_COLOUR", "TRAIL_ALPHA", "FramePainter",
-           "RasterRenderer", "ScanView", "SwarmFrame", "draw_frame", "kind_rgb", "runs_of"]
+__all__ = ["DRIVING", "KINDS", "KIND_COLOURS", "MESSAGE_ALPHA", "MESSAGE_COLOUR", "SAFE_ALPHA",
+           "SAFE_COLOUR", "STATE_KINDS", "STATUS_KINDS", "TRAIL_ALPHA", "FramePainter",
+           "RasterRenderer", "ScanView", "SwarmFrame", "draw_frame", "kind_rgb", "kinds_of",
+           "runs_of"]
 
-#: A robot's state as drawn, by its code in :attr:`SwarmFrame.kinds`.
-KINDS = ("waiting", "moving", "following", "escaping", "arrived", "failed")
-#: The fill colour of each state (the HTML player uses the same).
+#: What a robot is drawn as, by its code in :attr:`SwarmFrame.kinds` (:func:`kinds_of`).
+KINDS = ("waiting", "moving", "following", "escaping", "guided", "arrived", "failed")
+#: The fill colour of each kind (the HTML player uses the same).
 KIND_COLOURS = {"waiting": "#9e9e9e", "moving": "#1f77b4", "following": "#ff7f0e",
-                "escaping": "#9467bd", "arrived": "#2ca02c", "failed": "#d62728"}
+                "escaping": "#9467bd", "guided": "#e377c2", "arrived": "#2ca02c",
+                "failed": "#d62728"}
+#: The kind of a robot by its episode status; a moving robot is drawn by its state.
+STATUS_KINDS = {Status.WAITING: "waiting", Status.MOVING: "moving", Status.ARRIVED: "arrived",
+                Status.COLLIDED: "failed", Status.TIMED_OUT: "failed"}
+#: The kind of a moving robot by the planner's state; the states not listed (``DONE``, a
+#: robot let go, and no state at all) draw as moving.
+STATE_KINDS = {State.GOAL: "moving", State.FOLLOW: "following", State.ESCAPE: "escaping",
+               State.GUIDED: "guided", State.WAIT: "waiting"}
+#: The kinds of a robot that drives (drawn with a line to its goal).
+DRIVING = ("moving", "following", "escaping", "guided")
 #: Delivered messages, safe sectors, scan returns.
 MESSAGE_COLOUR = "#17becf"
 SAFE_COLOUR = "#2ca02c"
@@ -57,6 +75,28 @@ def kind_rgb(kind: str) -> tuple[int, int, int]:
     (31, 119, 180)
     """
     return tuple(round(255 * c) for c in to_rgb(KIND_COLOURS[kind]))  # type: ignore[return-value]
+
+
+def kinds_of(status: np.ndarray, mode: np.ndarray | None = None) -> np.ndarray:
+    """The drawn kind (a code of :data:`KINDS`) of robots by their
+    :class:`~fftnav.states.Status` codes ``status`` and, for those moving, the
+    :class:`~fftnav.states.State` codes ``mode`` (same shape; NaN or None: no state, drawn as
+    moving): :data:`STATUS_KINDS`, then :data:`STATE_KINDS`.
+
+    >>> s, m = [Status.WAITING, Status.MOVING, Status.MOVING, Status.TIMED_OUT], [0, 1, 5, 1]
+    >>> [KINDS[k] for k in kinds_of(np.array(s), np.array(m, float))]
+    ['waiting', 'following', 'guided', 'failed']
+    """
+    status = np.asarray(status)
+    kinds = np.full(status.shape, KINDS.index("moving"), dtype=np.uint8)
+    if mode is not None:
+        mode = np.asarray(mode)
+        for state, kind in STATE_KINDS.items():
+            kinds[mode == int(state)] = KINDS.index(kind)
+    for code, kind in STATUS_KINDS.items():
+        if code != Status.MOVING:
+            kinds[status == int(code)] = KINDS.index(kind)
+    return kinds
 
 
 @dataclass(frozen=True)
@@ -193,7 +233,7 @@ class FramePainter:
                                                                 strict=False) if len(t) > 1]
         self.trails.set_segments([t for t, _ in trails])
         self.trails.set_color([col for _, col in trails])
-        driving = np.isin(kinds, [KINDS.index(k) for k in ("moving", "following", "escaping")])
+        driving = np.isin(kinds, [KINDS.index(k) for k in DRIVING])
         goals = np.asarray(self.world.goals)[: len(poses)]
         self.goal_lines.set_segments([np.array([poses[i, :2], goals[i]])
                                       for i in np.flatnonzero(driving)])
@@ -245,7 +285,9 @@ def draw_frame(ax: Any, world: World, frame: SwarmFrame, r0_m: float, *,
 class RasterRenderer:
     """Frames of one world as RGB arrays at ``resolution_m`` metres per pixel, the first row the
     top of the world (:meth:`fftnav.envs.SwarmNavEnv.render`): pixel ``(row, col)`` covers
-    ``x = col * res .. (col + 1) * res``, ``y = h - (row + 1) * res .. h - row * res``.
+    ``x = col * res .. (col + 1) * res``, ``y = h - (row + 1) * res .. h - row * res``. It draws
+    on a figure of its own (:func:`fftnav.report.new_figure`): matplotlib's backend stays as it
+    was.
 
     >>> from fftnav.world.model import World
     >>> world = World("forest", 0, (2.0, 1.0), (), np.array([[1.0, 0.5, 0.0]]),
@@ -257,14 +299,12 @@ class RasterRenderer:
     """
 
     def __init__(self, world: World, *, r0_m: float, resolution_m: float) -> None:
-        from matplotlib.backends.backend_agg import FigureCanvasAgg
-        from matplotlib.figure import Figure
+        from fftnav.report import new_figure
 
         self.world, self.r0_m = world, float(r0_m)
         w, h = world.size_m
         self.shape = (round(h / resolution_m), round(w / resolution_m))
-        self.figure = Figure(figsize=(self.shape[1] / 100, self.shape[0] / 100), dpi=100)
-        FigureCanvasAgg(self.figure)
+        self.figure = new_figure(figsize=(self.shape[1] / 100, self.shape[0] / 100), dpi=100)
         ax = self.figure.add_axes((0, 0, 1, 1))
         self.painter = FramePainter(ax, world, r0_m, scale_bar=False)
         ax.set_xlim(0, w)

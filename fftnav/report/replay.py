@@ -2,10 +2,10 @@
 episode as a GIF (Pillow) or an MP4 (imageio-ffmpeg, the optional extra ``video``), all drawn
 by :mod:`fftnav.report.frames`; the HTML player is :mod:`fftnav.report.replay_html`.
 
-A robot's drawn state at a tick (:func:`robot_kinds`) comes from its status and, while it
-drives, from its controller's ``mode`` state (0 go to goal: moving, 1 follow: following,
-2 escape: escaping; controllers without a ``mode`` draw as moving): waiting, arrived, and failed
-for a robot that collided or timed out.
+A robot's drawn kind at a tick (:func:`robot_kinds`) comes from the recording's ``status``
+column (:class:`fftnav.states.Status`) and, while it moves, its controller's ``state/mode``
+(:class:`fftnav.states.State`; controllers without a ``mode`` draw as moving), by
+:func:`fftnav.report.frames.kinds_of`.
 """
 
 from __future__ import annotations
@@ -15,11 +15,11 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.colors import to_rgb
 
-from fftnav.episode.recording import STATUS, Recording
+from fftnav.episode.recording import Recording
+from fftnav.report import new_figure
 from fftnav.report.frames import (
     KIND_COLOURS,
     KINDS,
@@ -32,12 +32,15 @@ from fftnav.report.frames import (
     ScanView,
     SwarmFrame,
     kind_rgb,
+    kinds_of,
 )
 from fftnav.validate import check_integer, check_number
 
 __all__ = ["FPS", "VIDEO_HINT", "default_robot", "end_s", "frame_ticks", "recording_frame",
            "robot_kinds", "window", "write_image", "write_video"]
 
+#: The narrowest frame (pixels).
+MIN_WIDTH_PX = 160
 #: Frames per second of the GIFs and MP4s; at ``speed`` 1 a frame advances 1 / FPS s of the
 #: episode (one tick at the default 10 Hz control rate).
 FPS = 10
@@ -46,25 +49,22 @@ VIDEO_HINT = ("MP4 needs imageio-ffmpeg: pip install 'fftnav[video]' "
               "(or pip install imageio-ffmpeg); .gif, .html and .png work without it")
 #: The slowest playback: a tenth of real time (a 120 s episode in 12,000 frames).
 MIN_SPEED = 0.1
-#: Figure width (pixels) of the PNG, GIF and MP4 frames.
+#: Figure width (pixels) of the PNG, GIF and MP4 frames, by default; with another ``width_px``
+#: the map scales with the width, text and line widths with its square root (legible when
+#: small).
 WIDTH_PX = 640
 
 
 def robot_kinds(rec: Recording) -> np.ndarray:
-    """Every robot's drawn state at every tick, ``(G, N)`` codes of
-    :data:`fftnav.report.frames.KINDS` (module docstring)."""
-    kinds = np.full(rec.status.shape, KINDS.index("moving"), dtype=np.uint8)
+    """Every robot's drawn kind at every tick, ``(G, N)`` codes of
+    :data:`fftnav.report.frames.KINDS`: :func:`~fftnav.report.frames.kinds_of` of the
+    recording's statuses and modes, each robot keeping its last mode where it has none (the
+    end tick)."""
     mode = rec.state.get("mode")
-    if mode is not None:  # the end tick has no state: each robot keeps its last mode
+    if mode is not None:
         last = np.where(np.isnan(mode), 0, np.arange(len(mode))[:, None])
         mode = mode[np.maximum.accumulate(last, axis=0), np.arange(mode.shape[1])]
-        for code, kind in ((1, "following"), (2, "escaping")):
-            kinds[mode == code] = KINDS.index(kind)
-    kinds[rec.status == STATUS.index("waiting")] = KINDS.index("waiting")
-    kinds[rec.status == STATUS.index("arrived")] = KINDS.index("arrived")
-    kinds[np.isin(rec.status, [STATUS.index("collided"), STATUS.index("timed_out")])] = (
-        KINDS.index("failed"))
-    return kinds
+    return kinds_of(rec.status, mode)
 
 
 def end_s(rec: Recording) -> float:
@@ -136,10 +136,11 @@ def frame_ticks(rec: Recording, *, from_s: float | None = None, to_s: float | No
     return np.array([rec.tick_at(t + 1e-9) for t in times], dtype=np.int64)
 
 
-def _figure(rec: Recording) -> tuple[Any, FramePainter]:
+def _figure(rec: Recording, width_px: int) -> tuple[Any, FramePainter]:
     w, h = rec.world.size_m
-    height_px = 2 * round(WIDTH_PX * (1.08 * h + 0.9) / (1.04 * w) / 2)  # even, for H.264
-    fig = plt.figure(figsize=(WIDTH_PX / 100, height_px / 100), dpi=100)
+    height_px = 2 * round(width_px * (1.08 * h + 0.9) / (1.04 * w) / 2)  # even, for H.264
+    dpi = 100 * (width_px / WIDTH_PX) ** 0.5
+    fig = new_figure(figsize=(width_px / dpi, height_px / dpi), dpi=dpi)
     ax = fig.add_axes((0.02, 0.02, 0.96, 0.9))
     ax.set_axis_off()
     painter = FramePainter(ax, rec.world, rec.config.robot.r0_m, scale_bar=True)
@@ -157,13 +158,13 @@ class _Panels:
     """One figure per recording, drawn at the same episode time and put side by side (the first
     recording on the left): an episode beside another one, e.g. two policies on one map."""
 
-    def __init__(self, recs: Sequence[Recording], robot: int | None) -> None:
+    def __init__(self, recs: Sequence[Recording], robot: int | None, width_px: int) -> None:
         picked = check_robot(recs[0], robot)
         self.recs = list(recs)
         self.picked = [picked] + [check_robot(r, picked if picked < r.n_robots else None)
                                   for r in recs[1:]]
         self.kinds = [robot_kinds(r) for r in recs]
-        self.figures = [_figure(r) for r in recs]
+        self.figures = [_figure(r, width_px) for r in recs]
 
     def pixels(self, time_s: float) -> np.ndarray:
         """The frame of every recording at ``time_s`` (each clamped to its end), side by side
@@ -171,26 +172,21 @@ class _Panels:
         images = []
         for rec, picked, kinds, (fig, painter) in zip(self.recs, self.picked, self.kinds,
                                                       self.figures, strict=True):
-            images.append(_draw(painter, fig, rec, rec.tick_at(time_s + 1e-9), picked, kinds))
+            painter.update(recording_frame(rec, rec.tick_at(time_s + 1e-9), picked, kinds))
+            images.append(_pixels(fig))
         height = max(image.shape[0] for image in images)
         return np.hstack([np.pad(image, ((0, height - image.shape[0]), (0, 0), (0, 0)),
                                  constant_values=255) for image in images])
 
-    def close(self) -> None:
-        for fig, _ in self.figures:
-            plt.close(fig)
-
 
 def write_image(rec: Recording, path: str | Path, *, at_s: float = 0.0,
-                robot: int | None = None, beside: Sequence[Recording] = ()) -> Path:
+                robot: int | None = None, beside: Sequence[Recording] = (),
+                width_px: int = WIDTH_PX) -> Path:
     """Write one frame, at ``at_s`` (s), as a PNG (with the recordings ``beside`` at the same
-    time to its right); returns the path."""
+    time to its right, each ``width_px`` wide); returns the path."""
     at_s = check_number("at_s", at_s, low=0.0, high=end_s(rec))
-    panels = _Panels([rec, *beside], robot)
-    try:
-        rgb = panels.pixels(at_s)
-    finally:
-        panels.close()
+    width_px = check_integer("width_px", width_px, low=MIN_WIDTH_PX, high=4096)
+    rgb = _Panels([rec, *beside], robot, width_px).pixels(at_s)
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
     from PIL import Image
@@ -201,10 +197,12 @@ def write_image(rec: Recording, path: str | Path, *, at_s: float = 0.0,
 
 def write_video(rec: Recording, path: str | Path, *, robot: int | None = None,
                 from_s: float | None = None, to_s: float | None = None,
-                speed: float = 1.0, fps: float = FPS, beside: Sequence[Recording] = ()) -> Path:
+                speed: float = 1.0, beside: Sequence[Recording] = (),
+                width_px: int = WIDTH_PX) -> Path:
     """Write the episode (or its window ``from_s`` .. ``to_s``) as a GIF or an MP4, by the
     suffix of ``path``, with the recordings ``beside`` at the same times to its right (each
-    still after its end); returns the path.
+    still after its end), every panel ``width_px`` wide, :data:`FPS` frames per second;
+    returns the path.
 
     Raises
     ------
@@ -220,30 +218,28 @@ def write_video(rec: Recording, path: str | Path, *, robot: int | None = None,
             import imageio_ffmpeg
         except ImportError:
             raise ValueError(VIDEO_HINT) from None
-    ticks = frame_ticks(rec, from_s=from_s, to_s=to_s, speed=speed, fps=fps)
-    panels = _Panels([rec, *beside], robot)
+    ticks = frame_ticks(rec, from_s=from_s, to_s=to_s, speed=speed)
+    width_px = check_integer("width_px", width_px, low=MIN_WIDTH_PX, high=4096)
+    panels = _Panels([rec, *beside], robot, width_px)
     path.parent.mkdir(parents=True, exist_ok=True)
-    try:
-        frames = (panels.pixels(float(rec.time_s[g])) for g in ticks)
-        if suffix == ".gif":
-            _write_gif(path, frames, fps)
-        else:
-            _write_mp4(imageio_ffmpeg, path, frames, fps)
-    finally:
-        panels.close()
+    frames = (panels.pixels(float(rec.time_s[g])) for g in ticks)
+    if suffix == ".gif":
+        _write_gif(path, frames, FPS)
+    else:
+        _write_mp4(imageio_ffmpeg, path, frames, FPS)
     return path
 
 
-def _draw(painter: FramePainter, fig: Any, rec: Recording, tick: int, picked: int,
-          kinds: np.ndarray) -> np.ndarray:
-    painter.update(recording_frame(rec, tick, picked, kinds))
-    return _pixels(fig)
+#: The GIF palette's index that no colour takes: the pixels of a frame that have not changed
+#: since the frame before (transparent, over what is already shown).
+UNCHANGED = 255
 
 
 def _gif_palette() -> Any:
     """A fixed GIF palette: the state, message and safe colours exactly and as drawn over white
-    (trails, message lines, safe sectors), 24 greys and the 6 x 6 x 6 colour cube, so that every
-    frame maps the same colours the same way."""
+    (trails, message lines, safe sectors), greys and the 6 x 6 x 6 colour cube, each once, so
+    that every frame maps the same colours the same way; at most :data:`UNCHANGED` colours, the
+    index :data:`UNCHANGED` left free."""
     from PIL import Image
 
     colours = [kind_rgb(k) for k in KINDS] + [_rgb(c) for c in (MESSAGE_COLOUR, SAFE_COLOUR)]
@@ -252,8 +248,9 @@ def _gif_palette() -> Any:
     colours += [(v, v, v) for v in np.linspace(0, 255, 24).round().astype(int).tolist()]
     colours += [(r, g, b) for r in range(0, 256, 51) for g in range(0, 256, 51)
                 for b in range(0, 256, 51)]
+    colours = list(dict.fromkeys(colours))[:UNCHANGED]
     palette = Image.new("P", (1, 1))
-    palette.putpalette([v for c in colours[:256] for v in c])
+    palette.putpalette([v for c in colours for v in c])
     return palette
 
 
@@ -264,7 +261,9 @@ def _rgb(colour: str, alpha: float = 1.0) -> tuple[int, int, int]:
 
 def _write_gif(path: Path, frames: Any, fps: float) -> None:
     """Frames as a looping GIF on :func:`_gif_palette`, written as they come: each frame after
-    the first only as the rectangle that changed (Pillow's GIF encoder per frame)."""
+    the first only as the rectangle that changed, drawn over the frame before (disposal 1),
+    its pixels that did not change transparent (:data:`UNCHANGED`), so that long runs of one
+    index compress (Pillow's GIF encoder per frame)."""
     from PIL import GifImagePlugin, Image
 
     palette, duration = _gif_palette(), round(1000 / fps)
@@ -277,16 +276,29 @@ def _write_gif(path: Path, frames: Any, fps: float) -> None:
                 header, _ = GifImagePlugin.getheader(image, info={"loop": 0,
                                                                   "duration": duration})
                 fp.write(b"".join(header))
-                box = (0, 0, image.width, image.height)
+                fp.write(b"".join(GifImagePlugin.getdata(image, duration=duration,
+                                                         disposal=1)))
             else:
-                changed = np.argwhere(index != previous)
-                (y0, x0), (y1, x1) = ((changed.min(0), changed.max(0) + 1) if len(changed)
-                                      else ((0, 0), (1, 1)))
-                box = (int(x0), int(y0), int(x1), int(y1))
-            fp.write(b"".join(GifImagePlugin.getdata(image.crop(box), offset=box[:2],
-                                                     duration=duration)))
+                fp.write(b"".join(_changed_part(image, index, previous, duration)))
             previous = index
         fp.write(b";")
+
+
+def _changed_part(image: Any, index: np.ndarray, previous: np.ndarray,
+                  duration: int) -> list[bytes]:
+    """A frame's GIF data: the rectangle where ``index`` differs from ``previous``, its
+    unchanged pixels :data:`UNCHANGED` (transparent)."""
+    from PIL import GifImagePlugin
+
+    changed = index != previous
+    where = np.argwhere(changed)
+    (y0, x0), (y1, x1) = ((where.min(0), where.max(0) + 1) if len(where)
+                          else ((0, 0), (1, 1)))
+    part = np.where(changed, index, UNCHANGED)[y0:y1, x0:x1].astype(np.uint8)
+    crop = image.crop((int(x0), int(y0), int(x1), int(y1)))
+    crop.frombytes(np.ascontiguousarray(part).tobytes())
+    return GifImagePlugin.getdata(crop, offset=(int(x0), int(y0)), duration=duration,
+                                  transparency=UNCHANGED, disposal=1)
 
 
 def _write_mp4(imageio_ffmpeg: Any, path: Path, frames: Any, fps: float) -> None:

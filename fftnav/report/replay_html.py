@@ -3,7 +3,8 @@ PATH --out X.html``).
 
 The page is the template ``replay_player.html`` (package data of :mod:`fftnav.report`) with two
 things put in: a JSON header (the world's obstacle outlines, goals, robot radius, the beam
-angles, the colours and opacities of :mod:`fftnav.report.frames`, the state names, each robot's
+angles, the colours and opacities of :mod:`fftnav.report.frames`, the drawn kinds' names
+(and which of them drive), each robot's
 outcome, and where each array lies in the data) and the data, one zlib-deflated block of
 little-endian arrays, base64-encoded, which the page inflates with the browser's own
 ``DecompressionStream``:
@@ -39,6 +40,7 @@ import numpy as np
 
 from fftnav.episode.recording import Recording
 from fftnav.report.frames import (
+    DRIVING,
     KIND_COLOURS,
     KINDS,
     MESSAGE_ALPHA,
@@ -116,6 +118,7 @@ def player_data(rec: Recording, *, robot: int | None = None, from_s: float | Non
         "rangeM": rec.config.sensor.range_m, "scanStep": float(rec.meta.get("scan_step_m", 0.02)),
         "angles": np.round(rec.angles_rad, 6).tolist(), "ticks": g1 - g0, "robots": rec.n_robots,
         "kinds": list(KINDS), "colours": [KIND_COLOURS[k] for k in KINDS],
+        "driving": [KINDS.index(k) for k in DRIVING],
         "messageColour": MESSAGE_COLOUR, "safeColour": SAFE_COLOUR, "stateNames": names,
         "alphas": {"trail": TRAIL_ALPHA, "safe": SAFE_ALPHA, "message": MESSAGE_ALPHA},
         "outcomes": [{"arrived": bool(r.get("arrived")), "failure": r.get("failure") or ""}

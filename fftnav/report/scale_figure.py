@@ -6,9 +6,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
-
-from fftnav.report import save_figure
+from fftnav.report import new_figure, save_figure
 
 __all__ = ["draw_scale_figure"]
 
@@ -18,7 +16,8 @@ def draw_scale_figure(rows: Sequence[dict[str, Any]], path: str | Path) -> Path:
     (simulated / wall seconds, log scale) and wall milliseconds per simulated robot-second
     (flat = cost linear in N). ``rows`` as written by ``fftnav bench scale``."""
     path = Path(path)
-    fig, (rtf, cost) = plt.subplots(1, 2, figsize=(9.0, 3.6))
+    fig = new_figure(figsize=(9.0, 3.6))
+    rtf, cost = fig.subplots(1, 2)
     for env in dict.fromkeys(str(r["env"]) for r in rows):
         mine = sorted((r for r in rows if r["env"] == env), key=lambda r: int(r["robots"]))
         n = [int(r["robots"]) for r in mine]
@@ -38,5 +37,4 @@ def draw_scale_figure(rows: Sequence[dict[str, Any]], path: str | Path) -> Path:
     fig.tight_layout()
     path.parent.mkdir(parents=True, exist_ok=True)
     save_figure(fig, path, dpi=120)
-    plt.close(fig)
     return path

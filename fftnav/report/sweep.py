@@ -6,8 +6,13 @@ maps, bytes per robot, and the gain against ``own-only`` (per-map SPL of the pol
 of own-only: mean, 95% bootstrap interval, paired Wilcoxon signed-rank p and that p
 Holm-adjusted over every comparison of the report, one family); plus ``collab`` against
 ``fusion``. The verdicts use the adjusted p. One figure per sweep axis: the gain of ``collab``
-and ``fusion`` against the axis's values, one panel per env. Cells that have not run (no
-``episodes.csv``) are listed as such.
+and ``fusion`` against the axis's values, one panel per env.
+
+A cell's rows come from its ``episodes.csv`` where the folder has it (what a run writes); where
+it has not (a committed sweep keeps its summaries only, ``.gitignore``), from the rows of that
+cell in the folder's ``sweep_summary.csv`` (the p-values with 6 significant digits), and the
+report says which cells those are. The Holm adjustment is recomputed over all rows either way.
+Cells with neither are listed as not run.
 """
 
 from __future__ import annotations
@@ -22,9 +27,10 @@ from matplotlib.figure import Figure
 from fftnav.files import write_atomic
 from fftnav.report import save_figure
 from fftnav.runner.config import ExperimentConfig
-from fftnav.runner.summary import gain_table, sweep_table
+from fftnav.runner.summary import SWEEP_COLUMNS, gain_table, sweep_table
 
-__all__ = ["ALPHA", "figure_envs", "verdict", "verdict_lines", "write_sweep_report"]
+__all__ = ["ALPHA", "cell_tables", "figure_envs", "verdict", "verdict_lines",
+           "write_sweep_report"]
 
 #: Significance level of the verdicts.
 ALPHA = 0.05
@@ -165,21 +171,46 @@ def _family_lines(table: pd.DataFrame) -> list[str]:
     ]
 
 
+def _summary_csv(table: pd.DataFrame) -> str:
+    """``sweep_summary.csv``: floats ``%.6f``, the p-values ``%.6g`` (they go far below
+    1e-6, and a report rebuilt from this file adjusts them again)."""
+    out = table.copy()
+    for column in ("p_value", "p_holm"):
+        out[column] = ["" if pd.isna(v) else f"{v:.6g}" for v in out[column]]
+    return out.to_csv(index=False, float_format="%.6f")
+
+
+def cell_tables(config: ExperimentConfig, root: Path) -> tuple[list[pd.DataFrame], list[str],
+                                                                 list[str]]:
+    """Each cell's gain table (module docstring): from its ``episodes.csv``, else from the
+    folder's ``sweep_summary.csv``; and the names of the cells read from that summary and of
+    those with neither."""
+    cells = [(name, root / name, cell) for name, cell in config.cells] or [("base", root, config)]
+    summary = pd.DataFrame(columns=list(SWEEP_COLUMNS))
+    if (root / "sweep_summary.csv").is_file():
+        summary = pd.read_csv(root / "sweep_summary.csv", keep_default_na=False,
+                              na_values=[""], dtype={"reference": str}).fillna({"reference": ""})
+    tables, from_summary, missing = [], [], []
+    for name, folder, cell in cells:
+        if (folder / "episodes.csv").exists():
+            tables.append(gain_table(pd.read_csv(folder / "episodes.csv"), name,
+                                     envs=cell.envs, policies=cell.policy_names))
+        elif (summary["cell"] == name).any():
+            tables.append(summary[summary["cell"] == name].reset_index(drop=True))
+            from_summary.append(name)
+        else:
+            missing.append(name)
+    return tables, from_summary, missing
+
+
 def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
     """Write ``ROOT/report.md``, ``ROOT/sweep_summary.csv`` and ``ROOT/figures/gain_*.png``
     for a sweep run into ``ROOT/<cell>`` (for a plain experiment run into ``ROOT``: the report
     is ``ROOT/gains.md``, beside the run's own ``report.md``)."""
     root = Path(root)
-    cells = [(name, root / name, cell) for name, cell in config.cells] or [("base", root, config)]
-    tables, missing = [], []
-    for name, folder, cell in cells:
-        if (folder / "episodes.csv").exists():
-            tables.append(gain_table(pd.read_csv(folder / "episodes.csv"), name,
-                                     envs=cell.envs, policies=cell.policy_names))
-        else:
-            missing.append(name)
+    tables, from_summary, missing = cell_tables(config, root)
     table = sweep_table(tables)
-    write_atomic(root / "sweep_summary.csv", table.to_csv(index=False, float_format="%.6f"))
+    write_atomic(root / "sweep_summary.csv", _summary_csv(table))
     axes = sorted({_axis_of(c) for c in table["cell"]} - {""})
     figures = [_gain_figure(table, axis, root / "figures" / f"gain_{axis or 'cells'}.png")
                for axis in (axes or [""])] if len(table) else []
@@ -193,6 +224,9 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
         "paired two-sided Wilcoxon signed-rank p over maps.",
         "",
         *([f"Cells not run (no episodes.csv): {', '.join(missing)}.", ""] if missing else []),
+        *([f"Cells read from the folder's `sweep_summary.csv` (their episodes.csv is not here; "
+           f"rerun them with `fftnav run` to recompute them): {', '.join(from_summary)}.", ""]
+          if from_summary else []),
         "## Where collaboration pays",
         "",
         f"A policy *pays* where its SPL gain's 95% interval lies above 0 and the Holm-adjusted "

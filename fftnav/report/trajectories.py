@@ -6,12 +6,13 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib import colormaps
+from matplotlib.figure import Figure
 
 from fftnav.config import SwarmConfig
 from fftnav.episode.record import EpisodeRow
-from fftnav.report import save_figure
+from fftnav.report import new_figure, save_figure
 from fftnav.report.frames import KINDS, SwarmFrame, draw_frame
 from fftnav.report.world_plot import draw_world
 from fftnav.world.model import World
@@ -29,7 +30,7 @@ def draw_trajectories(
     cross where they stopped.
     """
     draw_world(world, ax)
-    colors = plt.cm.viridis(np.linspace(0.0, 0.95, max(len(trajectories), 1)))
+    colors = colormaps["viridis"](np.linspace(0.0, 0.95, max(len(trajectories), 1)))
     for i, path in enumerate(trajectories):
         ok = True if arrived is None else bool(arrived[i])
         ax.plot(path[:, 0], path[:, 1], color=colors[i], lw=1.2, ls="-" if ok else "--")
@@ -59,7 +60,8 @@ def plot_episode(
     """Write a PNG of one episode's end over its map (:func:`episode_frame`, drawn as a replay
     frame by :mod:`fftnav.report.frames`): headings, trails, a cross for each failed robot;
     robots of radius ``r0_m`` (default: the default configuration's); returns the path."""
-    fig, ax = plt.subplots(figsize=(6.5, 6.5), dpi=120)
+    fig = new_figure(figsize=(6.5, 6.5), dpi=120)
+    ax = fig.subplots()
     r0_m = SwarmConfig().robot.r0_m if r0_m is None else r0_m
     draw_frame(ax, world, episode_frame(trajectories, rows), r0_m)
     arrived = sum(r.arrived for r in rows)
@@ -67,12 +69,11 @@ def plot_episode(
     return _save(fig, path)
 
 
-def _save(fig: plt.Figure, path: str | Path) -> Path:
-    """Write ``fig`` to ``path`` (its folder created), close it; returns the path."""
+def _save(fig: Figure, path: str | Path) -> Path:
+    """Write ``fig`` to ``path`` (its folder created); returns the path."""
     out = Path(path)
     out.parent.mkdir(parents=True, exist_ok=True)
     save_figure(fig, out, bbox_inches="tight")
-    plt.close(fig)
     return out
 
 
@@ -88,7 +89,8 @@ def plot_failures(
     """Write a PNG of the robots of one episode that did not arrive: each path dashed, dotted
     once a second in a colour that goes from dark (start) to yellow (end), so that loops and
     back-and-forth show, with the robot's index at its start (docs/planner.md)."""
-    fig, ax = plt.subplots(figsize=(6.5, 6.5), dpi=120)
+    fig = new_figure(figsize=(6.5, 6.5), dpi=120)
+    ax = fig.subplots()
     failed = [i for i, r in enumerate(rows) if not r.arrived]
     draw_trajectories(ax, world, [trajectories[i] for i in failed], [False] * len(failed))
     step = max(int(round(control_hz)), 1)

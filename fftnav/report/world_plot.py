@@ -5,11 +5,10 @@ from __future__ import annotations
 from pathlib import Path
 from typing import Any
 
-import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Polygon as PolygonPatch
 
-from fftnav.report import save_figure
+from fftnav.report import new_figure, save_figure
 from fftnav.world import World
 
 __all__ = ["draw_world", "render_world"]
@@ -48,12 +47,12 @@ def render_world(world: World, path: str | Path) -> Path:
     """Draw ``world`` (see :func:`draw_world`) into an image file; return its path."""
     path = Path(path)
     path.parent.mkdir(parents=True, exist_ok=True)
-    fig, ax = plt.subplots(figsize=(6, 6.4), dpi=120)
+    fig = new_figure(figsize=(6, 6.4), dpi=120)
+    ax = fig.subplots()
     draw_world(world, ax)
     ax.set_title(f"{world.env} world, seed {world.seed}: {len(world.obstacles)} obstacles, "
                  f"{len(world.starts)} robots", fontsize=9)
     ax.legend(loc="upper right", fontsize=7, framealpha=0.9)
     fig.tight_layout()
     save_figure(fig, path)
-    plt.close(fig)
     return path

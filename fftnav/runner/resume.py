@@ -19,7 +19,7 @@ from dataclasses import asdict
 from pathlib import Path
 from typing import Any
 
-from fftnav import __version__
+import fftnav
 from fftnav.config import PlannerConfig
 from fftnav.files import load_npz, write_atomic
 from fftnav.plugins import file_sha256, plugin_sources
@@ -57,6 +57,14 @@ def task_file_problem(csv_path: Path, npz_path: Path | None, task: Task, *, robo
         return "not UTF-8 text"
     except OSError as exc:
         return f"unreadable ({exc.strerror})"
+    problem = _rows_problem(text, task, robots=robots, columns=columns)
+    if problem is None and npz_path is not None:
+        problem = _trajectories_problem(npz_path, robots)
+    return problem
+
+
+def _rows_problem(text: str, task: Task, *, robots: int, columns: tuple[str, ...]) -> str | None:
+    """Why a task file's text is not ``robots`` complete rows of ``task``, or None."""
     if not text.endswith("\n"):
         return "empty" if not text else "its last line is incomplete"
     lines = text[:-1].split("\n")
@@ -70,13 +78,17 @@ def task_file_problem(csv_path: Path, npz_path: Path | None, task: Task, *, robo
             return f"row {i + 1} has {len(fields)} fields, expected {len(columns)}"
         if fields[:4] != keys or fields[robot_col] != str(i):
             return f"row {i + 1} belongs to another episode or robot"
-    if npz_path is not None:
-        try:
-            arrays = load_npz(npz_path)
-        except (ValueError, OSError) as exc:
-            return f"its trajectories {npz_path.name} are damaged ({exc})"
-        if len(arrays) != robots:
-            return f"its trajectories {npz_path.name} hold {len(arrays)} arrays, expected {robots}"
+    return None
+
+
+def _trajectories_problem(npz_path: Path, robots: int) -> str | None:
+    """Why a task's trajectories file is not a readable archive of ``robots`` arrays, or None."""
+    try:
+        arrays = load_npz(npz_path)
+    except (ValueError, OSError) as exc:
+        return f"its trajectories {npz_path.name} are damaged ({exc})"
+    if len(arrays) != robots:
+        return f"its trajectories {npz_path.name} hold {len(arrays)} arrays, expected {robots}"
     return None
 
 
@@ -183,7 +195,7 @@ def canonical_config(config: ExperimentConfig, columns: tuple[str, ...]) -> str:
     plugins = {str(source): file_sha256(source) for found in config.resolved.values()
                if found.file for source in plugin_sources(found.file)}
     worlds = {path: file_sha256(Path(path)) for path in config.world_files.values()}
-    return json.dumps({**fields, "out": None, "source": None, "fftnav_version": __version__,
+    return json.dumps({**fields, "out": None, "source": None, "fftnav_version": fftnav.__version__,
                        "csv_columns": list(columns),
                        **({"plugin_sha256": plugins} if plugins else {}),
                        **({"world_sha256": worlds} if worlds else {})},

@@ -136,8 +136,8 @@ def run_experiment(
         check_same_experiment(config, out, columns=CSV_COLUMNS, fresh=fresh)
         clock = InvocationClock(out)
         earlier_killed = clock.begin()
-        outcome = _run_tasks(config, out, workers=workers, executor=executor,
-                             scheduler=scheduler, task_fn=task_fn, progress=progress,
+        options = {"executor": executor, "workers": workers, "scheduler": scheduler}
+        outcome = _run_tasks(config, out, options=options, task_fn=task_fn, progress=progress,
                              fresh=fresh, clock=clock)
         _write_errors(out, outcome.failed)
         episodes = read_episodes(out / "episodes.csv")
@@ -167,62 +167,93 @@ def _earlier_wall_time(out: Path) -> float:
         return 0.0
 
 
-def _run_tasks(config: ExperimentConfig, out: Path, *, workers: int | None, executor: str,
-               scheduler: str | None, task_fn: TaskFunction, progress: bool, fresh: bool,
+def _run_tasks(config: ExperimentConfig, out: Path, *, options: dict[str, object],
+               task_fn: TaskFunction, progress: bool, fresh: bool,
                clock: InvocationClock) -> RunOutcome:
     """Run the unfinished tasks, :data:`REFERENCE_BATCH_MAPS` maps at a time (enumerated
-    lazily, O(1) bookkeeping per finished episode): with real episodes, each batch's reference
+    lazily, O(1) bookkeeping per finished episode) on the executor ``options``
+    (:func:`~fftnav.runner.executors.execute`): with real episodes, each batch's reference
     lengths are computed just before its episodes. ``episodes.csv`` is rebuilt now and then
     (at most ~5 % of the time) and at the end, even on interruption."""
     for sub in ("episodes", "trajectories", "records"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     write_atomic(out / "config.toml", config.source)
     real = task_fn is run_task  # real episodes: each map's reference lengths computed once
-    options = {"executor": executor, "workers": workers, "scheduler": scheduler}
     if real:
         _reference_folder(out, fresh=fresh)
-    outcome = RunOutcome(total=task_count(config), skipped=0, completed=0)
-    bar = tqdm(total=outcome.total, unit="episode", desc=config.name, file=sys.stderr,
-               disable=not progress, dynamic_ncols=True)
-    rebuilt = _EpisodesRebuild(out, config)
+    track = _Progress(config, out, clock, progress=progress)
     try:
         for batch in _map_batches(config):
-            todo = []
-            for task in batch:
-                if not fresh and _trusted(out, config, task, records=real):
-                    outcome.skipped += 1
-                    bar.update()
-                else:
-                    if fresh:  # an earlier recording would outlive an episode that now arrives
-                        record_path(out, task).unlink(missing_ok=True)
-                    todo.append(task)
+            todo = _unfinished(config, out, batch, fresh=fresh, real=real, track=track)
             if real and todo:
-                bar.set_description(f"{config.name} (reference lengths)")
+                track.bar.set_description(f"{config.name} (reference lengths)")
                 _compute_references(config, out, todo, **options)
-                bar.set_description(config.name)
+                track.bar.set_description(config.name)
                 todo = [_with_reference(out, task) for task in todo]
-            if not todo:  # a finished batch starts no workers
-                continue
-            results = execute(task_fn, config, todo, **options)
-            try:
-                for task, result in results:
-                    if isinstance(result, TaskResult):
-                        result = guarded(_save_task, out, task, result)
-                    if isinstance(result, TaskError):
-                        outcome.failed.append((task, result))
-                        bar.set_postfix(failed=len(outcome.failed))
-                    else:
-                        outcome.completed += 1
-                        clock.tick()
-                        rebuilt.maybe()
-                    bar.update()
-            finally:
-                results.close()  # stops the workers now if interrupted
+            if todo:  # a finished batch starts no workers
+                _run_batch(task_fn, config, out, todo, options=options, track=track)
     finally:
-        bar.close()
-        clock.tick()
-        rebuilt.now()
-    return outcome
+        track.close()
+    return track.outcome
+
+
+class _Progress:
+    """A run's bookkeeping: the outcome's counts, the progress bar, the invocation's clock and
+    the rebuilds of ``episodes.csv``."""
+
+    def __init__(self, config: ExperimentConfig, out: Path, clock: InvocationClock, *,
+                 progress: bool) -> None:
+        self.outcome = RunOutcome(total=task_count(config), skipped=0, completed=0)
+        self.bar = tqdm(total=self.outcome.total, unit="episode", desc=config.name,
+                        file=sys.stderr, disable=not progress, dynamic_ncols=True)
+        self.clock, self.rebuilt = clock, _EpisodesRebuild(out, config)
+
+    def skipped(self) -> None:
+        self.outcome.skipped += 1
+        self.bar.update()
+
+    def finished(self, task: Task, result: TaskResult | TaskError) -> None:
+        if isinstance(result, TaskError):
+            self.outcome.failed.append((task, result))
+            self.bar.set_postfix(failed=len(self.outcome.failed))
+        else:
+            self.outcome.completed += 1
+            self.clock.tick()
+            self.rebuilt.maybe()
+        self.bar.update()
+
+    def close(self) -> None:
+        self.bar.close()
+        self.clock.tick()
+        self.rebuilt.now()
+
+
+def _unfinished(config: ExperimentConfig, out: Path, batch: list[Task], *, fresh: bool,
+                real: bool, track: _Progress) -> list[Task]:
+    """The tasks of ``batch`` to run: all with ``fresh`` (their recordings removed), else those
+    without trusted files (:func:`_trusted`; the others counted as skipped)."""
+    todo = []
+    for task in batch:
+        if not fresh and _trusted(out, config, task, records=real):
+            track.skipped()
+        else:
+            if fresh:  # an earlier recording would outlive an episode that now arrives
+                record_path(out, task).unlink(missing_ok=True)
+            todo.append(task)
+    return todo
+
+
+def _run_batch(task_fn: TaskFunction, config: ExperimentConfig, out: Path, todo: list[Task], *,
+               options: dict[str, object], track: _Progress) -> None:
+    """Run ``todo`` on the executor, saving each result as it comes (:func:`_save_task`)."""
+    results = execute(task_fn, config, todo, **options)
+    try:
+        for task, result in results:
+            if isinstance(result, TaskResult):
+                result = guarded(_save_task, out, task, result)
+            track.finished(task, result)
+    finally:
+        results.close()  # stops the workers now if interrupted
 
 
 def _map_batches(config: ExperimentConfig) -> Iterator[list[Task]]:
@@ -285,7 +316,11 @@ def read_episodes(path: Path) -> pd.DataFrame:
 
 def run_info(outcome: RunOutcome, *, workers: int | None, executor: str,
              scheduler: str | None) -> dict[str, object]:
-    """Versions, git revision, executor and timing of this invocation (kept out of the CSVs)."""
+    """Versions, git revision, executor and timing of this invocation (kept out of the CSVs).
+    The fftnav version is the running package's ``fftnav.__version__`` (not the install's
+    metadata, which an editable install keeps from when it was installed)."""
+    import fftnav
+
     def pkg(name: str) -> str:
         try:
             return version(name)
@@ -293,7 +328,7 @@ def run_info(outcome: RunOutcome, *, workers: int | None, executor: str,
             return "not installed"
 
     return {
-        "fftnav_version": pkg("fftnav"),
+        "fftnav_version": fftnav.__version__,
         "git_revision": git_revision(),
         "python": platform.python_version(),
         "numpy": pkg("numpy"),

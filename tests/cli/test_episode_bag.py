@@ -10,7 +10,8 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from fftnav.episode.recording import STATUS, read_recording  # noqa: E402
+from fftnav.episode.recording import read_recording  # noqa: E402
+from fftnav.states import Status  # noqa: E402
 
 
 def fftnav(*args):
@@ -49,7 +50,7 @@ def test_round_trip_gives_the_episodes_own_masks_message_by_message(episode, rob
     proc = fftnav("scan", bag, "--topic", f"/robot_{robot}/scan", "--r0", "0.15", "--r", "0.3")
     assert proc.returncode == 0, proc.stderr
     rows = [json.loads(line) for line in proc.stdout.splitlines()]
-    moving = rec.status[:, robot] == STATUS.index("moving")
+    moving = rec.status[:, robot] == Status.MOVING
     expected = rec.safe[moving, robot]
     got = np.array([r["safe_mask"] for r in rows], dtype=bool)
     assert got.shape == expected.shape and len(got) > 10
@@ -76,7 +77,7 @@ def test_the_bag_holds_world_tf_and_each_robots_topics(episode):
     ticks = rec.n_ticks - 1  # the last tick is the end: poses only
     assert len(msgs["/tf"]) == ticks
     for i in range(2):
-        moving = np.flatnonzero(rec.status[:ticks, i] == STATUS.index("moving"))
+        moving = np.flatnonzero(rec.status[:ticks, i] == Status.MOVING)
         odom = msgs[f"/robot_{i}/odom"]
         assert len(odom) == len(msgs[f"/robot_{i}/cmd_vel"]) == len(moving)
         for k, (t_ns, m) in zip(moving, odom, strict=True):

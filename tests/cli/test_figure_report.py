@@ -64,7 +64,8 @@ def test_figure_report_writes_maps_csv_and_the_report_and_nothing_else(folder):
         index=False, float_format="%.6f").encode()
     report = (folder / "report.md").read_text()
     assert "![spl_vs_difficulty](figures/spl_vs_difficulty.png)" in report
-    assert "| forest | fusion | 6 | 2 | 0 | 0 | 2 | 0 | 0 | 0 | - |" in report
+    assert ("| forest | fusion | 6 | 2 | 0 | 0 | 2 | 0 | 0 | 0 | `forest-7-fusion`, "
+            "`forest-8-fusion` |") in report
     for name, data in kept.items():
         if name != "report.md":
             assert (folder / name).read_bytes() == data, name

@@ -132,3 +132,118 @@ def test_recordings_side_by_side_are_each_frame_next_to_the_other(recording, tmp
     html = _fftnav("replay", recording, other, "--out", tmp_path / "x.html")
     assert html.returncode == 2 and html.stderr.strip().endswith(
         "an .html player shows one recording, got 2; side by side: --out X.gif, X.mp4 or X.png")
+
+
+# --- recordings made on demand: fftnav replay RESULTS_DIR --task TASK -------------------------
+
+
+@pytest.fixture(scope="module")
+def small(tmp_path_factory):
+    from tests.report.small_results import make_small_results
+
+    return make_small_results(tmp_path_factory.mktemp("small"))
+
+
+def _columns(path):
+    import numpy as np
+
+    with np.load(path) as npz:
+        return {k: npz[k] for k in npz.files}
+
+
+def test_a_task_of_a_results_folder_is_rerun_into_the_recording_the_run_kept(small, tmp_path):
+    import numpy as np
+
+    from tests.report.small_results import TASKS, fftnav
+
+    report = (small / "report.md").read_text()
+    assert all(f"`{task}`" in report for task in TASKS)  # every episode failed
+    kept = small / "records" / "forest-8-fusion.npz"
+    oracle = _columns(kept)
+    kept.unlink()  # as in a clone: no recording beside the results
+    made = tmp_path / "made.npz"
+    code = ("import sys; from fftnav.runner.rerun import rerun_task; "
+            "open(sys.argv[3], 'wb').write(rerun_task(sys.argv[1], sys.argv[2]).result.recording)")
+    done = _fftnav(small, "forest-8-fusion", made, code=code)
+    assert done.returncode == 0, done.stderr
+    columns = _columns(made)
+    assert columns.keys() == oracle.keys()
+    for name, array in oracle.items():
+        np.testing.assert_array_equal(columns[name], array, err_msg=name)
+    out = tmp_path / "r.html"
+    done = fftnav("replay", small, "--task", "forest-8-fusion", "--out", out, cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    assert re.fullmatch(rf"{re.escape(str(out))}: \d+\.\d\d MB \(rerun of forest-8-fusion: the "
+                        rf"rows of {re.escape(str(small / 'episodes.csv'))}\)\n", done.stderr)
+    assert '"title":"fusion on forest (map seed 8, episode seed ' in out.read_text()
+
+
+def test_tasks_side_by_side_are_one_frame_each(small, tmp_path):
+    import numpy as np
+
+    from tests.report.small_results import fftnav
+
+    images = {}
+    for name, tasks in {"one": ["forest-7-bug-left"], "pair": ["forest-7-bug-left",
+                                                               "forest-7-fusion"]}.items():
+        args = [a for task in tasks for a in ("--task", task)]
+        done = fftnav("replay", small, *args, "--out", tmp_path / f"{name}.png", "--at", "3")
+        assert done.returncode == 0, done.stderr
+        images[name] = np.asarray(Image.open(tmp_path / f"{name}.png"))
+    width = images["one"].shape[1]
+    assert images["pair"].shape[1] == 2 * width
+    np.testing.assert_array_equal(images["pair"][:, :width], images["one"])
+
+
+def test_a_rerun_whose_rows_differ_from_the_folders_is_refused_in_one_line(small, tmp_path):
+    import shutil
+
+    from tests.report.small_results import fftnav
+
+    changed = tmp_path / "changed"
+    shutil.copytree(small, changed, ignore=shutil.ignore_patterns("records", "episodes"))
+    lines = (changed / "episodes.csv").read_text().splitlines(keepends=True)
+    header = lines[0].rstrip("\n").split(",")
+    at = next(i for i, line in enumerate(lines) if line.startswith("forest,7,fusion,")
+              and line.split(",")[header.index("robot")] == "1")
+    fields = lines[at].rstrip("\n").split(",")
+    fields[header.index("path_length_m")] = "99.000000"
+    lines[at] = ",".join(fields) + "\n"
+    (changed / "episodes.csv").write_text("".join(lines))
+    out = tmp_path / "r.html"
+    done = fftnav("replay", changed, "--task", "forest-7-fusion", "--out", out)
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert re.search(r"the rerun of forest-7-fusion must give the rows of .*episodes\.csv, got "
+                     r"other rows \(robot 1: path_length_m \d+\.\d{6} here, 99\.000000 in the "
+                     r"folder\)", done.stderr), done.stderr
+    assert not out.exists()
+    done = fftnav("replay", changed, "--task", "forest-8-fusion", "--out", out)
+    assert done.returncode == 0, done.stderr  # the other episodes still reproduce
+
+
+@pytest.mark.parametrize(("where", "task", "message"), [
+    ("small", "forest-7-fusoin", r"--task must be an episode of .*episodes\.csv, got "
+     r"--task='forest-7-fusoin'; did you mean forest-7-fusion"),
+    ("smal", "forest-7-fusion", r"RESULTS_DIR must be a results folder of fftnav run \(with "
+     r"config\.toml and episodes\.csv\), got RESULTS_DIR='.*smal'; did you mean .*small\?"),
+    (".", "forest-7-fusion", r"RESULTS_DIR must be a results folder .*; it holds the results "
+     r"folders small$"),
+])
+def test_a_bad_folder_or_task_is_one_line_naming_the_close_ones(small, tmp_path, where, task,
+                                                                  message):
+    from tests.report.small_results import fftnav
+
+    done = fftnav("replay", small.parent / where, "--task", task, "--out", tmp_path / "r.png")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert re.search(message, done.stderr.strip()), done.stderr
+
+
+def test_task_takes_one_folder_and_html_one_task(small, tmp_path):
+    from tests.report.small_results import fftnav
+
+    done = fftnav("replay", small, small, "--task", "forest-7-fusion", "--out", tmp_path / "r.png")
+    assert done.returncode == 2 and "--task names episodes of one results folder, got 2 paths" \
+        in done.stderr
+    done = fftnav("replay", small, "--task", "forest-7-fusion", "--task", "forest-8-fusion",
+                  "--out", tmp_path / "r.html")
+    assert done.returncode == 2 and "an .html player shows one recording, got 2" in done.stderr

@@ -3,11 +3,15 @@ known: the oracle of the replay tests.
 
 World 10 m x 8 m, one trunk at (8, 6). 60 ticks of 0.1 s (6 s), then the end tick:
 
-- robot 0 drives up x = 2 from y = 1 at 0.5 m/s in mode 0 (moving) and arrives at tick 40
-  (y = 3), where it stays (status arrived from tick 41);
-- robot 1 drives along y = 5 from x = 1 at 0.5 m/s in mode 1 (following);
-- robot 2 drives along y = 2 from x = 4 at 0.5 m/s in mode 2 (escaping), times out at the end;
-- robot 3 stands at (8, 4) in mode 0 and collides at tick 30 (status collided after it).
+- robot 0 drives up x = 2 from y = 1 at 0.5 m/s in state ``GOAL`` and arrives at tick 40
+  (y = 3), where it stays (status ``ARRIVED`` from tick 41);
+- robot 1 drives along y = 5 from x = 1 at 0.5 m/s in state ``FOLLOW``;
+- robot 2 drives along y = 2 from x = 4 at 0.5 m/s in state ``ESCAPE``, times out at the end;
+- robot 3 stands at (8, 4) in state ``GUIDED`` and collides at tick 30 (status ``COLLIDED``
+  after it).
+
+States and statuses are the codes of :mod:`fftnav.states` (the recording's ``state/mode`` and
+``status`` columns).
 
 Robot 1's scan returns 1.0 m on every beam ahead (|angle| < 90 degrees), nothing behind, and
 its safe mask is the beams behind. Every tick robot 0 delivers a message to robot 1.
@@ -20,7 +24,8 @@ import math
 import numpy as np
 
 from fftnav.config import SwarmConfig
-from fftnav.episode.recording import STATUS, Tape, write_recording
+from fftnav.episode.recording import Tape, write_recording
+from fftnav.states import State, Status
 from fftnav.world import Circle, World
 
 TICKS = 60
@@ -44,17 +49,29 @@ def pose(robot: int, tick: int) -> tuple[float, float, float]:
     return x, y, yaw
 
 
-def status(robot: int, tick: int) -> int:
+def status(robot: int, tick: int) -> Status:
     if robot == 0 and tick > 40:
-        return STATUS.index("arrived")
+        return Status.ARRIVED
     if robot == 3 and tick > 30:
-        return STATUS.index("collided")
+        return Status.COLLIDED
     if robot == 2 and tick == TICKS:
-        return STATUS.index("timed_out")
-    return STATUS.index("moving")
+        return Status.TIMED_OUT
+    return Status.MOVING
 
 
-MODES = (0.0, 1.0, 2.0, 0.0)
+#: Each robot's planner state while it moves.
+MODES = (State.GOAL, State.FOLLOW, State.ESCAPE, State.GUIDED)
+#: How each robot is drawn while it moves, by the story above (the replays' oracle).
+MOVING_KINDS = ("moving", "following", "escaping", "guided")
+
+
+def expected_kind(robot: int, tick: int) -> str:
+    """How robot ``robot`` is drawn at ``tick``: failed once it collided or timed out, arrived
+    once it arrived, else by its state (:data:`MOVING_KINDS`)."""
+    code = status(robot, tick)
+    if code in (Status.COLLIDED, Status.TIMED_OUT):
+        return "failed"
+    return "arrived" if code == Status.ARRIVED else MOVING_KINDS[robot]
 
 
 def angles() -> np.ndarray:
@@ -71,13 +88,13 @@ def make_recording(path) -> None:
     for g in range(TICKS):
         poses = np.array([pose(i, g) for i in range(n)])
         st = np.array([status(i, g) for i in range(n)])
-        moving = st == STATUS.index("moving")
+        moving = st == Status.MOVING
         ranges = np.zeros((n, len(a)))
         ranges[1] = np.where(ahead, 1.0, CONFIG.sensor.range_m)
         safe = np.zeros((n, len(a)), bool)
         safe[1] = ~ahead
         tape.tick(g * DT, poses, st, commands=np.tile([0.5, 0.0], (n, 1)), ranges_m=ranges,
-                  safe=safe, state={i: {"mode": MODES[i], "side": 1.0, "decisions": float(g // 10)}
+                  safe=safe, state={i: {"mode": float(MODES[i]), "side": 1.0, "decisions": float(g // 10)}
                                     for i in np.flatnonzero(moving).tolist()})
         tape.delivery(g, 0, 1, g)
     tape.end(TICKS * DT, np.array([pose(i, TICKS) for i in range(n)]),

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import shutil
+
 import numpy as np
 
 from fftnav.episode import EpisodeRow
@@ -26,21 +28,28 @@ def test_failures_figure_is_written(tmp_path):
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
-def test_figure_failures_cli_reads_a_results_folder(tmp_path):
-    import subprocess
-    import sys
-    from pathlib import Path
+def test_figure_failures_draws_kept_paths_and_reruns_the_others(tmp_path):
+    """``fftnav figure failures`` on a results folder: the paths of a map that keeps them, and
+    the same figure, pixel for pixel, once they are gone (a clone keeps none): the episode is
+    rerun, checked against the folder's rows; an episode the folder lacks is one line."""
+    from PIL import Image
 
-    root = Path(__file__).resolve().parents[2]
-    out = tmp_path / "f.png"
-    args = [sys.executable, "-m", "fftnav", "figure", "failures",
-            str(root / "experiments" / "collab" / "core_small.toml"), "--results",
-            str(root / "results" / "collab" / "core_small"), "--env", "traps", "--map", "1"]
-    res = subprocess.run([*args, "--policy", "collab", "--out", str(out)], capture_output=True,
-                         text=True, timeout=120)
-    assert res.returncode == 0, res.stderr
-    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
-    res = subprocess.run([*args[:-1], "5", "--policy", "collab", "--out", str(out)],
-                         capture_output=True, text=True, timeout=120)
-    assert res.returncode == 2 and "no trajectories" in res.stderr
-    assert len(res.stderr.strip().splitlines()) == 1
+    from tests.report.small_results import fftnav, make_small_results
+
+    results = make_small_results(tmp_path)
+    config = tmp_path / "small.toml"
+    args = ["figure", "failures", config, "--results", results, "--env", "forest", "--policy",
+            "fusion"]
+    done = fftnav(*args, "--map", "7", "--out", tmp_path / "kept.png")
+    assert done.returncode == 0, done.stderr
+    shutil.rmtree(results / "trajectories")
+    done = fftnav(*args, "--map", "7", "--out", tmp_path / "rerun.png")
+    assert done.returncode == 0, done.stderr
+    kept, rerun = (np.asarray(Image.open(tmp_path / f"{n}.png")) for n in ("kept", "rerun"))
+    np.testing.assert_array_equal(kept, rerun)
+    done = fftnav(*args, "--map", "8", "--out", tmp_path / "other.png")  # kept no paths
+    assert done.returncode == 0, done.stderr
+    assert (tmp_path / "other.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    done = fftnav(*args, "--map", "5", "--out", tmp_path / "none.png")
+    assert done.returncode == 2 and done.stderr.count("\n") == 1, done.stderr
+    assert "task must be an episode of" in done.stderr and "forest-7-fusion" in done.stderr

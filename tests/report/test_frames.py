@@ -7,10 +7,11 @@ from __future__ import annotations
 import io
 import math
 
-import matplotlib.pyplot as plt
 import numpy as np
 import pytest
+from matplotlib.backends.backend_agg import FigureCanvasAgg
 from matplotlib.colors import to_rgb
+from matplotlib.figure import Figure
 from PIL import Image
 
 from fftnav.episode.record import EpisodeRow
@@ -34,15 +35,17 @@ from fftnav.report.replay import (
 )
 from fftnav.report.trajectories import episode_frame, plot_episode
 from fftnav.world import World
-from tests.report.recordings import MODES, TICKS, pose, status
+from tests.report.recordings import TICKS, expected_kind, pose
 
 R0 = 0.15
-WORLD = World("forest", 0, (12.0, 8.0), (), np.zeros((6, 3)), np.array([[11.0, 7.5]] * 6))
+WORLD = World("forest", 0, (12.0, 8.0), (), np.zeros((7, 3)), np.array([[11.0, 7.5]] * 7))
 
 
 def _render(frame: SwarmFrame, world: World = WORLD):
     """The frame as pixels, and a function from world (m) to pixel (row, col)."""
-    fig, ax = plt.subplots(figsize=(6, 4), dpi=100)
+    fig = Figure(figsize=(6, 4), dpi=100)
+    FigureCanvasAgg(fig)
+    ax = fig.subplots()
     draw_frame(ax, world, frame, R0)
     fig.canvas.draw()
     buffer = io.BytesIO()
@@ -55,7 +58,6 @@ def _render(frame: SwarmFrame, world: World = WORLD):
         px, py = transform.transform((x, y))
         return pixels[int(height - py), int(px)]
 
-    plt.close(fig)
     return pixels, at
 
 
@@ -64,8 +66,8 @@ def _blend(colour: str, alpha: float) -> np.ndarray:
 
 
 def test_every_state_has_its_colour_at_the_robots_pixel():
-    poses = np.array([[1.0 + 2 * i, 4.0, 0.3 * i] for i in range(6)])
-    frame = SwarmFrame(poses=poses, kinds=np.arange(6))
+    poses = np.array([[1.0 + 1.6 * i, 4.0, 0.3 * i] for i in range(len(KINDS))])
+    frame = SwarmFrame(poses=poses, kinds=np.arange(len(KINDS)))
     _, at = _render(frame)
     for i, kind in enumerate(KINDS):
         assert tuple(at(*poses[i, :2])) == kind_rgb(kind), kind
@@ -114,18 +116,11 @@ def test_runs_of_safe_beams_wrap_round_a_full_circle():
     assert runs_of(np.zeros(4, bool), wrap=True) == []
 
 
-def _oracle_kind(robot, tick):
-    code = status(robot, tick)
-    if code in (3, 4):
-        return "failed"
-    return "arrived" if code == 2 else ("moving", "following", "escaping")[int(MODES[robot])]
-
-
 def test_robot_kinds_follow_status_and_mode(recording):
     kinds = robot_kinds(recording)
     for tick in (0, 30, 31, 40, 41, TICKS):
         for i in range(4):
-            assert KINDS[kinds[tick, i]] == _oracle_kind(i, tick), (i, tick)
+            assert KINDS[kinds[tick, i]] == expected_kind(i, tick), (i, tick)
 
 
 def test_recording_frame_has_poses_trails_messages_and_the_picked_scan(recording):
@@ -187,3 +182,24 @@ def test_gif_frames_are_the_png_frames_on_the_gif_palette(recording, tmp_path):
     for kind in ("moving", "following", "escaping", "failed"):  # exact on the palette
         where = (png == kind_rgb(kind)).all(-1)
         assert where.sum() > 20 and (last[where] == kind_rgb(kind)).all()
+
+
+def test_every_gif_frame_over_the_ones_before_is_the_png_of_its_time(recording, tmp_path):
+    """Frames after the first carry only what changed (the rest transparent): decoded in
+    order, each is the PNG of its time, at any width."""
+    gif = write_video(recording, tmp_path / "r.gif", robot=2, from_s=1.0, to_s=5.0, speed=20,
+                      width_px=320)
+    with Image.open(gif) as frames:
+        assert frames.n_frames == 3 and frames.size[0] == 320  # 1, 3, 5 s
+        decoded = []
+        for k in range(frames.n_frames):
+            frames.seek(k)
+            decoded.append(np.asarray(frames.convert("RGB")).astype(int))
+    for at_s, frame in zip((1.0, 3.0, 5.0), decoded, strict=True):
+        png = write_image(recording, tmp_path / f"{at_s}.png", at_s=at_s, robot=2, width_px=320)
+        png = np.asarray(Image.open(png).convert("RGB")).astype(int)
+        assert frame.shape == png.shape
+        assert (np.abs(frame - png).max(axis=-1) > 40).mean() < 0.002, at_s
+    assert not np.array_equal(decoded[0], decoded[2])
+    with pytest.raises(ValueError, match=r"width_px must be an integer in \[160, 4096\], got "):
+        write_image(recording, tmp_path / "x.png", width_px=100)

@@ -16,6 +16,7 @@ import io
 import json
 import os
 import queue
+import re
 import shutil
 import subprocess
 import threading
@@ -29,7 +30,8 @@ from fftnav.episode.recording import read_recording
 from fftnav.report.frames import KINDS, kind_rgb
 from fftnav.report.replay import robot_kinds
 from fftnav.report.replay_html import write_html
-from tests.report.recordings import MODES, TICKS, make_recording, pose, status
+from tests.report.recordings import TICKS, expected_kind, make_recording, pose
+from tests.report.small_results import fftnav, make_small_results
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
 
@@ -130,6 +132,25 @@ class DevTools:
         os.close(self._write)
 
 
+def _open(browser: str, html, profile) -> DevTools:
+    """A DevTools session on ``html`` once its player is ready."""
+    tools = DevTools(browser, str(profile))
+    target = tools.call("Target.createTarget", url="about:blank")["targetId"]
+    tools.session = tools.call("Target.attachToTarget", targetId=target,
+                               flatten=True)["sessionId"]
+    for domain in ("Runtime", "Log", "Page", "Network"):
+        tools.call(f"{domain}.enable")
+    tools.call("Emulation.setDeviceMetricsOverride", width=1100, height=800,
+               deviceScaleFactor=1, mobile=False)
+    tools.call("Page.navigate", url=html.as_uri())
+    deadline = time.monotonic() + 10
+    while not tools.evaluate("!!(window.fftnavPlayer && window.fftnavPlayer.ready)"):
+        assert time.monotonic() < deadline, "the player did not start"
+        time.sleep(0.05)
+    assert tools.evaluate("window.fftnavPlayer.ready") is True
+    return tools
+
+
 @pytest.fixture(scope="module")
 def page(tmp_path_factory):
     browser = _browser()
@@ -137,21 +158,8 @@ def page(tmp_path_factory):
     make_recording(folder / "r.npz")
     html = folder / "r.html"
     write_html(read_recording(folder / "r.npz"), html, robot=1, speed=4.0)
-    tools = DevTools(browser, str(folder / "profile"))
+    tools = _open(browser, html, folder / "profile")
     try:
-        target = tools.call("Target.createTarget", url="about:blank")["targetId"]
-        tools.session = tools.call("Target.attachToTarget", targetId=target,
-                                   flatten=True)["sessionId"]
-        for domain in ("Runtime", "Log", "Page", "Network"):
-            tools.call(f"{domain}.enable")
-        tools.call("Emulation.setDeviceMetricsOverride", width=1100, height=800,
-                   deviceScaleFactor=1, mobile=False)
-        tools.call("Page.navigate", url=html.as_uri())
-        deadline = time.monotonic() + 10
-        while not tools.evaluate("!!(window.fftnavPlayer && window.fftnavPlayer.ready)"):
-            assert time.monotonic() < deadline, "the player did not start"
-            time.sleep(0.05)
-        assert tools.evaluate("window.fftnavPlayer.ready") is True
         yield tools
     finally:
         tools.close()
@@ -184,16 +192,6 @@ def _robot_pixels(tools: DevTools, shot: np.ndarray, tick: int) -> dict[int, tup
     return out
 
 
-def _expected_kind(robot: int, tick: int) -> str:
-    """The state the recording's oracle says robot ``robot`` is in at ``tick``."""
-    code = status(robot, tick)
-    if code in (3, 4):
-        return "failed"
-    if code == 2:
-        return "arrived"
-    return ("moving", "following", "escaping")[int(MODES[robot])]
-
-
 def read_recording_of(tools: DevTools):
     """The recording the page was written from (the fixture's folder)."""
     path = tools.evaluate("location.pathname").replace(".html", ".npz")
@@ -204,7 +202,7 @@ def test_start_frame_draws_every_robot_in_its_state_colour(page):
     shot = page.screenshot()
     assert page.evaluate("window.fftnavPlayer.tick") == 0
     for i, rgb in _robot_pixels(page, shot, 0).items():
-        assert rgb == kind_rgb(_expected_kind(i, 0)), (i, rgb)
+        assert rgb == kind_rgb(expected_kind(i, 0)), (i, rgb)
     assert not _errors(page.events)
 
 
@@ -219,13 +217,13 @@ def test_playing_moves_the_robots_to_their_recorded_poses(page):
     shot = page.screenshot()
     kinds = robot_kinds(read_recording_of(page))[tick]
     for i, rgb in _robot_pixels(page, shot, tick).items():
-        assert _expected_kind(i, tick) == KINDS[kinds[i]]
-        assert rgb == kind_rgb(_expected_kind(i, tick)), (i, rgb)
+        assert expected_kind(i, tick) == KINDS[kinds[i]]
+        assert rgb == kind_rgb(expected_kind(i, tick)), (i, rgb)
     page.evaluate("window.fftnavPlayer.seek(2.0)")  # mid-episode: robot 0 still moving
     assert page.evaluate("window.fftnavPlayer.tick") == 20
     shot = page.screenshot()
     for i, rgb in _robot_pixels(page, shot, 20).items():
-        assert rgb == kind_rgb(_expected_kind(i, 20)), (i, rgb)
+        assert rgb == kind_rgb(expected_kind(i, 20)), (i, rgb)
     assert not _errors(page.events)
 
 
@@ -240,3 +238,33 @@ def test_a_click_picks_the_robot_under_the_pointer(page):
     assert page.evaluate("document.getElementById('robot-title').textContent") == "robot 2"
     page.evaluate("window.fftnavPlayer.setLayer('trails', false)")
     assert not _errors(page.events)
+
+
+def test_a_recording_made_on_demand_opens_in_the_player(tmp_path):
+    """The done-when of recordings on demand: a failure listed in a results folder's report.md,
+    made by ``fftnav replay RESULTS_DIR --task TASK --out r.html`` without the recording the
+    run kept, opens in the player, every robot drawn where and as the run's own recording
+    says."""
+    browser = _browser()
+    results = make_small_results(tmp_path)
+    listed = re.search(r"--task (\S+) --out", (results / "report.md").read_text()).group(1)
+    kept = read_recording(results / "records" / f"{listed}.npz")  # the oracle, then removed
+    shutil.rmtree(results / "records")
+    done = fftnav("replay", results, "--task", listed, "--out", tmp_path / "r.html",
+                  cwd=tmp_path)
+    assert done.returncode == 0, done.stderr
+    tools = _open(browser, tmp_path / "r.html", tmp_path / "profile")
+    try:
+        tools.evaluate("window.fftnavPlayer.seek(2.0)")
+        tick = tools.evaluate("window.fftnavPlayer.tick")
+        assert tick == kept.tick_at(2.0 + 1e-9)
+        shot = tools.screenshot()
+        kinds = robot_kinds(kept)[tick]
+        for i in range(kept.n_robots):
+            x, y = kept.pose[tick, i, :2]
+            px, py = tools.evaluate(f"window.fftnavPlayer.toPage({x}, {y})")
+            rgb = tuple(int(c) for c in shot[int(round(py)), int(round(px))])
+            assert rgb == kind_rgb(KINDS[kinds[i]]), (i, rgb)
+        assert not _errors(tools.events)
+    finally:
+        tools.close()

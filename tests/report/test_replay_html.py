@@ -13,7 +13,7 @@ import pytest
 
 from fftnav.report.frames import KINDS
 from fftnav.report.replay_html import player_data, write_html
-from tests.report.recordings import TICKS, pose
+from tests.report.recordings import MODES, TICKS, expected_kind, pose
 
 TYPES = {"Float32Array": "<f4", "Uint8Array": "u1", "Uint16Array": "<u2", "Int32Array": "<i4"}
 
@@ -34,8 +34,10 @@ def test_window_arrays_are_the_recordings(recording):
     for k, tick in enumerate(range(10, 31)):
         np.testing.assert_allclose(pose_[k], [pose(i, tick) for i in range(4)], atol=1e-5)
     kinds = a["kind"].reshape(g, 4)
-    assert [header["kinds"][c] for c in kinds[0]] == ["moving", "following", "escaping", "moving"]
+    assert [header["kinds"][c] for c in kinds[0]] == [expected_kind(i, 10) for i in range(4)]
     assert header["kinds"] == list(KINDS)
+    assert [header["kinds"][c] for c in header["driving"]] == [
+        "moving", "following", "escaping", "guided"]
     assert (np.diff(a["msgStart"]) == 1).all() and a["msg"].reshape(-1, 2).tolist() == [[0, 1]] * g
     m = len(header["angles"])
     scan = a["scan"].reshape(g, 4, m) * header["scanStep"]
@@ -46,7 +48,7 @@ def test_window_arrays_are_the_recordings(recording):
     names = header["stateNames"]
     state = a["state"].reshape(len(names), g, 4)
     assert names[:3] == ["mode", "side", "decisions"]
-    assert state[names.index("mode"), 0].tolist() == [0.0, 1.0, 2.0, 0.0]
+    assert state[names.index("mode"), 0].tolist() == [float(m) for m in MODES]
     assert state[names.index("command v (m/s)"), 0, 0] == pytest.approx(0.5)
     assert [o["failure"] for o in header["outcomes"]] == ["", "", "slow", "collision"]
 

@@ -16,7 +16,7 @@ from fftnav.metrics import FAILURE_CAUSES
 from fftnav.optimal.difficulty import MEASURES
 from fftnav.report.difficulty import spearman_markdown
 from fftnav.report.experiment import write_report
-from fftnav.report.failures import failure_positions, failure_table, record_path
+from fftnav.report.failures import REPLAY_COLUMN, failure_positions, failure_table
 from fftnav.runner import TaskResult, parse_config, run_experiment
 from fftnav.runner.maps import MAPS_COLUMNS, map_spl, spearman_table
 
@@ -69,8 +69,8 @@ def _csv_counts(out):
 
 def test_failure_table_counts_are_those_of_episodes_csv(results):
     episodes = pd.read_csv(results / "episodes.csv")
-    table = failure_table(episodes, results, envs=CONFIG.envs, policies=CONFIG.policy_names)
-    assert list(table.columns) == ["env", "policy", "robots", "failed", *CAUSES, "recordings"]
+    table = failure_table(episodes, envs=CONFIG.envs, policies=CONFIG.policy_names)
+    assert list(table.columns) == ["env", "policy", "robots", "failed", *CAUSES, REPLAY_COLUMN]
     assert list(zip(table.env, table.policy, strict=True)) == [
         (e, p) for e in CONFIG.envs for p in CONFIG.policy_names]
     counts = _csv_counts(results)
@@ -81,35 +81,34 @@ def test_failure_table_counts_are_those_of_episodes_csv(results):
                                   if (e, p) == (r["env"], r["policy"]))
         for cause in CAUSES:
             assert r[cause] == counts[r["env"], r["policy"], cause]
-        assert r["recordings"] == "-"  # no records/ folder
+        tasks = sorted({(int(m), f"`{e}-{m}-{p}`") for e, m, p in _failed_episodes(results)
+                        if (e, p) == (r["env"], r["policy"])})
+        assert r[REPLAY_COLUMN] == (", ".join(t for _, t in tasks) or "-")
     report = write_report(CONFIG, results).read_text()
     section = report[report.index("## Why robots failed"):report.index("## Figures")]
     for r in table.to_dict("records"):
-        cells = [r["env"], r["policy"], r["robots"], r["failed"], *(r[c] for c in CAUSES)]
-        assert "| " + " | ".join(map(str, cells)) + " | - |" in section
+        cells = [r["env"], r["policy"], r["robots"], r["failed"], *(r[c] for c in CAUSES),
+                 r[REPLAY_COLUMN]]
+        assert "| " + " | ".join(map(str, cells)) + " |" in section
 
 
-def test_recordings_are_linked_only_when_they_exist(results):
-    episodes = pd.read_csv(results / "episodes.csv")
-    failed = episodes[~episodes.arrived].groupby(["env", "policy"]).map_seed.unique()
-    (env, policy), seeds = next(iter(failed.items()))
-    recorded = sorted(seeds)[:2]
-    for seed in recorded:
-        path = record_path(results, env, seed, policy)
-        path.parent.mkdir(exist_ok=True)
-        path.write_bytes(b"recording")
-    arrived_everywhere = sorted(set(range(3, 9)) - set(seeds))
-    if arrived_everywhere:  # a recording of an episode without a failure is not linked
-        record_path(results, env, arrived_everywhere[0], policy).write_bytes(b"x")
-    table = failure_table(episodes, results, envs=CONFIG.envs, policies=CONFIG.policy_names)
-    row = table[(table.env == env) & (table.policy == policy)].iloc[0]
-    assert row.recordings == ", ".join(
-        f"[{s}](records/{env}-{s}-{policy}.npz)" for s in recorded)
-    assert (table.recordings == "-").sum() == len(table) - 1
-    report = write_report(CONFIG, results)
-    links = [part.split(")")[0] for part in report.read_text().split("](records/")[1:]]
-    assert links == [f"{env}-{s}-{policy}.npz" for s in recorded]
-    assert all((report.parent / "records" / name).is_file() for name in links)
+def _failed_episodes(out):
+    """(env, map_seed, policy) of every episode with a robot that did not arrive (csv module)."""
+    with open(out / "episodes.csv", newline="") as fh:
+        return {(r["env"], r["map_seed"], r["policy"]) for r in csv.DictReader(fh)
+                if r["arrived"] == "false"}
+
+
+def test_the_report_says_how_to_make_the_recording_of_a_failure(results, monkeypatch):
+    monkeypatch.chdir(results.parent)
+    report = write_report(CONFIG, results).read_text()
+    order = {"env": CONFIG.envs.index, "policy": CONFIG.policy_names.index}  # the table's
+    first = min(_failed_episodes(results),
+                key=lambda k: (order["env"](k[0]), order["policy"](k[2]), int(k[1])))
+    task = "-".join(first)
+    assert (f"`fftnav replay results --task {task} --out {task}.html` reruns that episode"
+            in report)
+    assert not (results / "records").exists() or not any((results / "records").iterdir())
 
 
 def test_failure_positions_are_the_last_points_of_the_failed_robots(results):

@@ -276,3 +276,16 @@ def test_many_maps_start_their_first_episodes_after_one_batch(tmp_path, monkeypa
     references = [e for e in events if e[0] == "reference"]
     assert references == [("reference", "forest", seed) for seed in range(256)]
     assert events[256:] == [("episode", "forest", 0)] * 2
+
+
+def test_run_info_config_json_and_report_say_the_fftnav_that_ran(tmp_path, monkeypatch):
+    """The version comes from the running package (``fftnav.__version__``), not from the
+    install's metadata, which an editable install keeps from when it was installed."""
+    import fftnav
+    from fftnav.report.experiment import write_report
+
+    monkeypatch.setattr(fftnav, "__version__", "9.8.7")
+    run_experiment(CONFIG, tmp_path, workers=1, task_fn=fake_task, progress=False)
+    assert json.loads((tmp_path / "run_info.json").read_text())["fftnav_version"] == "9.8.7"
+    assert json.loads((tmp_path / "config.json").read_text())["fftnav_version"] == "9.8.7"
+    assert "fftnav 9.8.7, git" in write_report(CONFIG, tmp_path).read_text()

@@ -223,3 +223,37 @@ def test_an_axis_of_one_envs_world_draws_that_env_only():
     assert figure_envs(table, "wall_length_m") == ["walls"]
     assert figure_envs(table, "range_m") == ["forest", "walls"]
     assert figure_envs(table[table.cell == "base"], "") == ["forest", "walls"]
+
+
+def test_figure_sweep_works_from_the_committed_summary_plus_what_a_rerun_writes(tmp_path):
+    """A committed sweep keeps each cell's summaries, not its episodes.csv: the report rebuilt
+    without them (every cell, or only the cells a rerun has not written again) has the rows and
+    verdicts of the report from the episodes, and names the cells it read from the summary."""
+    from fftnav.report.sweep import write_sweep_report
+
+    data = {"experiment": {"name": "w", "envs": ["walls"], "maps": 20, "map_seed": 0,
+                           "robots": 1, "policies": ["own-only", "fusion", "collab"]},
+            "sweep": {"comms.packet_loss": [0.3]}}
+    config = parse_config(data)
+    rng = np.random.default_rng(5)
+    for k, (name, _) in enumerate(config.cells):
+        own = rng.uniform(0.4, 0.8, 20)  # collab ahead on all 20 maps: exact p = 2 / 2**20
+        spl = {"own-only": own, "fusion": own + rng.uniform(-0.01, 0.02, 20),
+               "collab": own + 0.05 * (k + 1) + 0.0013 * np.arange(20)}
+        (tmp_path / name).mkdir()
+        _episodes(spl).to_csv(tmp_path / name / "episodes.csv", index=False)
+    from_episodes = write_sweep_report(config, tmp_path).read_text()
+    summary = pd.read_csv(tmp_path / "sweep_summary.csv")
+    assert summary.p_value.min() == pytest.approx(2 / 2**20, rel=1e-5)  # not %.6f
+    episodes = {name: (tmp_path / name / "episodes.csv").read_bytes() for name, _ in config.cells}
+    for gone in (["packet_loss=0.3"], ["base", "packet_loss=0.3"]):
+        for name in gone:
+            (tmp_path / name / "episodes.csv").unlink()
+        text = write_sweep_report(config, tmp_path).read_text()
+        assert f"sweep_summary.csv` (their episodes.csv is not here; rerun them with `fftnav " \
+               f"run` to recompute them): {', '.join(gone)}." in text
+        assert text.replace(text.split("\n\n")[2] + "\n\n", "", 1) == from_episodes
+        again = pd.read_csv(tmp_path / "sweep_summary.csv")
+        pd.testing.assert_frame_equal(again, summary, rtol=1e-5)
+        for name, data_ in episodes.items():  # what a rerun writes back
+            (tmp_path / name / "episodes.csv").write_bytes(data_)
