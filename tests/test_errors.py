@@ -83,7 +83,9 @@ def test_an_installed_extra_is_imported():
 
 def test_errors_raised_in_a_worker_process_pickle_whole():
     for err in (FftnavError("range_m must be a finite number > 0, got range_m=0"),
+                UnreachableGoalError((0, 0), (2, 3)),
                 MissingExtraError("rosbags.highlevel", extra="ros", needed_for="ROS bags")):
         back = pickle.loads(pickle.dumps(err))
         assert type(back) is type(err) and str(back) == str(err)
     assert (back.name, back.extra, back.needed_for) == ("rosbags.highlevel", "ros", "ROS bags")
+    assert pickle.loads(pickle.dumps(UnreachableGoalError((0, 0), (2, 3)))).goal == (2, 3)

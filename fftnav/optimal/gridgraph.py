@@ -56,6 +56,10 @@ class UnreachableGoalError(FftnavError):
         self.start = start
         self.goal = goal
 
+    def __reduce__(self) -> tuple:
+        # made again from its cells when pickled (e.g. raised in a worker process)
+        return type(self), (self.start, self.goal)
+
 
 @dataclass(frozen=True)
 class GridPath:
