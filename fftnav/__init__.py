@@ -4,8 +4,12 @@ Data flow, one module per stage::
 
     scan -> filters -> safe directions / compressed message -> fusion
          -> planner -> simulator -> metrics -> runner -> report
+
+Every error the library raises on purpose is a :class:`FftnavError` (a ``ValueError``); a
+missing optional extra is a :class:`MissingExtraError` (an ``ImportError``) naming its pip line.
 """
 
+from fftnav.errors import FftnavError, MissingExtraError
 from fftnav.observe.codec import MessageError, decode_message, decode_sigma, encode_sigma
 from fftnav.observe.filters import FilterBank
 from fftnav.observe.fusion import decide_turn
@@ -19,4 +23,5 @@ __all__ = [
     "RobotGeometry", "SIM_ROBOT", "REAL_ROBOT", "DRONE", "__version__",
     "FilterBank", "Pipeline", "PipelineResult", "is_safe_direction", "nearest_safe_headings",
     "encode_sigma", "decode_sigma", "decode_message", "MessageError", "decide_turn",
+    "FftnavError", "MissingExtraError",
 ]

@@ -1,14 +1,15 @@
 """The documented resource limits, and estimate-then-refuse checks for them.
 
 Every stage that allocates or loops in proportion to an input estimates the amount first and
-refuses (``ValueError`` naming the estimate, the limit and what to change) before allocating
-anything, so that a typo such as ``--resolution 1e-6`` or ``maps = 1000000000`` is a one-line
-refusal instead of an hour of swapping:
+refuses (:class:`~fftnav.errors.FftnavError`, a ``ValueError``, naming the estimate, the limit
+and what to change) before allocating anything, so that a typo such as ``--resolution 1e-6`` or
+``maps = 1000000000`` is a one-line refusal instead of an hour of swapping:
 
 >>> check_limit("grid cells", 4_000_000_000, MAX_GRID_CELLS, hint="raise resolution_m")
 Traceback (most recent call last):
 ...
-ValueError: grid cells: 4,000,000,000 estimated, above the limit of 100,000,000; raise resolution_m
+fftnav.errors.FftnavError: grid cells: 4,000,000,000 estimated, above the limit of \
+100,000,000; raise resolution_m
 
 The limits (``docs/experiments.md`` lists them) are far above anything the paper's setup needs
 and below what a 2-core, 8 GB machine survives. Pure Python.
@@ -17,6 +18,8 @@ and below what a 2-core, 8 GB machine survives. Pure Python.
 from __future__ import annotations
 
 import math
+
+from fftnav.errors import FftnavError
 
 __all__ = [
     "MAX_BEAMS", "MAX_DEPTH_PIXELS", "MAX_EPISODE_PHYSICS_STEPS", "MAX_GRID_CELLS",
@@ -52,7 +55,7 @@ MAX_JSON_DEPTH = 64
 
 
 def check_limit(what: str, estimate: float, limit: float, *, hint: str = "") -> float:
-    """Return ``estimate`` if it is finite and at most ``limit``; else ValueError with both.
+    """Return ``estimate`` if it is finite and at most ``limit``; else FftnavError with both.
 
     Parameters
     ----------
@@ -68,8 +71,8 @@ def check_limit(what: str, estimate: float, limit: float, *, hint: str = "") -> 
     if not math.isfinite(estimate) or estimate > limit:
         small = math.isfinite(estimate) and estimate < 1e18
         shown = f"{estimate:,.0f}" if small else f"{estimate:.3g}"
-        raise ValueError(f"{what}: {shown} estimated, above the limit of {limit:,}"
-                         + (f"; {hint}" if hint else ""))
+        raise FftnavError(f"{what}: {shown} estimated, above the limit of {limit:,}"
+                          + (f"; {hint}" if hint else ""))
     return estimate
 
 

@@ -8,15 +8,16 @@ function (or a constructor taking arguments) calls the ``check_*`` helpers on it
     >>> check_number("range_m", -1.0, low=0, low_open=True)
     Traceback (most recent call last):
     ...
-    ValueError: range_m must be a finite number > 0, got range_m=-1.0
+    fftnav.errors.FftnavError: range_m must be a finite number > 0, got range_m=-1.0
     >>> check_integer("beams", 4, low=8)
     Traceback (most recent call last):
     ...
-    ValueError: beams must be an integer >= 8, got beams=4
+    fftnav.errors.FftnavError: beams must be an integer >= 8, got beams=4
     >>> check_choice("broadcast", "always", ("on_obstacle", "every_tick"))
     Traceback (most recent call last):
     ...
-    ValueError: broadcast must be one of ['on_obstacle', 'every_tick'], got broadcast='always'
+    fftnav.errors.FftnavError: broadcast must be one of ['on_obstacle', 'every_tick'], \
+got broadcast='always'
 
 A dataclass declares the check on each field instead (:func:`number_field`,
 :func:`integer_field`, :func:`choice_field`, :func:`checked_field`) and derives from
@@ -33,15 +34,16 @@ A dataclass declares the check on each field instead (:func:`number_field`,
     >>> Lidar(beams=4)
     Traceback (most recent call last):
     ...
-    ValueError: beams must be an integer >= 8, got beams=4
+    fftnav.errors.FftnavError: beams must be an integer >= 8, got beams=4
     >>> Lidar.checked({"range_m": 0}, prefix="sensor.")
     Traceback (most recent call last):
     ...
-    ValueError: sensor.range_m must be a finite number > 0, got sensor.range_m=0
+    fftnav.errors.FftnavError: sensor.range_m must be a finite number > 0, got sensor.range_m=0
 
 The message form is ``NAME must be REQUIREMENT, got NAME=VALUE``; ``NAME`` may be a dotted
-config key (``sensor.range_m``) or a file location (``obstacles[3].radius``). Booleans are never
-numbers. Pure Python and numpy.
+config key (``sensor.range_m``) or a file location (``obstacles[3].radius``). Every refusal is a
+:class:`fftnav.errors.FftnavError`, a ``ValueError``. Booleans are never numbers. Pure Python
+and numpy.
 """
 
 from __future__ import annotations
@@ -55,11 +57,13 @@ from typing import Any, TypeVar
 
 import numpy as np
 
+from fftnav.errors import FftnavError
+
 __all__ = ["Checked", "check_choice", "check_integer", "check_multiple", "check_number",
            "check_vector", "checked_field", "choice_field", "integer_field", "is_integer",
            "is_number", "number_field"]
 
-#: A check: ``check(name, value)`` returns the value to keep or raises ValueError naming it.
+#: A check: ``check(name, value)`` returns the value to keep or raises FftnavError naming it.
 Check = Callable[[str, Any], Any]
 _C = TypeVar("_C", bound="Checked")
 
@@ -85,13 +89,13 @@ def _bounds_text(low: float | None, high: float | None, low_open: bool, high_ope
     return ""
 
 
-def _check_bounds(name: str, value: Any, kind: str, number: float, low: float | None,
-                  high: float | None, low_open: bool, high_open: bool) -> None:
+def _check_bounds(name: str, value: Any, *, kind: str, number: float, low: float | None,
+                  high: float | None, low_open: bool = False, high_open: bool = False) -> None:
     too_low = low is not None and (number <= low if low_open else number < low)
     too_high = high is not None and (number >= high if high_open else number > high)
     if too_low or too_high:
-        raise ValueError(f"{name} must be {kind}{_bounds_text(low, high, low_open, high_open)}, "
-                         f"got {name}={value!r}")
+        raise FftnavError(f"{name} must be {kind}{_bounds_text(low, high, low_open, high_open)}, "
+                          f"got {name}={value!r}")
 
 
 def check_number(name: str, value: Any, *, low: float | None = None, high: float | None = None,
@@ -115,13 +119,14 @@ def check_number(name: str, value: Any, *, low: float | None = None, high: float
 
     Raises
     ------
-    ValueError
+    FftnavError
         ``NAME must be a finite number [bounds], got NAME=VALUE``.
     """
     if not is_number(value) or not math.isfinite(value):
-        raise ValueError(f"{name} must be a finite number"
-                         f"{_bounds_text(low, high, low_open, high_open)}, got {name}={value!r}")
-    _check_bounds(name, value, "a finite number", float(value), low, high, low_open, high_open)
+        raise FftnavError(f"{name} must be a finite number"
+                          f"{_bounds_text(low, high, low_open, high_open)}, got {name}={value!r}")
+    _check_bounds(name, value, kind="a finite number", number=float(value), low=low, high=high,
+                  low_open=low_open, high_open=high_open)
     return float(value)
 
 
@@ -131,22 +136,22 @@ def check_integer(name: str, value: Any, *, low: int | None = None,
 
     Raises
     ------
-    ValueError
+    FftnavError
         ``NAME must be an integer [bounds], got NAME=VALUE`` (floats such as ``3.0`` and
         booleans are refused).
     """
     if not is_integer(value):
-        raise ValueError(f"{name} must be an integer{_bounds_text(low, high, False, False)}, "
-                         f"got {name}={value!r}")
-    _check_bounds(name, value, "an integer", int(value), low, high, False, False)
+        raise FftnavError(f"{name} must be an integer{_bounds_text(low, high, False, False)}, "
+                          f"got {name}={value!r}")
+    _check_bounds(name, value, kind="an integer", number=int(value), low=low, high=high)
     return int(value)
 
 
 def check_choice(name: str, value: Any, choices: Iterable[Any]) -> Any:
-    """Return ``value`` if it is one of ``choices``; ValueError listing them otherwise."""
+    """Return ``value`` if it is one of ``choices``; FftnavError listing them otherwise."""
     options = list(choices)
     if isinstance(value, bool) or value not in options:
-        raise ValueError(f"{name} must be one of {options}, got {name}={value!r}")
+        raise FftnavError(f"{name} must be one of {options}, got {name}={value!r}")
     return value
 
 
@@ -154,7 +159,7 @@ def check_vector(name: str, value: Any, n: int) -> tuple[float, ...]:
     """Return ``value`` as a tuple of ``n`` floats if it is a list or tuple of ``n`` finite
     numbers; element ``i`` is checked as ``NAME[i]``."""
     if not isinstance(value, (list, tuple)) or len(value) != n:
-        raise ValueError(f"{name} must be a list of {n} numbers, got {name}={value!r:.80}")
+        raise FftnavError(f"{name} must be a list of {n} numbers, got {name}={value!r:.80}")
     return tuple(check_number(f"{name}[{i}]", v) for i, v in enumerate(value))
 
 
@@ -166,12 +171,13 @@ def check_multiple(name: str, value: float, base_name: str, base: float) -> int:
     >>> check_multiple("physics_hz", 25.0, "control_hz", 10.0)
     Traceback (most recent call last):
     ...
-    ValueError: physics_hz must be an integer multiple of control_hz=10.0, got physics_hz=25.0
+    fftnav.errors.FftnavError: physics_hz must be an integer multiple of control_hz=10.0, \
+got physics_hz=25.0
     """
     ratio = value / base
     if ratio < 1 or abs(ratio - round(ratio)) > 1e-9:
-        raise ValueError(f"{name} must be an integer multiple of {base_name}={base!r}, "
-                         f"got {name}={value!r}")
+        raise FftnavError(f"{name} must be an integer multiple of {base_name}={base!r}, "
+                          f"got {name}={value!r}")
     return round(ratio)
 
 
@@ -228,7 +234,7 @@ class Checked:
         out = {}
         for key, value in values.items():
             if key not in fields:
-                raise ValueError(f"unknown key {prefix}{key}; expected one of {list(fields)}")
+                raise FftnavError(f"unknown key {prefix}{key}; expected one of {list(fields)}")
             check = fields[key].metadata.get("check")
             out[key] = value if check is None else check(f"{prefix}{key}", value)
         return out
@@ -242,7 +248,7 @@ class Checked:
         try:
             return cls(**kwargs, **given)
         except ValueError as exc:
-            raise ValueError(f"[{table}] {exc}") from None
+            raise FftnavError(f"[{table}] {exc}") from None
 
     def __post_init__(self) -> None:
         for f in dataclasses.fields(self):

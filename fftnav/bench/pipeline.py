@@ -25,6 +25,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.files import write_atomic
 from fftnav.observe.geometry import SIM_ROBOT
 from fftnav.observe.pipeline import Pipeline
@@ -229,7 +230,7 @@ def record_csv(result: dict, path: str | Path, *, append: bool = False) -> None:
         with path.open(newline="") as fh:
             header = next(csv.reader(fh), [])
         if header != list(row):
-            raise ValueError(
+            raise FftnavError(
                 f"cannot append to {str(path)!r}: its columns {header} differ from {list(row)}"
             )
     path.parent.mkdir(parents=True, exist_ok=True)

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.sim.swarm import SimConfig, SwarmSim
 from fftnav.validate import check_integer, check_number
 from fftnav.world import World, generate_world
@@ -54,8 +55,8 @@ def bench_world(env: str, seed: int, *, robots: int = 15, size_m: float | None =
     rows = math.ceil(robots / per_row)
     half = preset["strip_half_width_m"] - preset["robot_radius_m"]
     if (rows - 1) * ROW_GAP_M / 2 > half:
-        raise ValueError(f"robots={robots} do not fit on the start strip of a {size:g} m map "
-                         f"({rows} rows of {per_row}); choose a larger size_m")
+        raise FftnavError(f"robots={robots} do not fit on the start strip of a {size:g} m map "
+                          f"({rows} rows of {per_row}); choose a larger size_m")
     world = generate_world(env, seed, size_m=[size, size], goal_y_m=size - 1.0,
                            robots=min(robots, per_row))
     if rows == 1 and per_row == robots:

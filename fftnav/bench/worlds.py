@@ -30,6 +30,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.limits import MAX_MAP_SIDE_M, MAX_OBSTACLES
 from fftnav.validate import check_integer
 from fftnav.world import World
@@ -62,7 +63,7 @@ def trunk_field(trunks: int, side_m: float, *, seed: int = 0, robots: int = _ROB
     radius = np.round(rng.uniform(0.05, 0.1, trunks), 4)
     slack = np.array([width, height]) / 2 - 0.1 - 0.05 - 1e-4  # 0.1 m apart at the most
     if np.any(slack < 0):
-        raise ValueError(f"trunks: {trunks} do not fit {side_m:g} m x {side_m:g} m")
+        raise FftnavError(f"trunks: {trunks} do not fit {side_m:g} m x {side_m:g} m")
     x = (k % cols + 0.5) * width + rng.uniform(-slack[0], slack[0], trunks)
     y = _CLEAR_M + (k // cols + 0.5) * height + rng.uniform(-slack[1], slack[1], trunks)
     obstacles = tuple(Circle((cx, cy), r, 2.0) for cx, cy, r in
@@ -127,7 +128,7 @@ def bench_worlds(cases: list[str] | None = None, **kwargs: Any) -> list[dict[str
     names = list(LARGE_WORLDS) if cases is None else cases
     for name in names:
         if name not in LARGE_WORLDS:
-            raise ValueError(f"case must be one of {list(LARGE_WORLDS)}, got case={name!r}")
+            raise FftnavError(f"case must be one of {list(LARGE_WORLDS)}, got case={name!r}")
     context = multiprocessing.get_context("spawn")
     results = []
     for name in names:
@@ -193,9 +194,9 @@ def side_by_side(against: str | os.PathLike[str], *, case: str = "trunks-20k",
     check_integer("repeats", repeats, low=1)
     tree = Path(against)
     if not (tree / "fftnav" / "__init__.py").is_file():
-        raise ValueError(f"against must be a source tree holding fftnav/, got {str(tree)!r}")
+        raise FftnavError(f"against must be a source tree holding fftnav/, got {str(tree)!r}")
     if case not in LARGE_WORLDS:
-        raise ValueError(f"case must be one of {list(LARGE_WORLDS)}, got case={case!r}")
+        raise FftnavError(f"case must be one of {list(LARGE_WORLDS)}, got case={case!r}")
     spec = LARGE_WORLDS[case]
     world = trunk_field(spec["trunks"], spec["side_m"], seed=seed)
     ours = Path(__file__).resolve().parents[2]
@@ -211,8 +212,8 @@ def side_by_side(against: str | os.PathLike[str], *, case: str = "trunks-20k",
                     env=env, cwd=tmp, capture_output=True, text=True)
                 if proc.returncode != 0:
                     last = (proc.stderr.strip().splitlines() or ["no message"])[-1]
-                    raise ValueError(f"the {code} tree {str(root)!r} could not run the "
-                                     f"{case!r} probe: {last}")
+                    raise FftnavError(f"the {code} tree {str(root)!r} could not run the "
+                                      f"{case!r} probe: {last}")
                 row = json.loads(proc.stdout.strip().splitlines()[-1])
                 rows.append({"bench": "worlds-side-by-side", "case": case, "code": code,
                              "repeat": repeat, **{k: (round(v, 2) if isinstance(v, float)

@@ -1,5 +1,5 @@
-"""``fftnav bench {pipeline,sim,scale,env,planning,worlds}``: measured latency, simulation speed,
-scale, the PettingZoo environment, large worlds."""
+"""``fftnav bench {pipeline,sim,scale,env,optimal,worlds}``: measured latency, simulation speed,
+scale, the PettingZoo environment, the optimal-path reference, large worlds."""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ def _report(result: dict, args: argparse.Namespace, table: str,
 
 #: The committed results each bench compares itself with by default (if present).
 _DEFAULT_PREVIOUS = {"pipeline": "results/pipeline_latency.csv", "sim": "results/sim_speed.csv",
-                     "planning": "results/planning.csv", "scale": "results/scale.csv"}
+                     "optimal": "results/optimal.csv", "scale": "results/scale.csv"}
 
 
 def cmd_bench_pipeline(args: argparse.Namespace) -> int:
@@ -84,9 +84,9 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     return _report(result, args, format_env(result))
 
 
-def cmd_bench_planning(args: argparse.Namespace) -> int:
+def cmd_bench_optimal(args: argparse.Namespace) -> int:
     """Time the optimal-path reference (heapq A* vs batched Dijkstra) on a generated world."""
-    from fftnav.bench.planning import bench_optimal_paths, format_optimal_paths
+    from fftnav.bench.optimal import bench_optimal_paths, format_optimal_paths
 
     result = bench_optimal_paths(env=args.env, seed=args.seed, r0_m=args.r0)
     return _report(result, args, format_optimal_paths(result))
@@ -116,7 +116,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="measure latency and simulation speed")
     benches = p.add_subparsers(dest="bench", metavar="BENCH", parser_class=type(p))
     benches.required = True
-    for add in (_pipeline_parser, _sim_parser, _env_parser, _scale_parser, _planning_parser,
+    for add in (_pipeline_parser, _sim_parser, _env_parser, _scale_parser, _optimal_parser,
                 _worlds_parser):
         add(benches)
 
@@ -181,13 +181,13 @@ def _scale_parser(benches: argparse._SubParsersAction) -> None:
     c.set_defaults(func=cmd_bench_scale)
 
 
-def _planning_parser(benches: argparse._SubParsersAction) -> None:
-    g = benches.add_parser("planning", help="time of the optimal-path reference (A*, geodesic)")
+def _optimal_parser(benches: argparse._SubParsersAction) -> None:
+    g = benches.add_parser("optimal", help="time of the optimal-path reference (A*, geodesic)")
     g.add_argument("--env", choices=world_kinds(), default="forest")
     g.add_argument("--seed", type=int, default=0)
     g.add_argument("--r0", type=float, default=0.15, help="inflation radius r0, m (default 0.15)")
     _record_options(g)
-    g.set_defaults(func=cmd_bench_planning)
+    g.set_defaults(func=cmd_bench_optimal)
 
 
 def _worlds_parser(benches: argparse._SubParsersAction) -> None:

@@ -19,6 +19,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.observe.geometry import DRONE, RobotGeometry
 from fftnav.observe.safe import safe_tolerance
 from fftnav.observe.spherical import DiscFilterBank, SphericalGrid
@@ -83,8 +84,8 @@ class FlightConfig(Checked):
 
     def _check_together(self) -> None:
         if self.step_s > self.control_period_s:
-            raise ValueError(f"step_s must be <= control_period_s={self.control_period_s}, "
-                             f"got step_s={self.step_s}")
+            raise FftnavError(f"step_s must be <= control_period_s={self.control_period_s}, "
+                              f"got step_s={self.step_s}")
         check_multiple("control_period_s", self.control_period_s, "step_s", self.step_s)
         self.filter_bank()  # the sensor grid, the geometry and the range, checked together
 
@@ -168,7 +169,7 @@ def swept_clear(
     return clear
 
 
-def _command(bank: DiscFilterBank, dirs: np.ndarray, depth_m: np.ndarray, target: np.ndarray,
+def _command(bank: DiscFilterBank, dirs: np.ndarray, depth_m: np.ndarray, target: np.ndarray, *,
              yaw: float, speed: float) -> np.ndarray:
     """Velocity (world frame, m/s) along the safe direction nearest the ``target`` direction.
 
@@ -238,7 +239,7 @@ def fly(
         while t < config.max_time_s and not (arrived or collided):
             to_goal = forest.goal - pos
             target = to_goal / np.linalg.norm(to_goal) + config.momentum * v / config.speed_mps
-            v = _command(bank, dirs, sim.scan(pos, yaw), target, yaw, config.speed_mps)
+            v = _command(bank, dirs, sim.scan(pos, yaw), target, yaw=yaw, speed=config.speed_mps)
             if math.hypot(v[0], v[1]) > 1e-6:
                 yaw = math.atan2(v[1], v[0])
             for _ in range(config.substeps):
@@ -260,7 +261,7 @@ def fly(
 def summarize(results: list[FlightResult]) -> dict:
     """Arrival rate, collision rate and path-length ratio (mean and max over arrived flights)."""
     if not results:
-        raise ValueError("results must hold at least one flight, got results=[]")
+        raise FftnavError("results must hold at least one flight, got results=[]")
     ratios = [r.ratio for r in results if r.arrived]
     return {
         "flights": len(results),

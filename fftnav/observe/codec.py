@@ -21,6 +21,7 @@ import math
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.validate import check_choice, check_number
 
 __all__ = [
@@ -46,7 +47,7 @@ _HEADS = {name: [bytes((head, n)) for n in range(256)] for name, head in LAYOUTS
 _HEAD_CRCS = {name: [binascii.crc_hqx(h, 0xFFFF) for h in heads] for name, heads in _HEADS.items()}
 
 
-class MessageError(ValueError):
+class MessageError(FftnavError):
     """A message that is truncated, corrupted (bad CRC) or not an fftnav Sigma message."""
 
 
@@ -100,15 +101,15 @@ def encode_batch(
     off = np.asarray(offsets)
     counts = np.diff(off)
     if sig.ndim != 2 or sig.shape[1] != 2 or np.any(counts > 255):
-        raise ValueError(
+        raise FftnavError(
             f"sigma must have shape (n, 2) with n <= 255 per message, got shape={sig.shape}"
         )
     if flags.shape != (len(sig),):
-        raise ValueError(f"is_min must have shape ({len(sig)},), got shape={flags.shape}")
+        raise FftnavError(f"is_min must have shape ({len(sig)},), got shape={flags.shape}")
     if len(sig) and not (
         np.isfinite(sig[:, 0]).all() and sig[:, 1].min() >= 0 and sig[:, 1].max() <= range_m
     ):
-        raise ValueError(
+        raise FftnavError(
             f"sigma must hold finite angles and distances in [0, range_m={range_m}], got {sig}"
         )
     rows = slice(off[0], off[-1]) if len(off) else slice(0, 0)
@@ -135,7 +136,7 @@ def pack_messages(
     them): scan k's extrema are the next ``counts[k]`` rows of ``sigma``. Only the count limit is
     checked."""
     if max(counts, default=0) > 255:
-        raise ValueError(f"a message holds n <= 255 extrema, got n={max(counts)}")
+        raise FftnavError(f"a message holds n <= 255 extrema, got n={max(counts)}")
     if layout == "float32":
         dist = np.where(is_min, -sigma[:, 1], sigma[:, 1])
         payload = np.column_stack([sigma[:, 0], dist]).astype("<f4").tobytes()

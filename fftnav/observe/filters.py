@@ -13,6 +13,7 @@ import math
 import numpy as np
 import scipy.fft
 
+from fftnav.errors import FftnavError
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.scan import angle_increment_rad, is_full_circle
 from fftnav.validate import check_choice, check_number
@@ -45,32 +46,32 @@ def _cutoff_3db(h: np.ndarray) -> float:
     return (k - 1 + (m0 - _MINUS_3DB) / (m0 - m1)) / n
 
 
-def _checked(geometry: RobotGeometry, beams: int, fov_rad: float, range_m: float, mode: str,
+def _checked(geometry: RobotGeometry, *, beams: int, fov_rad: float, range_m: float, mode: str,
              blind_rad: float | None) -> tuple[float, bool, float, int]:
     """:class:`FilterBank`'s parameters checked: ``(increment_rad, full_circle, blind_rad,
     Tc)``, the blind sector defaulted (15 degrees for a full circle, else 0)."""
     if not isinstance(geometry, RobotGeometry):
-        raise ValueError(f"geometry must be a RobotGeometry, got geometry={geometry!r}")
+        raise FftnavError(f"geometry must be a RobotGeometry, got geometry={geometry!r}")
     inc = angle_increment_rad(beams, fov_rad)  # validates beams >= 2 and fov_rad
     if not (math.isfinite(range_m) and range_m >= geometry.l_th_m):
-        raise ValueError(
+        raise FftnavError(
             f"range_m must be finite and >= l_th_m={geometry.l_th_m:.4g}, "
             f"got range_m={range_m!r}"
         )
     check_choice("mode", mode, MODES)
     full = is_full_circle(fov_rad)
     if mode == "circular" and not full:
-        raise ValueError(
+        raise FftnavError(
             f"mode='circular' needs a full 360 degree field of view, got fov_rad={fov_rad!r}"
         )
     if blind_rad is None:
         blind_rad = DEFAULT_BLIND_RAD if full else 0.0
     if not (check_number("blind_rad", blind_rad, low=0) < fov_rad):
-        raise ValueError(f"blind_rad must be < fov_rad={fov_rad!r}, "
-                         f"got blind_rad={blind_rad!r}")
+        raise FftnavError(f"blind_rad must be < fov_rad={fov_rad!r}, "
+                          f"got blind_rad={blind_rad!r}")
     tc = math.ceil(geometry.alpha_rad / inc - 1e-9)
     if beams < tc:
-        raise ValueError(f"beams must be an integer >= Tc={tc}, got beams={beams}")
+        raise FftnavError(f"beams must be an integer >= Tc={tc}, got beams={beams}")
     return inc, full, blind_rad, tc
 
 
@@ -137,7 +138,8 @@ class FilterBank:
         mode: str = "linear",
         blind_rad: float | None = None,
     ) -> None:
-        inc, full, blind_rad, tc = _checked(geometry, beams, fov_rad, range_m, mode, blind_rad)
+        inc, full, blind_rad, tc = _checked(geometry, beams=beams, fov_rad=fov_rad,
+                                            range_m=range_m, mode=mode, blind_rad=blind_rad)
         self.geometry, self.beams, self.fov_rad, self.range_m = (
             geometry,
             int(beams),

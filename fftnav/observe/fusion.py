@@ -11,6 +11,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.observe.compress import quadrant_areas, reconstruct
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.scan import wrap_angle
@@ -53,7 +54,7 @@ def own_probability(x0: np.ndarray, *, ws: float = 1.0, b0: float = 0.0) -> np.n
     check_number("ws", ws, low=0, low_open=True)
     x0 = np.asarray(x0, dtype=np.float64)
     if x0.shape[-1:] != (4,):
-        raise ValueError(f"x0 must have shape (..., 4), got shape={x0.shape}")
+        raise FftnavError(f"x0 must have shape (..., 4), got shape={x0.shape}")
     w0 = np.array([ws, 1.0, -1.0, -ws]) / (1.0 + ws)
     return sigmoid(x0 @ w0 + b0)
 
@@ -184,7 +185,7 @@ def decide_turn(
     """
     poses = np.asarray(rel_poses, dtype=np.float64).reshape(-1, 3)
     if len(poses) != len(neighbours):
-        raise ValueError(
+        raise FftnavError(
             f"rel_poses must have one row per neighbour ({len(neighbours)}), "
             f"got shape={np.shape(rel_poses)}"
         )

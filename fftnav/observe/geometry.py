@@ -8,6 +8,7 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 
+from fftnav.errors import FftnavError
 from fftnav.validate import Checked, number_field
 
 __all__ = ["RobotGeometry", "SIM_ROBOT", "REAL_ROBOT", "DRONE"]
@@ -44,10 +45,10 @@ class RobotGeometry(Checked):
     def _check_together(self) -> None:
         r0, r = self.r0_m, self.r_m
         if r <= r0:
-            raise ValueError(f"r_m must be finite and > r0_m={r0!r}, got r_m={r!r}")
+            raise FftnavError(f"r_m must be finite and > r0_m={r0!r}, got r_m={r!r}")
         if not math.isfinite(r / r0 * r):  # l_th = r^2 / r0 must be a number too
-            raise ValueError(f"r_m must keep l_th = r_m^2 / r0_m finite, got r_m={r!r} with "
-                             f"r0_m={r0!r}")
+            raise FftnavError(f"r_m must keep l_th = r_m^2 / r0_m finite, got r_m={r!r} with "
+                              f"r0_m={r0!r}")
 
     @property
     def l_th_m(self) -> float:

@@ -19,6 +19,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.observe import kernels
 from fftnav.observe.codec import LAYOUTS, codec_scales, pack_messages
 from fftnav.observe.compress import EXTREMUM_EPS, find_extrema_flat, quadrant_areas_batch
@@ -295,8 +296,8 @@ class Pipeline:
         )
         check_choice("layout", layout, LAYOUTS)
         if compiled and not kernels.AVAILABLE:
-            raise ValueError("compiled must be False or None without numba (pip install "
-                             "fftnav[fast]), got compiled=True")
+            raise FftnavError("compiled must be False or None without numba (pip install "
+                              "fftnav[fast]), got compiled=True")
         self.layout = layout
         self.angles_rad = beam_angles_rad(beams, fov_rad)
         self.compiled = kernels.AVAILABLE if compiled is None else bool(compiled)
@@ -397,8 +398,8 @@ class Pipeline:
         msgs = pack_messages(
             flat, flat_min, np.diff(off).tolist(), layout=self.layout, range_m=b.range_m
         )
-        return self._result(safe_mask(y1, threshold=b.threshold), y1, y2, flat, flat_min, off,
-                            msgs, with_p_s)
+        return self._result(safe_mask(y1, threshold=b.threshold), y1, y2, flat=flat,
+                            flat_min=flat_min, off=off, msgs=msgs, with_p_s=with_p_s)
 
     def _process_one(self, ranges: np.ndarray, with_p_s: bool) -> PipelineResult:
         """The single-scan path: one C-contiguous float64 scan ``(M,)`` through one compiled
@@ -415,8 +416,8 @@ class Pipeline:
                                  range_m=self.bank.range_m)
         if with_p_s:
             y = out[:, w.tau : w.tau + w.m]
-            return self._result(mask, y[0:1], y[1:2], sigma[:n], is_min[:n], _offsets(n), msgs,
-                                True)
+            return self._result(mask, y[0:1], y[1:2], flat=sigma[:n], flat_min=is_min[:n],
+                                off=_offsets(n), msgs=msgs, with_p_s=True)
         result = _NEW(_OneScanResult)  # the fields set directly: no dataclass __init__
         result.__dict__.update(safe_mask=mask, messages=msgs, _filtered=out, _tau=w.tau,
                                _sigma=sigma, _is_min=is_min, _n=n)
@@ -440,9 +441,10 @@ class Pipeline:
             msgs = pack_messages(sigma, is_min, counts, layout=self.layout,
                                  range_m=self.bank.range_m)
         y = out[:, w.tau : w.tau + w.m]
-        return self._result(mask, y[:k], y[k:], sigma, is_min, offsets, msgs, with_p_s)
+        return self._result(mask, y[:k], y[k:], flat=sigma, flat_min=is_min, off=offsets,
+                            msgs=msgs, with_p_s=with_p_s)
 
-    def _result(self, mask: np.ndarray, y1: np.ndarray, y2: np.ndarray, flat: np.ndarray,
+    def _result(self, mask: np.ndarray, y1: np.ndarray, y2: np.ndarray, *, flat: np.ndarray,
                 flat_min: np.ndarray, off: np.ndarray, msgs: list[bytes],
                 with_p_s: bool) -> PipelineResult:
         b = self.bank

@@ -12,6 +12,7 @@ import math
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.observe import kernels
 from fftnav.observe.scan import angle_increment_rad, beam_angles_rad, is_full_circle
 
@@ -90,7 +91,7 @@ def safe_sectors_rad(mask: np.ndarray, *, fov_rad: float) -> list[tuple[float, f
     """
     m = np.asarray(mask, dtype=bool)
     if m.ndim != 1:
-        raise ValueError(f"mask must be 1-D (one scan), got shape={m.shape}")
+        raise FftnavError(f"mask must be 1-D (one scan), got shape={m.shape}")
     beams, _, full = _beam_params(m, fov_rad)
     angles = beam_angles_rad(beams, fov_rad)
     edges = np.diff(np.concatenate([[False], m, [False]]).astype(np.int8))

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.validate import check_integer, check_number
 
 __all__ = [
@@ -38,7 +39,7 @@ def wrap_angle(angle_rad: np.ndarray | float) -> np.ndarray:
 def _check_fov_beams(beams: int, fov_rad: float) -> None:
     check_integer("beams", beams, low=2)
     if not 0.0 < check_number("fov_rad", fov_rad) <= FULL_CIRCLE_RAD + 1e-9:
-        raise ValueError(f"fov_rad must be in (0, 2*pi], got fov_rad={fov_rad!r}")
+        raise FftnavError(f"fov_rad must be in (0, 2*pi], got fov_rad={fov_rad!r}")
 
 
 def angle_increment_rad(beams: int, fov_rad: float) -> float:
@@ -80,13 +81,14 @@ def as_scan_batch(ranges: np.ndarray, *, beams: int | None = None) -> tuple[np.n
     """
     arr = np.asarray(ranges)
     if arr.dtype.kind not in "biuf":
-        raise ValueError(f"ranges must be a numeric array, got dtype={arr.dtype}")
+        raise FftnavError(f"ranges must be a numeric array, got dtype={arr.dtype}")
     if arr.ndim not in (1, 2) or arr.size == 0:
-        raise ValueError(
+        raise FftnavError(
             f"ranges must have shape (M,) or (K, M) with K, M > 0, got shape={arr.shape}"
         )
     if beams is not None and arr.shape[-1] != beams:
-        raise ValueError(f"ranges must have beams={beams} readings per scan, got shape={arr.shape}")
+        raise FftnavError(f"ranges must have beams={beams} readings per scan, "
+                          f"got shape={arr.shape}")
     single = arr.ndim == 1
     return np.atleast_2d(arr).astype(np.float64, copy=False), single
 

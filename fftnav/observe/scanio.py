@@ -13,6 +13,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.files import iter_csv_rows, iter_npy_rows, load_npy, read_csv_floats, read_lines
 from fftnav.limits import MAX_BEAMS, MAX_INPUT_BYTES, check_limit
 from fftnav.validate import check_choice, check_number
@@ -75,7 +76,7 @@ def detect_format(path: Path) -> str:
     ):
         if name.endswith(suffix):
             return fmt
-    raise ValueError(
+    raise FftnavError(
         f"cannot tell the format of {str(path)!r} from its name (.npy, .csv, .log, .log.gz); "
         "pass --format"
     )
@@ -90,12 +91,12 @@ def _read_carmen(path: Path) -> np.ndarray:
             try:
                 n = int(parts[1])
             except (IndexError, ValueError):
-                raise ValueError(f"{path}:{lineno}: bad FLASER line (no beam count)") from None
+                raise FftnavError(f"{path}:{lineno}: bad FLASER line (no beam count)") from None
             if n < 1 or len(parts) < n + 2:
-                raise ValueError(f"{path}:{lineno}: FLASER line with fewer than n={n} ranges")
+                raise FftnavError(f"{path}:{lineno}: FLASER line with fewer than n={n} ranges")
             check_limit(f"{path}:{lineno}: FLASER beams", n, MAX_BEAMS)
             if rows and n != len(rows[0]):
-                raise ValueError(
+                raise FftnavError(
                     f"{path}:{lineno}: FLASER with n={n} beams, "
                     f"earlier scans had {len(rows[0])}"
                 )
@@ -103,13 +104,13 @@ def _read_carmen(path: Path) -> np.ndarray:
                 rows.append(np.array(parts[2 : n + 2], dtype=np.float64))
             except ValueError:
                 bad = next(v for v in parts[2 : n + 2] if not _is_number(v))
-                raise ValueError(f"{path}:{lineno}: FLASER range is not a number, got "
-                                 f"{bad[:40]!r}") from None
+                raise FftnavError(f"{path}:{lineno}: FLASER range is not a number, got "
+                                  f"{bad[:40]!r}") from None
             check_limit(f"{path}: ranges (bytes)", 8.0 * n * len(rows), MAX_INPUT_BYTES)
         elif line.startswith("PARAM robot_front_laser_max"):
             no_return = min(no_return, _laser_max(line, f"{path}:{lineno}"))
     if not rows:
-        raise ValueError(f"no FLASER scan in {str(path)!r}")
+        raise FftnavError(f"no FLASER scan in {str(path)!r}")
     ranges = np.array(rows)
     ranges[ranges >= no_return] = np.inf
     return ranges
@@ -128,13 +129,13 @@ def _laser_max(line: str, where: str) -> float:
     maximum range of 0 would turn every reading into "no return")."""
     parts = line.split()
     if parts[0] != "PARAM" or parts[1] != "robot_front_laser_max" or len(parts) < 3:
-        raise ValueError(f"{where}: robot_front_laser_max must be a number > 0 (the laser's "
-                         f"maximum range, m), got {line.strip()[:80]!r}")
+        raise FftnavError(f"{where}: robot_front_laser_max must be a number > 0 (the laser's "
+                          f"maximum range, m), got {line.strip()[:80]!r}")
     value = float(parts[2]) if _is_number(parts[2]) else parts[2]
     try:
         return check_number("robot_front_laser_max", value, low=0, low_open=True)
     except ValueError as exc:
-        raise ValueError(f"{where}: {exc}") from None
+        raise FftnavError(f"{where}: {exc}") from None
 
 
 def read_scans(path: str | Path, *, format: str = "auto") -> ScanFile:
@@ -164,7 +165,7 @@ def read_scans(path: str | Path, *, format: str = "auto") -> ScanFile:
         return ScanFile(_read_carmen(path), math.pi, "carmen")
     ranges = load_npy(path) if fmt == "npy" else read_csv_floats(path)
     if ranges.ndim not in (1, 2) or ranges.size == 0 or ranges.dtype.kind not in "biuf":
-        raise ValueError(
+        raise FftnavError(
             f"{str(path)!r} must hold a numeric (M,) or (K, M) array, got shape={ranges.shape} "
             f"dtype={ranges.dtype}"
         )

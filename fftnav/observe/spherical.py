@@ -33,6 +33,7 @@ from typing import NamedTuple
 import numpy as np
 from scipy import fft as sfft
 
+from fftnav.errors import FftnavError
 from fftnav.limits import MAX_DEPTH_PIXELS, check_limit
 from fftnav.observe.geometry import DRONE, RobotGeometry
 from fftnav.observe.safe import safe_tolerance
@@ -197,7 +198,7 @@ class DiscFilterBank:
     ) -> None:
         l_th = geometry.l_th_m
         if not (isinstance(range_m, (int, float)) and math.isfinite(range_m) and range_m > l_th):
-            raise ValueError(
+            raise FftnavError(
                 f"range_m must be finite and > l_th_m={l_th:.4g}, got range_m={range_m!r}")
         check_number("band_widening", band_widening, low=1, low_open=True)
         self.grid, self.geometry, self.range_m = grid, geometry, float(range_m)
@@ -207,7 +208,7 @@ class DiscFilterBank:
         for name, need, have in zip(("rows", "cols"), horizon.shape, (grid.rows, grid.cols),
                                     strict=True):
             if have < need:
-                raise ValueError(
+                raise FftnavError(
                     f"{name} must be >= the disc footprint's {need} for "
                     f"alpha={geometry.alpha_deg:.1f} deg, got {name}={have}")
         self.bands = self._bands(half, band_widening)
@@ -248,10 +249,10 @@ class DiscFilterBank:
     def _check(self, depth_m: np.ndarray) -> np.ndarray:
         d = np.asarray(depth_m)
         if d.dtype.kind not in "biuf":
-            raise ValueError(f"depth_m must be a real numeric array, got dtype={d.dtype}")
+            raise FftnavError(f"depth_m must be a real numeric array, got dtype={d.dtype}")
         shape = (self.grid.rows, self.grid.cols)
         if d.shape != shape:
-            raise ValueError(f"depth_m must have shape (rows, cols)={shape}, got shape={d.shape}")
+            raise FftnavError(f"depth_m must have shape (rows, cols)={shape}, got shape={d.shape}")
         return d
 
     def filter(self, depth_m: np.ndarray) -> np.ndarray:
@@ -312,7 +313,7 @@ class DiscFilterBank:
         """
         m = np.asarray(mask, dtype=bool)
         if m.shape != (self.grid.rows, self.grid.cols):
-            raise ValueError(
+            raise FftnavError(
                 f"mask must have shape {(self.grid.rows, self.grid.cols)}, got shape={m.shape}")
         if not m.any():
             return None

@@ -59,6 +59,7 @@ from collections.abc import Sequence
 import numpy as np
 from scipy import ndimage
 
+from fftnav.errors import FftnavError
 from fftnav.optimal import gridsearch
 from fftnav.optimal.gridgraph import GridPath, check_grid, grid_moves
 from fftnav.optimal.reference import reference_resolution, robot_cells
@@ -100,16 +101,16 @@ def _check_cells(occupied: np.ndarray, cells: object) -> np.ndarray:
     """``cells`` as an (P, 2) int array of free cells inside the grid, else ValueError."""
     arr = np.asarray(cells)
     if arr.ndim != 2 or arr.shape[1] != 2 or not np.issubdtype(arr.dtype, np.integer):
-        raise ValueError(f"cells must be an integer (P, 2) array of (row, col), "
-                         f"got cells with shape={arr.shape} dtype={arr.dtype}")
+        raise FftnavError(f"cells must be an integer (P, 2) array of (row, col), "
+                          f"got cells with shape={arr.shape} dtype={arr.dtype}")
     rows, cols = occupied.shape
     inside = (arr[:, 0] >= 0) & (arr[:, 0] < rows) & (arr[:, 1] >= 0) & (arr[:, 1] < cols)
     bad = np.flatnonzero(~inside)
     if not bad.size:
         bad = np.flatnonzero(occupied[arr[:, 0], arr[:, 1]])
     if bad.size:
-        raise ValueError(f"cells must be free cells of the {rows}x{cols} grid, "
-                         f"got cells[{bad[0]}]={arr[bad[0]].tolist()}")
+        raise FftnavError(f"cells must be free cells of the {rows}x{cols} grid, "
+                          f"got cells[{bad[0]}]={arr[bad[0]].tolist()}")
     return arr
 
 

@@ -25,6 +25,7 @@ import numpy as np
 from scipy.sparse import csr_matrix
 from scipy.sparse.csgraph import dijkstra
 
+from fftnav.errors import FftnavError
 from fftnav.validate import check_choice
 
 __all__ = [
@@ -47,13 +48,17 @@ __all__ = [
 CONNECTIVITIES: dict[int, int] = {8: 1, 16: 2, 32: 3}
 
 
-class UnreachableGoalError(ValueError):
+class UnreachableGoalError(FftnavError):
     """No collision-free grid path joins the start cell to the goal cell."""
 
     def __init__(self, start: tuple[int, int], goal: tuple[int, int]) -> None:
         super().__init__(f"goal cell {goal} is unreachable from start cell {start}")
         self.start = start
         self.goal = goal
+
+    def __reduce__(self) -> tuple:
+        # made again from its cells when pickled (e.g. raised in a worker process)
+        return type(self), (self.start, self.goal)
 
 
 @dataclass(frozen=True)
@@ -159,7 +164,7 @@ def check_grid(occupied: np.ndarray) -> np.ndarray:
     """Validate an occupancy grid: a 2-D boolean array, True = occupied. Returns it."""
     occupied = np.asarray(occupied)
     if occupied.ndim != 2 or occupied.dtype != bool or 0 in occupied.shape:
-        raise ValueError(
+        raise FftnavError(
             "occupied must be a non-empty 2-D boolean array, "
             f"got occupied with shape={occupied.shape} dtype={occupied.dtype}"
         )
@@ -170,13 +175,13 @@ def check_cell(occupied: np.ndarray, cell: object, name: str) -> tuple[int, int]
     """Validate a ``(row, col)`` cell: integer, inside the grid and free. Returns it as a tuple."""
     arr = np.asarray(cell)
     if arr.shape != (2,) or not np.issubdtype(arr.dtype, np.integer):
-        raise ValueError(f"{name} must be an integer (row, col) pair, got {name}={cell!r}")
+        raise FftnavError(f"{name} must be an integer (row, col) pair, got {name}={cell!r}")
     rc = (int(arr[0]), int(arr[1]))
     rows, cols = occupied.shape
     if not (0 <= rc[0] < rows and 0 <= rc[1] < cols):
-        raise ValueError(f"{name} must lie inside the {rows}x{cols} grid, got {name}={rc}")
+        raise FftnavError(f"{name} must lie inside the {rows}x{cols} grid, got {name}={rc}")
     if occupied[rc]:
-        raise ValueError(f"{name} must be a free cell, got occupied {name}={rc}")
+        raise FftnavError(f"{name} must be a free cell, got occupied {name}={rc}")
     return rc
 
 
@@ -185,7 +190,7 @@ def check_pairs(occupied: np.ndarray, starts: object,
     """Validate start/goal cells ``(N, 2)`` of one grid: the pairs as ``((r, c), (r, c))``."""
     starts_arr, goals_arr = np.asarray(starts), np.asarray(goals)
     if starts_arr.ndim != 2 or starts_arr.shape != goals_arr.shape:
-        raise ValueError(
+        raise FftnavError(
             "starts and goals must be (N, 2) arrays of the same shape, "
             f"got starts.shape={starts_arr.shape}, goals.shape={goals_arr.shape}"
         )

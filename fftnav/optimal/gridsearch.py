@@ -7,7 +7,7 @@ every move costs its Euclidean length, so the first time the goal leaves the ope
 cost is the shortest length. Where :func:`~fftnav.optimal.gridgraph.shortest_paths` runs a
 full Dijkstra over the map from every start (scipy, compiled), A* expands only the cells whose
 cost plus straight-line remainder stays below the answer: on the 20 m x 20 m benchmark maps at
-0.05 m, a tenth of the time or less (``fftnav bench planning`` has the figure).
+0.05 m, a tenth of the time or less (``fftnav bench optimal`` has the figure).
 
 The length of a path is the sum of its move costs in path order, as Dijkstra's; when several
 paths are equally short, A* may return another one, whose sum can differ in the last bits
@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fftnav.errors import MissingExtraError
 from fftnav.observe.kernels import AVAILABLE, njit
 from fftnav.optimal.gridgraph import (
     GridPath,
@@ -58,8 +59,10 @@ def astar_lengths(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, *
     ------
     UnreachableGoalError
         If some goal cannot be reached from its start.
-    ValueError
-        If numba is not installed, or a cell is invalid (naming it).
+    MissingExtraError
+        If numba is not installed (``pip install 'fftnav[fast]'``).
+    FftnavError
+        If a cell is invalid (naming it).
 
     Examples
     --------
@@ -96,8 +99,8 @@ def _run(occupied: np.ndarray, starts: np.ndarray, goals: np.ndarray, connectivi
     """Check the input, search every pair; lengths, and with ``paths`` the cells of all paths
     one after the other and each path's offsets (paths: also without numba)."""
     if not AVAILABLE and not paths:
-        raise ValueError("astar_lengths needs numba (pip install fftnav[fast]), "
-                         "got numba=None")
+        raise MissingExtraError("numba", extra="fast",
+                                needed_for="compiled A* lengths (astar_lengths)")
     occupied = check_grid(occupied)
     pairs = np.array([(*s, *g) for s, g in check_pairs(occupied, starts, goals)],
                      dtype=np.int64).reshape(-1, 4)

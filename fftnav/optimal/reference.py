@@ -15,6 +15,7 @@ import math
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.limits import MAX_REFERENCE_CELLS, grid_cells
 from fftnav.optimal.geodesic import geodesic_lengths
 from fftnav.validate import check_number
@@ -52,7 +53,7 @@ def robot_cells(grid: OccupancyGrid, world: World) -> tuple[np.ndarray, np.ndarr
         blocked = np.flatnonzero(grid.grid[rc[:, 0], rc[:, 1]])
         if blocked.size:
             i = blocked[0]
-            raise ValueError(
+            raise FftnavError(
                 f"{name} of robot {i} at {points[i].tolist()} m lies in an occupied cell of the "
                 "inflated grid (too close to an obstacle)"
             )

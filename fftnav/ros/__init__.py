@@ -2,8 +2,9 @@
 
 The bag files are read and written with `rosbags <https://pypi.org/project/rosbags/>`_ (pure
 Python, no ROS install), the optional extra ``fftnav[ros]``. It is imported only inside the
-functions that open or write a bag, so fftnav works without it; without it they raise
-:class:`RosbagsMissing`, one line saying how to install it.
+functions that open or write a bag, each after :func:`require_rosbags`, so fftnav works without
+it; without it they raise :class:`fftnav.errors.MissingExtraError` (an ``ImportError``), one line
+naming the pip line that installs it.
 
 - :mod:`fftnav.ros.laserscan`: what a ``sensor_msgs/LaserScan`` means (field of view from its
   angles, REP 117 values), in numpy alone;
@@ -19,23 +20,24 @@ import os
 import stat
 from pathlib import Path
 
-__all__ = ["BAG_SUFFIXES", "RosbagsMissing", "check_not_special", "is_bag", "require_rosbags"]
+from fftnav.errors import FftnavError, import_extra
+
+__all__ = ["BAG_SUFFIXES", "check_not_special", "is_bag", "require_rosbags"]
 
 #: File names read as bags (any case): a ROS 1 bag, a ROS 2 sqlite3 or MCAP storage file.
 BAG_SUFFIXES = (".bag", ".db3", ".mcap")
 
 
-class RosbagsMissing(ValueError):
-    """rosbags is not installed: the message says how to install it."""
-
-
 def require_rosbags() -> None:
-    """Raise :class:`RosbagsMissing` unless rosbags can be imported."""
-    try:
-        import rosbags  # noqa: F401
-    except ImportError:
-        raise RosbagsMissing("ROS bags need the rosbags package: pip install 'fftnav[ros]'"
-                             ) from None
+    """Raise :class:`fftnav.errors.MissingExtraError` unless rosbags can be imported: every
+    function of this package that imports rosbags calls it first.
+
+    Raises
+    ------
+    MissingExtraError
+        ``ROS bags need the rosbags package: pip install 'fftnav[ros]'``.
+    """
+    import_extra("rosbags", extra="ros", needed_for="ROS bags")
 
 
 def is_bag(path: str | Path) -> bool:
@@ -56,5 +58,5 @@ def check_not_special(path: str | Path, what: str = "a bag") -> None:
     blocks until a writer comes); a missing path raises FileNotFoundError."""
     mode = os.stat(path).st_mode
     if not (stat.S_ISREG(mode) or stat.S_ISDIR(mode)):
-        raise ValueError(f"{path}: {what} must be a regular file or a ROS 2 bag folder, "
-                         "not a pipe, FIFO, socket or device")
+        raise FftnavError(f"{path}: {what} must be a regular file or a ROS 2 bag folder, "
+                          "not a pipe, FIFO, socket or device")

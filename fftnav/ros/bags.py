@@ -26,6 +26,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.files import track_temporary
 from fftnav.limits import MAX_BEAMS, check_limit
 from fftnav.observe.geometry import RobotGeometry
@@ -58,13 +59,13 @@ def _check_sqlite_size(path: Path) -> None:
     with open(path, "rb") as fh:
         head = fh.read(100)
     if len(head) < 100 or not head.startswith(_SQLITE_MAGIC):
-        raise ValueError(f"{path}: damaged bag: not an SQLite database")
+        raise FftnavError(f"{path}: damaged bag: not an SQLite database")
     page = int.from_bytes(head[16:18], "big")
     page = 65536 if page == 1 else page
     pages = int.from_bytes(head[28:32], "big")
     if head[92:96] == head[24:28] and pages and path.stat().st_size < page * pages:
-        raise ValueError(f"{path}: damaged bag: truncated ({path.stat().st_size} bytes, its "
-                         f"SQLite header states {page * pages})")
+        raise FftnavError(f"{path}: damaged bag: truncated ({path.stat().st_size} bytes, its "
+                          f"SQLite header states {page * pages})")
 
 
 def check_bag(path: str | Path) -> Path:
@@ -85,17 +86,18 @@ def check_out_bag(bag: str | Path, out: str | Path) -> Path:
     the input's folder or a folder holding the input; or a pipe, device or existing folder."""
     src, dst = Path(bag).resolve(), Path(out).resolve()
     if dst == src or src in dst.parents or dst in src.parents:
-        raise ValueError(f"--out-bag must not be the input bag, a path inside it or a folder "
-                         f"holding it, got --out-bag={str(out)!r} for the bag {str(bag)!r}")
+        raise FftnavError(f"--out-bag must not be the input bag, a path inside it or a folder "
+                          f"holding it, got --out-bag={str(out)!r} for the bag {str(bag)!r}")
     if dst.exists():
         if dst.is_dir():
-            raise ValueError(f"--out-bag names an existing folder, got --out-bag={str(out)!r}")
+            raise FftnavError(f"--out-bag names an existing folder, got --out-bag={str(out)!r}")
         check_not_special(dst, "--out-bag")
     return Path(out)
 
 
 def _reader_errors() -> tuple[type[BaseException], ...]:
     """What rosbags and the storages under it raise on a damaged bag."""
+    require_rosbags()
     from rosbags.highlevel import AnyReaderError
     from rosbags.rosbag1 import ReaderError as Reader1Error
     from rosbags.rosbag2 import ReaderError as Reader2Error
@@ -116,6 +118,7 @@ class _AnyCase(dict):
 
 def _reader(path: Path) -> Any:
     """rosbags' AnyReader of one bag, its kind told by the name in any case (``.BAG``)."""
+    require_rosbags()
     from rosbags.highlevel import AnyReader
     from rosbags.rosbag1 import Reader as Reader1
     from rosbags.rosbag2 import Reader as Reader2
@@ -141,7 +144,7 @@ def _damage(path: Path) -> Iterator[None]:
         yield
     except _reader_errors() as exc:
         text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise ValueError(f"{path}: damaged or unreadable bag: {text}") from None
+        raise FftnavError(f"{path}: damaged or unreadable bag: {text}") from None
 
 
 @contextlib.contextmanager
@@ -190,11 +193,11 @@ def _topic(reader: Any, path: Path, topic: str | None) -> str:
     if topic is None:
         if len(found) == 1:
             return found[0]
-        raise ValueError(f"{path}: pass --topic, one of the LaserScan topics: {listed}")
+        raise FftnavError(f"{path}: pass --topic, one of the LaserScan topics: {listed}")
     if topic not in found:
         what = ("is not a LaserScan topic" if any(c.topic == topic for c in reader.connections)
                 else "has no topic")
-        raise ValueError(f"{path} {what} {topic!r}; its LaserScan topics: {listed}")
+        raise FftnavError(f"{path} {what} {topic!r}; its LaserScan topics: {listed}")
     return topic
 
 
@@ -218,9 +221,9 @@ def _read_scan(msg: Any, index: int, timestamp: int, path: Path, range_m: float 
     where = f"{path}: message {index}"
     rmin, rmax = float(msg.range_min), float(msg.range_max)
     if not (math.isfinite(rmin) and math.isfinite(rmax) and 0.0 <= rmin < rmax):
-        raise ValueError(f"{where}: range_min and range_max must be finite with "
-                         f"0 <= range_min < range_max, got range_min={rmin!r}, "
-                         f"range_max={rmax!r}")
+        raise FftnavError(f"{where}: range_min and range_max must be finite with "
+                          f"0 <= range_min < range_max, got range_min={rmin!r}, "
+                          f"range_max={rmax!r}")
     ranges = np.asarray(msg.ranges)
     check_limit(f"{where}: beams", len(ranges), MAX_BEAMS)
     layout = layout_of(float(msg.angle_min), float(msg.angle_max),
@@ -280,7 +283,7 @@ class _Batch:
                 self.pipes[key] = Pipeline(self.geometry, beams=key[0], fov_rad=key[1],
                                            range_m=key[2])
             except ValueError as exc:
-                raise ValueError(f"{self.path}: message {scan.index}: {exc}") from None
+                raise FftnavError(f"{self.path}: message {scan.index}: {exc}") from None
         return self.pipes[key]
 
     def process(self) -> tuple[list[tuple[Any, int, bytes, _Scan | None]], ValueError | None]:
@@ -329,42 +332,62 @@ def scan_bag(path: str | Path, *, topic: str | None, geometry: RobotGeometry,
     path = Path(path)
     if out_bag is not None:
         check_out_bag(path, out_bag)
-    count = 0
     with open_bag(path) as reader, contextlib.ExitStack() as stack:
         name = _topic(reader, path, topic)
-        conns = [c for c in reader.connections if c.topic == name and c.msgtype == LASERSCAN]
         writer = None
         if out_bag is not None:
             writer = stack.enter_context(AnnotatedBag(out_bag, reader, path))
-        batch = _Batch(geometry, path)
-
-        def flush() -> None:
-            items, error = batch.process()
-            for conn, timestamp, raw, scan in items:
-                if scan is not None:
-                    write(json.dumps(_row(scan, name), separators=(",", ":")) + "\n")
-                if writer is not None:
-                    writer.copy(conn, timestamp, raw)
-                    if scan is not None:
-                        writer.annotate(scan)
-            if error is not None:
-                raise error
-
+        run = _TopicRun(reader, path, name, batch=_Batch(geometry, path), write=write,
+                        writer=writer)
         try:
-            for conn, timestamp, raw in messages(
-                    reader, path, reader.connections if writer is not None else conns):
-                scan = None
-                if conn.topic == name and conn.msgtype == LASERSCAN:
-                    scan = _read_scan(deserialize(reader, path, raw, conn.msgtype), count,
-                                      timestamp, path, range_m)
-                    count += 1
-                elif writer is not None and conn.topic in (SAFE_SCAN, SAFE_DIRECTIONS):
-                    continue  # an annotated bag's annotations are written anew
-                if batch.add(conn, timestamp, raw if writer is not None else b"", scan):
-                    flush()
+            run.read(range_m)
         finally:  # the lines of the messages before a bad one are not lost
-            flush()
-    return count
+            run.flush()
+    return run.count
+
+
+class _TopicRun:
+    """The LaserScans of one topic streamed through the pipeline a batch at a time: one JSON
+    line per scan to ``write`` and, with ``writer``, every message into the annotated bag."""
+
+    def __init__(self, reader: Any, path: Path, topic: str, *, batch: _Batch,
+                 write: Callable[[str], Any], writer: AnnotatedBag | None) -> None:
+        self.reader, self.path, self.topic = reader, path, topic
+        self.batch, self.write, self.writer = batch, write, writer
+        #: LaserScan messages of the topic read so far.
+        self.count = 0
+
+    def read(self, range_m: float | None) -> None:
+        """Read the bag's messages in order (those of the topic alone, without ``writer``),
+        flushing every full batch."""
+        reader, path, writer = self.reader, self.path, self.writer
+        conns = [c for c in reader.connections if c.topic == self.topic
+                 and c.msgtype == LASERSCAN]
+        for conn, timestamp, raw in messages(
+                reader, path, reader.connections if writer is not None else conns):
+            scan = None
+            if conn.topic == self.topic and conn.msgtype == LASERSCAN:
+                scan = _read_scan(deserialize(reader, path, raw, conn.msgtype), self.count,
+                                  timestamp, path, range_m)
+                self.count += 1
+            elif writer is not None and conn.topic in (SAFE_SCAN, SAFE_DIRECTIONS):
+                continue  # an annotated bag's annotations are written anew
+            if self.batch.add(conn, timestamp, raw if writer is not None else b"", scan):
+                self.flush()
+
+    def flush(self) -> None:
+        """Process the held batch and write it out, in bag order; then raise the error of the
+        scan that ended it, if one did."""
+        items, error = self.batch.process()
+        for conn, timestamp, raw, scan in items:
+            if scan is not None:
+                self.write(json.dumps(_row(scan, self.topic), separators=(",", ":")) + "\n")
+            if self.writer is not None:
+                self.writer.copy(conn, timestamp, raw)
+                if scan is not None:
+                    self.writer.annotate(scan)
+        if error is not None:
+            raise error
 
 
 def _out_kind(out: Path, bag: Path) -> tuple[bool, str | None, bool]:
@@ -396,6 +419,7 @@ class BagFile:
     """
 
     def __init__(self, out: Path, *, ros1: bool, storage: str | None, single: bool) -> None:
+        require_rosbags()
         from rosbags.rosbag1 import Writer as Writer1
         from rosbags.rosbag2 import StoragePlugin
         from rosbags.rosbag2 import Writer as Writer2
@@ -495,6 +519,7 @@ class AnnotatedBag(BagWriter):
         self.reader, self.source = reader, bag
 
     def setup(self) -> None:
+        require_rosbags()
         from rosbags.convert.converter import create_connections_converters
 
         copied = [c for c in self.reader.connections

@@ -22,6 +22,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.config import SwarmConfig
+from fftnav.errors import FftnavError
 from fftnav.navigation.controllers import SwarmStep
 from fftnav.ros import messages as rosmsg
 from fftnav.ros import require_rosbags
@@ -34,14 +35,14 @@ _KINDS = {".mcap": (False, "mcap"), ".db3": (False, "db3"), ".bag": (True, None)
 
 
 def check_episode_bag(path: str | Path) -> tuple[bool, str | None]:
-    """(ROS 1, ROS 2 storage) of ``--bag PATH`` by its suffix; ValueError for another suffix
-    or without rosbags."""
+    """(ROS 1, ROS 2 storage) of ``--bag PATH`` by its suffix; FftnavError for another suffix,
+    MissingExtraError without rosbags."""
     suffix = Path(path).suffix.lower()
     if suffix not in _KINDS:
-        raise ValueError(f"--bag must end in .mcap, .db3 or .bag, got --bag={str(path)!r}")
+        raise FftnavError(f"--bag must end in .mcap, .db3 or .bag, got --bag={str(path)!r}")
     if Path(path).exists() and not Path(path).resolve().is_file():
-        raise ValueError(f"--bag must be a file path, not a folder, pipe or device, got "
-                         f"--bag={str(path)!r}")
+        raise FftnavError(f"--bag must be a file path, not a folder, pipe or device, got "
+                          f"--bag={str(path)!r}")
     require_rosbags()
     return _KINDS[suffix]
 

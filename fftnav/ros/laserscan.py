@@ -16,6 +16,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.observe.scan import FULL_CIRCLE_RAD, wrap_angle
 
 __all__ = ["Layout", "layout_of", "rep117_ranges"]
@@ -99,14 +100,14 @@ def layout_of(angle_min: float, angle_max: float, angle_increment: float, beams:
     values = {"angle_min": angle_min, "angle_max": angle_max,
               "angle_increment": angle_increment}
     if beams < 2:
-        raise ValueError(f"{where}: a LaserScan needs at least 2 ranges, got {beams}")
+        raise FftnavError(f"{where}: a LaserScan needs at least 2 ranges, got {beams}")
     if not all(math.isfinite(v) for v in values.values()) or angle_increment == 0.0:
-        raise ValueError(f"{where}: angle_min, angle_max and angle_increment must be finite "
-                         f"and angle_increment nonzero, got {_show(values)}")
+        raise FftnavError(f"{where}: angle_min, angle_max and angle_increment must be finite "
+                          f"and angle_increment nonzero, got {_show(values)}")
     inc = abs(angle_increment)
     last = angle_min + (beams - 1) * angle_increment
     if abs(last - angle_max) > 0.5 * inc:
-        raise ValueError(
+        raise FftnavError(
             f"{where}: angle_increment disagrees with the angles and the count: "
             f"angle_min + (M - 1) * angle_increment = {last:.6g} rad but angle_max = "
             f"{angle_max:.6g} rad (M = {beams}; {_show(values)})")
@@ -118,8 +119,8 @@ def layout_of(angle_min: float, angle_max: float, angle_increment: float, beams:
     else:
         fov = (beams - 1) * inc
         if fov >= FULL_CIRCLE_RAD:
-            raise ValueError(f"{where}: the beams span more than a full turn: "
-                             f"(M - 1) * |angle_increment| = {fov:.6g} rad (M = {beams})")
+            raise FftnavError(f"{where}: the beams span more than a full turn: "
+                              f"(M - 1) * |angle_increment| = {fov:.6g} rad (M = {beams})")
     # the pipeline's beams run from -pi (full circle) or -fov/2: where its 0 is in the message
     offset = (first + math.pi if fov == FULL_CIRCLE_RAD else 0.5 * (angle_min + angle_max))
     return Layout(beams, fov, clockwise, 0.0 if abs(offset) < _FLOAT32_ANGLE_RAD else offset,

@@ -13,6 +13,9 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
+from fftnav.ros import require_rosbags
+
 __all__ = ["make", "stamp", "typestore", "yaw_quaternion"]
 
 #: Marker types and actions used here (visualization_msgs/Marker constants).
@@ -23,6 +26,7 @@ ADD, DELETE = 0, 2
 def typestore(ros1: bool) -> Any:
     """The rosbags typestore messages are written with: ROS 1 Noetic (with ``tf2_msgs/TFMessage``,
     which rosbags' Noetic store lacks) or ROS 2 Humble."""
+    require_rosbags()
     from rosbags.typesys import Stores, get_types_from_msg, get_typestore
 
     if not ros1:
@@ -34,6 +38,7 @@ def typestore(ros1: bool) -> Any:
 
 
 def _zero(store: Any, node: tuple) -> Any:
+    require_rosbags()
     from rosbags.typesys.base import Nodetype
 
     kind, spec = node
@@ -55,7 +60,7 @@ def make(store: Any, msgtype: str, **values: Any) -> Any:
     fields = store.fielddefs[msgtype][1]
     unknown = set(values) - {name for name, _ in fields}
     if unknown:
-        raise ValueError(f"{msgtype} has no field {sorted(unknown)}")
+        raise FftnavError(f"{msgtype} has no field {sorted(unknown)}")
     args = [values[name] if name in values else _zero(store, node) for name, node in fields]
     return store.types[msgtype](*args)
 

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 import pybullet as p
 
+from fftnav.errors import FftnavError
 from fftnav.observe.spherical import SphericalGrid
 from fftnav.sim.mesh import static_meshes
 from fftnav.sim.rays import cast_rays
@@ -83,8 +84,8 @@ def make_forest3d(
     check_number("min_spacing_m", min_spacing_m, low=0)
     check_number("clearance_m", clearance_m, low=0)
     if check_number("distance_m", distance_m) <= 2 * clearance_m:
-        raise ValueError(f"distance_m must be finite and > 2 * clearance_m (clearance_m="
-                         f"{clearance_m!r}), got distance_m={distance_m!r}")
+        raise FftnavError(f"distance_m must be finite and > 2 * clearance_m (clearance_m="
+                          f"{clearance_m!r}), got distance_m={distance_m!r}")
     check_number("altitude_m", altitude_m, low=0, low_open=True)
     start = np.array([0.0, 0.0, altitude_m])
     goal = np.array([distance_m, 0.0, altitude_m])
@@ -137,7 +138,7 @@ class DroneSim:
     ) -> None:
         check_number("r0_m", r0_m, low=0, low_open=True)
         if check_number("range_m", range_m) <= r0_m:
-            raise ValueError(f"range_m must be finite and > r0_m={r0_m}, got range_m={range_m!r}")
+            raise FftnavError(f"range_m must be finite and > r0_m={r0_m}, got range_m={range_m!r}")
         check_choice("trunk_shape", trunk_shape, ("mesh", "cylinder"))
         self.forest, self.grid, self.range_m, self.r0_m = forest, grid, float(range_m), float(r0_m)
         self.cid = c = p.connect(p.DIRECT)

@@ -32,27 +32,28 @@ from __future__ import annotations
 import math
 import time
 from collections.abc import Callable, Sequence
+from dataclasses import dataclass
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.observe.scan import angle_increment_rad, beam_angles_rad
 from fftnav.sim import fastrays
 from fftnav.sim.rays import cast_rays
 
-__all__ = ["CULL_MARGIN_M", "Lidar"]
+__all__ = ["CULL_MARGIN_M", "BeamPattern", "Lidar", "RayTargets"]
 
 #: Widening of every body's outline when culling rays (m): far above Bullet's collision margins
 #: and floating-point error, so no ray that Bullet would report as a hit is ever culled.
 CULL_MARGIN_M = 0.02
 
 
-class Lidar:
-    """Ray pattern of one lidar model, cast for K robots at once.
+@dataclass(frozen=True)
+class BeamPattern:
+    """The beams of one lidar model.
 
-    Parameters
+    Attributes
     ----------
-    client : int
-        PyBullet physics client id.
     beams : int
         Number of beams M.
     range_m : float
@@ -70,6 +71,22 @@ class Lidar:
         Rays start this far from the robot centre (just outside the robot's own body), so a
         robot never sees itself; the reported range is still measured from the centre:
         ``start + hitFraction * (R - start)``.
+    """
+
+    beams: int
+    range_m: float
+    fov_deg: float
+    blind_deg: float
+    height_m: float
+    start_m: float
+
+
+@dataclass(frozen=True)
+class RayTargets:
+    """What the rays of a :class:`Lidar` can hit.
+
+    Attributes
+    ----------
     mask : int
         Bullet collision-filter mask of the rays (which body groups they can hit).
     bodies : sequence of (circle, vertices), optional
@@ -80,6 +97,32 @@ class Lidar:
     robot_radius_m : float, optional
         Radius of a vertical cylinder about each robot's centre that contains every part of the
         robot the rays can hit (m).
+    robot_mask : int, optional
+        Bullet collision-filter mask that selects the robots alone.
+    robot_spheres : bool, optional
+        The robots are spheres of radius ``robot_radius_m`` (the "body" embodiment): with numba,
+        ``cull``, ``static_mesh`` and ``robot_mask``, and given the spheres' centre heights
+        (``scan(..., robot_z=...)``), the scan is :func:`fftnav.sim.fastrays.scan_swarm`.
+    """
+
+    mask: int
+    bodies: Sequence[tuple[tuple[float, float, float], np.ndarray | None]] = ()
+    robot_radius_m: float = 0.0
+    robot_mask: int | None = None
+    robot_spheres: bool = False
+
+
+class Lidar:
+    """Ray pattern of one lidar model, cast for K robots at once.
+
+    Parameters
+    ----------
+    client : int
+        PyBullet physics client id.
+    pattern : BeamPattern
+        The beams: number M, range R, field of view, blind sector, height and start.
+    targets : RayTargets
+        What the rays can hit: their collision mask, the static bodies' outlines and the robots.
     cull : bool, optional
         Cast only the rays that point into a body's sector (default); False casts every live
         beam in ``client`` (same ranges, slower: kept for tests and benchmarks).
@@ -90,44 +133,35 @@ class Lidar:
         The static bodies' triangles: with numba and ``robot_mask``, every cast ray is answered
         against them by :func:`fftnav.sim.fastrays.cast_static` (Bullet's arithmetic, bit for
         bit, several times faster), and only the rays in a robot's sector go to Bullet, against
-        the robots alone (``robot_mask``); the nearer hit counts, as in Bullet. Set
+        the robots alone (``targets.robot_mask``); the nearer hit counts, as in Bullet. Set
         ``static_mesh = None`` to cast every ray in Bullet.
-    robot_mask : int, optional
-        Bullet collision-filter mask that selects the robots alone.
-    robot_spheres : bool, optional
-        The robots are spheres of radius ``robot_radius_m`` (the "body" embodiment): with numba,
-        ``cull``, ``static_mesh`` and ``robot_mask``, and given the spheres' centre heights
-        (``scan(..., robot_z=...)``), the scan is :func:`fftnav.sim.fastrays.scan_swarm`.
     prepare : callable, optional
         Called with the robots' positions ``(K, 2)`` before each scan casts a ray (the
         simulator builds the obstacle tiles within range of them there).
     """
 
-    def __init__(self, client: int, *, beams: int, range_m: float, fov_deg: float,
-                 blind_deg: float, height_m: float, start_m: float, mask: int,
-                 bodies: Sequence[tuple[tuple[float, float, float], np.ndarray | None]] = (),
-                 robot_radius_m: float = 0.0, cull: bool = True,
-                 static_client: int | None = None,
+    def __init__(self, client: int, pattern: BeamPattern, targets: RayTargets, *,
+                 cull: bool = True, static_client: int | None = None,
                  static_mesh: fastrays.StaticMesh | None = None,
-                 robot_mask: int | None = None, robot_spheres: bool = False,
                  prepare: Callable[[np.ndarray], None] | None = None) -> None:
+        beams, fov_deg, bodies = pattern.beams, pattern.fov_deg, targets.bodies
         self._client = client
         self._prepare = prepare
         self._static_client = static_client
         self.static_mesh = static_mesh if fastrays.AVAILABLE else None
-        self._robot_mask = robot_mask
-        self.robot_spheres = bool(robot_spheres)
-        self.range_m = float(range_m)
+        self._robot_mask = targets.robot_mask
+        self.robot_spheres = bool(targets.robot_spheres)
+        self.range_m = float(pattern.range_m)
         self.angles_rad = beam_angles_rad(beams, math.radians(fov_deg))
         #: Beams outside the blind sector (the only ones cast). The edge is compared with a
         #: tolerance of 1e-6 beam, far below the beam spacing and far above rounding errors, so
         #: a beam on the edge (the back beam when blind_deg = 0) is live however it rounds.
-        edge = math.pi - math.radians(blind_deg) / 2.0
+        edge = math.pi - math.radians(pattern.blind_deg) / 2.0
         tolerance = 1e-6 * angle_increment_rad(beams, math.radians(fov_deg))
         self.live = np.abs(self.angles_rad) <= edge + tolerance
-        self._start_m = float(start_m)
-        self._height_m = float(height_m)
-        self._mask = int(mask)
+        self._start_m = float(pattern.start_m)
+        self._height_m = float(pattern.height_m)
+        self._mask = int(targets.mask)
         # Static bodies as bounding circles (centre, radius), some also by vertices (padded by
         # repeating the first one; NaN rows for bodies without).
         self._circles = np.reshape(np.array([c for c, _ in bodies], dtype=float), (-1, 3))
@@ -137,7 +171,7 @@ class Lidar:
         for i, xy in enumerate(outlines):
             if xy is not None:
                 self._vertices[i] = np.concatenate([xy, np.repeat(xy[:1], size - len(xy), axis=0)])
-        self._robot_radius_m = float(robot_radius_m)
+        self._robot_radius_m = float(targets.robot_radius_m)
         # the beam pattern for the compiled scan: beam n at first + n step from the heading,
         # and its column among the live beams (-1: blind)
         m = self.angles_rad.size
@@ -171,8 +205,8 @@ class Lidar:
         poses = np.asarray(poses, dtype=float)
         k = len(poses)
         if robot_z is not None and np.shape(robot_z) != (k,):
-            raise ValueError(f"robot_z must have shape ({k},), one height per pose, "
-                             f"got shape={np.shape(robot_z)}")
+            raise FftnavError(f"robot_z must have shape ({k},), one height per pose, "
+                              f"got shape={np.shape(robot_z)}")
         out = np.zeros((k, self.angles_rad.size))
         if k == 0:
             return out
@@ -180,44 +214,57 @@ class Lidar:
             self._prepare(poses[:, :2])
         theta = poses[:, 2:3] + self.angles_rad[self.live]
         direction = np.stack([np.cos(theta), np.sin(theta), np.zeros_like(theta)], axis=-1)
-        fractions = np.ones(theta.shape)
         centres = np.c_[poses[:, :2], np.full(k, self._height_m)]
-        if (self.cull and self.static_mesh is not None and self._robot_mask is not None
-                and self.robot_spheres and robot_z is not None):
-            out[:, self.live] = self._start_m + self._scan_compiled(
-                poses, np.asarray(robot_z, dtype=float), centres, direction) * (
-                    self.range_m - self._start_m)
-            self.seconds_spent += time.perf_counter() - tic
-            return out
+        compiled_mesh = (self.cull and self.static_mesh is not None
+                         and self._robot_mask is not None)
+        if compiled_mesh and self.robot_spheres and robot_z is not None:
+            fractions = self._scan_compiled(poses, np.asarray(robot_z, dtype=float), centres,
+                                            direction)
+        elif compiled_mesh:
+            fractions = self._scan_static_compiled(poses, centres, direction)
+        else:
+            fractions = self._scan_bullet(poses, centres, direction)
+        out[:, self.live] = self._start_m + fractions * (self.range_m - self._start_m)
+        self.seconds_spent += time.perf_counter() - tic
+        return out
+
+    def _scan_static_compiled(self, poses: np.ndarray, centres: np.ndarray,
+                              direction: np.ndarray) -> np.ndarray:
+        """Hit fractions ``(K, L)`` of every live ray, the culled ones cast: against the
+        obstacles by the compiled copy of Bullet's triangle test (:meth:`_cast_static`), the
+        rays in a robot's sector also by Bullet against the robots alone; the nearer counts."""
+        fractions = np.ones(direction.shape[:2])
+        any_body, robots = self._may_hit(poses)
+        fractions[any_body] = self._cast_static(centres, poses, direction, any_body)
+        if robots.any():
+            starts, ends, _ = self._rays(centres, direction, robots)
+            fractions[robots] = np.minimum(
+                fractions[robots], cast_rays(self._client, starts, ends, mask=self._robot_mask))
+        self.rays_cast += int(any_body.sum())
+        self.rays_cast_static += int(any_body.sum() - robots.sum())
+        return fractions
+
+    def _scan_bullet(self, poses: np.ndarray, centres: np.ndarray,
+                     direction: np.ndarray) -> np.ndarray:
+        """Hit fractions ``(K, L)`` of every live ray, all cast in Bullet: the culled rays that
+        can hit an obstacle but no robot in the static client (if any), the others (every live
+        ray without ``cull``) in the full client."""
+        fractions = np.ones(direction.shape[:2])
         if self.cull:
             any_body, robots = self._may_hit(poses)
             static = any_body & ~robots if self._static_client is not None else None
             full = robots if static is not None else any_body
         else:
-            full, static = np.ones(theta.shape, dtype=bool), None
-        if self.cull and self.static_mesh is not None and self._robot_mask is not None:
-            # obstacles: every cast ray by the compiled copy of Bullet's triangle test; robots:
-            # the rays in a robot's sector also by Bullet against the robots alone; the nearer
-            fractions[any_body] = self._cast_static(centres, poses, direction, any_body)
-            if robots.any():
-                starts, ends, _ = self._rays(centres, direction, robots)
-                fractions[robots] = np.minimum(
-                    fractions[robots], cast_rays(self._client, starts, ends,
-                                                 mask=self._robot_mask))
-            self.rays_cast += int(any_body.sum())
-            self.rays_cast_static += int(any_body.sum() - robots.sum())
-        else:
-            for cast, client in ((full, self._client), (static, self._static_client)):
-                if cast is None or not cast.any():
-                    continue
-                starts, ends, _ = self._rays(centres, direction, cast)
-                fractions[cast] = cast_rays(client, starts, ends, mask=self._mask)
-                self.rays_cast += len(starts)
-                if client == self._static_client:
-                    self.rays_cast_static += len(starts)
-        out[:, self.live] = self._start_m + fractions * (self.range_m - self._start_m)
-        self.seconds_spent += time.perf_counter() - tic
-        return out
+            full, static = np.ones(fractions.shape, dtype=bool), None
+        for cast, client in ((full, self._client), (static, self._static_client)):
+            if cast is None or not cast.any():
+                continue
+            starts, ends, _ = self._rays(centres, direction, cast)
+            fractions[cast] = cast_rays(client, starts, ends, mask=self._mask)
+            self.rays_cast += len(starts)
+            if client == self._static_client:
+                self.rays_cast_static += len(starts)
+        return fractions
 
     def _rays(self, centres: np.ndarray, direction: np.ndarray,
               cast: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -26,6 +26,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.world.obstacles import Circle, Obstacle
 
 __all__ = ["MAX_MESH_INDICES", "MAX_MESH_VERTICES", "TILE_M", "Tile", "join_meshes",
@@ -124,9 +125,9 @@ def static_tiles(obstacles: Sequence[Obstacle], *, parts: Sequence[Part] | None 
     too_big = np.flatnonzero((sizes[:, 0] > max_vertices) | (sizes[:, 1] > max_indices))
     if too_big.size:
         k = int(too_big[0])
-        raise ValueError(f"obstacles[{k}] has a mesh of {sizes[k, 0]} vertices and "
-                         f"{sizes[k, 1]} indices, above Bullet's limit of {max_vertices} and "
-                         f"{max_indices} per mesh")
+        raise FftnavError(f"obstacles[{k}] has a mesh of {sizes[k, 0]} vertices and "
+                          f"{sizes[k, 1]} indices, above Bullet's limit of {max_vertices} and "
+                          f"{max_indices} per mesh")
     if not parts:
         return []
     circles = np.array([o.bounding_circle() for o in obstacles])

@@ -10,6 +10,8 @@ from __future__ import annotations
 import numpy as np
 import pybullet as p
 
+from fftnav.errors import FftnavError
+
 __all__ = ["MAX_RAYS", "cast_rays"]
 
 #: Most rays Bullet answers in one ``rayTestBatch`` call.
@@ -38,8 +40,8 @@ def cast_rays(client: int, starts: np.ndarray, ends: np.ndarray, *, mask: int = 
     starts = np.asarray(starts, dtype=float)
     ends = np.asarray(ends, dtype=float)
     if starts.ndim != 2 or starts.shape[1] != 3 or ends.shape != starts.shape:
-        raise ValueError(f"starts and ends must both have shape (N, 3), got "
-                         f"starts.shape={starts.shape}, ends.shape={ends.shape}")
+        raise FftnavError(f"starts and ends must both have shape (N, 3), got "
+                          f"starts.shape={starts.shape}, ends.shape={ends.shape}")
     fractions = np.ones(len(starts))
     for s in range(0, len(starts), MAX_RAYS):
         hits = p.rayTestBatch(starts[s:s + MAX_RAYS], ends[s:s + MAX_RAYS], numThreads=1,

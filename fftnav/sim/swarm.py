@@ -22,10 +22,11 @@ import numpy as np
 import pybullet as p
 
 from fftnav.config import RobotConfig, SensorConfig, SwarmConfig, check_rates
+from fftnav.errors import FftnavError
 from fftnav.limits import MAX_RAYS_PER_TICK, check_limit
 from fftnav.sim import fastrays
 from fftnav.sim.fastrays import StaticMesh
-from fftnav.sim.lidar import CULL_MARGIN_M, Lidar
+from fftnav.sim.lidar import CULL_MARGIN_M, BeamPattern, Lidar, RayTargets
 from fftnav.sim.mesh import (
     MAX_MESH_INDICES,
     MAX_MESH_VERTICES,
@@ -59,7 +60,7 @@ _WHEEL_TORQUE_NM = 0.5
 _VELOCITY_BLOCK = 4096
 
 
-def _planar_velocities(yaw0: np.ndarray, v: np.ndarray, w: np.ndarray, first: int, steps: int,
+def _planar_velocities(yaw0: np.ndarray, v: np.ndarray, w: np.ndarray, *, first: int, steps: int,
                        physics_hz: float) -> list[list[list[float]]]:
     """The body robots' linear velocities (v cos(yaw), v sin(yaw), 0) during physics steps
     ``first .. first + steps - 1`` of a control period, ``[step][robot]``: frictionless spheres
@@ -67,6 +68,61 @@ def _planar_velocities(yaw0: np.ndarray, v: np.ndarray, w: np.ndarray, first: in
     and the velocities are known up front."""
     yaw = yaw0 + np.outer(np.arange(first, first + steps) / physics_hz, w)
     return np.stack([v * np.cos(yaw), v * np.sin(yaw), np.zeros_like(yaw)], axis=-1).tolist()
+
+
+class _PlanarDrive:
+    """The body robots' velocities during one control period: before each physics step, every
+    robot's base velocity is (re)set to (v cos(yaw), v sin(yaw), 0) and yaw rate w, but only
+    where it can have changed.
+
+    Without gravity, damping or contact a body keeps its velocity bit for bit: after the first
+    step only robots on an arc (v and w != 0) and those that touched something in the last step
+    need their velocity set again. The planar velocities are made :data:`_VELOCITY_BLOCK`
+    robot-steps at a time (:func:`_planar_velocities`).
+    """
+
+    def __init__(self, bodies: list[int], yaw0: np.ndarray, v: np.ndarray, w: np.ndarray, *,
+                 substeps: int, physics_hz: float) -> None:
+        self._bodies, self._yaw0, self._v, self._w = bodies, yaw0, v, w
+        self._substeps, self._physics_hz = substeps, physics_hz
+        self._block = max(1, _VELOCITY_BLOCK // max(1, len(bodies)))
+        self._angular = [(0.0, 0.0, wi) for wi in w.tolist()]
+        self._steered = set(np.flatnonzero((v != 0) & (w != 0)).tolist())
+        # without contacts the velocities to set are those of the steered robots (a fixed list)
+        self._steered_order = sorted(self._steered)
+        self._linear: list[list[list[float]]] = []
+
+    def set_velocities(self, k: int, touched: set[int], client: int) -> None:
+        """Set the velocities before physics step ``k`` of the period: of the robots (indices
+        into ``bodies``) ``touched`` in the last step and of the steered ones."""
+        block = self._block
+        if k % block == 0:
+            self._linear = _planar_velocities(self._yaw0, self._v, self._w, first=k,
+                                              steps=min(block, self._substeps - k),
+                                              physics_hz=self._physics_hz)
+        velocity, bodies, angular = self._linear[k % block], self._bodies, self._angular
+        reset_velocity = p.resetBaseVelocity  # positional arguments: cheaper to parse
+        for j in (touched | self._steered) if touched else self._steered_order:
+            reset_velocity(bodies[j], velocity[j], angular[j], client)
+
+
+def _record_contacts(contacts: tuple, *, ground: int, slot: dict[int, int],
+                     index: dict[int, int], obstacle_hit: np.ndarray,
+                     robot_hit: np.ndarray) -> set[int]:
+    """Mark, from one physics step's ``contacts`` (pybullet's getContactPoints), the robots
+    that touched an obstacle or another robot (``index``: body -> robot index, in
+    ``obstacle_hit`` / ``robot_hit``); return the driven robots that touched anything
+    (``slot``: body -> index among the driven bodies). Contacts with the ground do not count."""
+    touched = set()
+    for contact in contacts:
+        a, b = contact[1], contact[2]
+        if a == ground or b == ground:
+            continue
+        for this, other in ((a, b), (b, a)):
+            if this in index:
+                (robot_hit if other in index else obstacle_hit)[index[this]] = True
+                touched.add(slot[this])
+    return touched
 
 
 @dataclass(frozen=True)
@@ -198,15 +254,15 @@ class SwarmSim:
                     hint="lower sensor.beams or the number of robots")
         if gui and sys.platform.startswith("linux") and not os.environ.get("DISPLAY"):
             # PyBullet's GUI would print "cannot connect to X server" and exit the process
-            raise ValueError("gui needs a display, got DISPLAY unset (run without --gui, or "
-                             "with a virtual display such as xvfb-run)")
+            raise FftnavError("gui needs a display, got DISPLAY unset (run without --gui, or "
+                              "with a virtual display such as xvfb-run)")
         try:
             self._client = p.connect(p.GUI if gui else p.DIRECT)
         except p.error:
             self._client = -1
         if self._client < 0:
-            raise ValueError("gui: cannot open the PyBullet GUI (is a display available? "
-                             "DISPLAY is " + repr(os.environ.get("DISPLAY")) + ")")
+            raise FftnavError("gui: cannot open the PyBullet GUI (is a display available? "
+                              "DISPLAY is " + repr(os.environ.get("DISPLAY")) + ")")
         # the obstacles alone, for the lidar's rays that cannot hit a robot (faster there)
         self._static_client = p.connect(p.DIRECT)
         self._build()
@@ -222,8 +278,25 @@ class SwarmSim:
     # ------------------------------------------------------------------ building
 
     def _build(self) -> None:
+        """Build the Bullet world: physics parameters and ground, the obstacles (or the tiles
+        near the starts), the robots, and the lidar."""
+        wheeled = self.config.robot.embodiment == "wheeled"
+        self._build_physics(wheeled)
+        self._plan_obstacles(wheeled)
+        if len(self._tiles) == 1:
+            self._build_tiles([0])
+        else:
+            self._build_near(self.world.starts[:, :2])
+        # tiles built before the first robot: those near the starts (all of a one-mesh world)
+        self._first_tiles = set(self._tile_bodies)
+        self._build_robots(wheeled)
+        self._lidar = self._make_lidar(wheeled)
+        if len(self._tiles) < 2:
+            self._parts = []  # every mesh is built
+
+    def _build_physics(self, wheeled: bool) -> None:
+        """Gravity, the physics engine's parameters and, for the wheeled robot, the ground."""
         cfg, cid = self.config, self._client
-        wheeled = cfg.robot.embodiment == "wheeled"
         # The body embodiment is planar (no gravity, no ground: its vertical velocity is held at
         # 0); the wheeled robot rolls on a ground plane under gravity.
         p.setGravity(0.0, 0.0, -cfg.gravity_mps2 if wheeled else 0.0, physicsClientId=cid)
@@ -236,6 +309,11 @@ class SwarmSim:
                 0, p.createCollisionShape(p.GEOM_PLANE, physicsClientId=cid), physicsClientId=cid)
             self._filter(self._ground, _GROUND, _ROBOT)  # invisible to rays
             p.changeDynamics(self._ground, -1, lateralFriction=1.0, physicsClientId=cid)
+
+    def _plan_obstacles(self, wheeled: bool) -> None:
+        """The obstacles' meshes, cut into tiles, and the clients that will hold them (nothing
+        is built in Bullet yet)."""
+        cfg, cid = self.config, self._client
         # All obstacles form ONE static triangle mesh where Bullet's mesh limits allow (Bullet
         # updates every body's bounding box every step, so one body instead of 80 makes a
         # physics step several times cheaper), else 10 m tiles of as few meshes as they need,
@@ -264,12 +342,11 @@ class SwarmSim:
         compiled = fastrays.AVAILABLE and not wheeled
         self._mesh_clients = ((cid,) if len(self._tiles) > 1 and compiled
                               else (cid, self._static_client))
-        if len(self._tiles) == 1:
-            self._build_tiles([0])
-        else:
-            self._build_near(self.world.starts[:, :2])
-        # tiles built before the first robot: those near the starts (all of a one-mesh world)
-        self._first_tiles = set(self._tile_bodies)
+
+    def _build_robots(self, wheeled: bool) -> None:
+        """One robot per start pose, their start poses and joints, and the wheeled robot's
+        track and wheel radius."""
+        cfg, cid = self.config, self._client
         self._robots = [self._add_robot(x, y, yaw) for x, y, yaw in self.world.starts]
         self._start_poses = [([x, y, cfg.robot.r0_m], p.getQuaternionFromEuler([0.0, 0.0, yaw]))
                              for x, y, yaw in self.world.starts]
@@ -282,21 +359,26 @@ class SwarmSim:
             self._track_m = abs(joints[0][14][1] - joints[1][14][1])  # parent-frame y offsets
             wheel = p.getCollisionShapeData(body, _WHEELS[0], physicsClientId=cid)[0]
             self._wheel_radius_m = wheel[3][0]  # sphere dimensions: (radius, ...)
+
+    def _make_lidar(self, wheeled: bool) -> Lidar:
+        """The swarm's lidar: the sensor's beams at the lidar height, starting 5 mm outside the
+        robot; obstacles and robots as its targets."""
+        cfg = self.config
         sensor, r0 = cfg.sensor, cfg.robot.r0_m
-        self._lidar = Lidar(cid, beams=sensor.beams, range_m=sensor.range_m,
-                            fov_deg=sensor.fov_deg, blind_deg=sensor.blind_deg,
-                            height_m=r0 if cfg.lidar_height_m is None else cfg.lidar_height_m,
-                            start_m=r0 + 0.005, mask=_OBSTACLE | _ROBOT,
-                            bodies=[(o.bounding_circle(), o.cull_vertices())
-                                    for o in self.world.solids],
-                            robot_radius_m=cfg.robot.r0_m,
-                            static_client=self._mesh_clients[-1] if len(self._mesh_clients) > 1
-                            else None,
-                            static_mesh=self._static_mesh,
-                            robot_mask=_ROBOT, robot_spheres=not wheeled,
-                            prepare=None if len(self._tiles) < 2 else self._build_near)
-        if len(self._tiles) < 2:
-            self._parts = []  # every mesh is built
+        pattern = BeamPattern(beams=sensor.beams, range_m=sensor.range_m, fov_deg=sensor.fov_deg,
+                              blind_deg=sensor.blind_deg,
+                              height_m=r0 if cfg.lidar_height_m is None else cfg.lidar_height_m,
+                              start_m=r0 + 0.005)
+        targets = RayTargets(mask=_OBSTACLE | _ROBOT,
+                             bodies=[(o.bounding_circle(), o.cull_vertices())
+                                     for o in self.world.solids],
+                             robot_radius_m=cfg.robot.r0_m, robot_mask=_ROBOT,
+                             robot_spheres=not wheeled)
+        return Lidar(self._client, pattern, targets,
+                     static_client=self._mesh_clients[-1] if len(self._mesh_clients) > 1
+                     else None,
+                     static_mesh=self._static_mesh,
+                     prepare=None if len(self._tiles) < 2 else self._build_near)
 
     def _build_near(self, xy: np.ndarray) -> None:
         """Build every tile that lies within reach (``_reach_m``) of a point of ``xy`` (K, 2),
@@ -437,65 +519,59 @@ class SwarmSim:
         """
         cmd = np.asarray(commands, dtype=float)
         if cmd.shape != (self.num_robots, 2) or not np.all(np.isfinite(cmd)):
-            raise ValueError(f"commands must be a finite array of shape ({self.num_robots}, 2), "
-                             f"got shape={cmd.shape}")
-        cfg, cid = self.config, self._client
+            raise FftnavError(f"commands must be a finite array of shape ({self.num_robots}, 2), "
+                              f"got shape={cmd.shape}")
+        cfg = self.config
         # (a tiled world's tiles within reach of these poses were built by the last scan)
         active = np.flatnonzero(self._active)
         v = np.clip(cmd[active, 0], -cfg.robot.v_max_mps, cfg.robot.v_max_mps)
         w = np.clip(cmd[active, 1], -cfg.robot.w_max_radps, cfg.robot.w_max_radps)
         bodies = [self._robots[i] for i in active]
-        if cfg.robot.embodiment == "wheeled":  # wheel speeds (v -+ w b / 2) / r, for the period
-            half_track = 0.5 * self._track_m * w
-            for body, left, right in zip(bodies, (v - half_track) / self._wheel_radius_m,
-                                         (v + half_track) / self._wheel_radius_m, strict=True):
-                p.setJointMotorControlArray(body, _WHEELS, p.VELOCITY_CONTROL,
-                                            targetVelocities=[left, right],
-                                            forces=[_WHEEL_TORQUE_NM] * 2, physicsClientId=cid)
-            planar, steered = False, set()
+        drive = None
+        if cfg.robot.embodiment == "wheeled":
+            self._drive_wheels(bodies, v, w)
         else:
-            planar, yaw0 = True, self._poses[active, 2]
-            block = max(1, _VELOCITY_BLOCK // max(1, len(active)))
-            angular = [(0.0, 0.0, wi) for wi in w.tolist()]
-            # Without gravity, damping or contact a body keeps its velocity bit for bit: after
-            # the first step only robots on an arc (v and w != 0) and those that touched
-            # something in the last step need their velocity set again.
-            steered = set(np.flatnonzero((v != 0) & (w != 0)).tolist())
-        slot = {body: j for j, body in enumerate(bodies)}
-        index = {body: i for i, body in enumerate(self._robots)}
-        obstacle_hit = np.zeros(self.num_robots, dtype=bool)
-        robot_hit = np.zeros(self.num_robots, dtype=bool)
-        # The loop below runs physics_hz / control_hz times per robot and tick: pybullet's
-        # functions are bound once and called with positional arguments (cheaper to parse), and
-        # without contacts the velocities to set are those of the steered robots (a fixed list).
-        reset_velocity, step_physics = p.resetBaseVelocity, p.stepSimulation
-        contact_points, ground = p.getContactPoints, self._ground
-        steered_order = sorted(steered)
-        touched = set(range(len(bodies)))  # every velocity is set before the first step
-        for k in range(cfg.substeps):
-            if planar:
-                if k % block == 0:
-                    linear = _planar_velocities(yaw0, v, w, k, min(block, cfg.substeps - k),
-                                                cfg.physics_hz)
-                velocity = linear[k % block]
-                for j in (touched | steered) if touched else steered_order:
-                    reset_velocity(bodies[j], velocity[j], angular[j], cid)
-            step_physics(cid)
-            contacts = contact_points(physicsClientId=cid)
-            touched = set()
-            for contact in contacts:
-                a, b = contact[1], contact[2]
-                if a == ground or b == ground:
-                    continue
-                for this, other in ((a, b), (b, a)):
-                    if this in index:
-                        (robot_hit if other in index else obstacle_hit)[index[this]] = True
-                        touched.add(slot[this])
+            drive = _PlanarDrive(bodies, self._poses[active, 2], v, w, substeps=cfg.substeps,
+                                 physics_hz=cfg.physics_hz)
+        obstacle_hit, robot_hit = self._run_physics(bodies, drive)
         self._time_s += cfg.substeps / cfg.physics_hz
         previous = self._poses.copy()
         self._poses[active] = self._read_poses(active)
         self._odometer += np.hypot(*(self._poses[:, :2] - previous[:, :2]).T)
         return self._observe(obstacle_hit, robot_hit)
+
+    def _drive_wheels(self, bodies: list[int], v: np.ndarray, w: np.ndarray) -> None:
+        """Wheeled robots: the wheel velocity controllers get (v -+ w b / 2) / r_wheel (rad/s,
+        track b) for the whole period."""
+        half_track = 0.5 * self._track_m * w
+        for body, left, right in zip(bodies, (v - half_track) / self._wheel_radius_m,
+                                     (v + half_track) / self._wheel_radius_m, strict=True):
+            p.setJointMotorControlArray(body, _WHEELS, p.VELOCITY_CONTROL,
+                                        targetVelocities=[left, right],
+                                        forces=[_WHEEL_TORQUE_NM] * 2, physicsClientId=self._client)
+
+    def _run_physics(self, bodies: list[int], drive: _PlanarDrive | None,
+                     ) -> tuple[np.ndarray, np.ndarray]:
+        """Run the physics steps of one control period, the body robots' velocities set by
+        ``drive`` before each (None: wheeled robots, driven by their motors); return which
+        robots touched an obstacle, and which another robot, during the period."""
+        cid = self._client
+        slot = {body: j for j, body in enumerate(bodies)}
+        index = {body: i for i, body in enumerate(self._robots)}
+        obstacle_hit = np.zeros(self.num_robots, dtype=bool)
+        robot_hit = np.zeros(self.num_robots, dtype=bool)
+        # This loop runs physics_hz / control_hz times per tick: pybullet's functions are bound
+        # once and called with positional arguments (cheaper to parse).
+        step_physics, contact_points, ground = p.stepSimulation, p.getContactPoints, self._ground
+        touched = set(range(len(bodies)))  # every velocity is set before the first step
+        for k in range(self.config.substeps):
+            if drive is not None:
+                drive.set_velocities(k, touched, cid)
+            step_physics(cid)
+            touched = _record_contacts(contact_points(physicsClientId=cid), ground=ground,
+                                       slot=slot, index=index, obstacle_hit=obstacle_hit,
+                                       robot_hit=robot_hit)
+        return obstacle_hit, robot_hit
 
     def base_states(self) -> np.ndarray:
         """Full 3D base state of every robot body, ``(K, 7)``: position x, y, z (m) and the

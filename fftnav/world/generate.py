@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.limits import MAX_GRID_CELLS, MAX_MAP_SIDE_M, MAX_OBSTACLES, check_limit, grid_cells
 from fftnav.validate import check_choice, check_integer, check_number, check_vector
 from fftnav.world.grid import unreachable_robots
@@ -42,12 +43,12 @@ def _check_common(p: Params) -> None:
     n = check_integer("robots", p["robots"], low=1)
     radius = check_number("robot_radius_m", p["robot_radius_m"], low=0)
     if w / n < 2.5 * radius:
-        raise ValueError(f"robots={n} robots of radius {radius} m do not fit side by "
-                         f"side in a {w:g} m wide world")
+        raise FftnavError(f"robots={n} robots of radius {radius} m do not fit side by "
+                          f"side in a {w:g} m wide world")
     clear = check_number("strip_half_width_m", p["strip_half_width_m"], low=0)
     if not (clear <= p["start_y_m"] < p["goal_y_m"] - 2 * clear and p["goal_y_m"] + clear <= h):
-        raise ValueError(f"start_y_m={p['start_y_m']} and goal_y_m={p['goal_y_m']} with "
-                         f"strip_half_width_m={clear} must leave both strips inside the world")
+        raise FftnavError(f"start_y_m={p['start_y_m']} and goal_y_m={p['goal_y_m']} with "
+                          f"strip_half_width_m={clear} must leave both strips inside the world")
 
 
 def _check_like(key: str, value: Any, default: Any) -> None:
@@ -57,7 +58,7 @@ def _check_like(key: str, value: Any, default: Any) -> None:
         check_vector(key, value, len(default))
     elif isinstance(default, (bool, str)):
         if type(value) is not type(default):
-            raise ValueError(f"{key} must be {type(default).__name__}, got {key}={value!r}")
+            raise FftnavError(f"{key} must be {type(default).__name__}, got {key}={value!r}")
     elif isinstance(default, int):
         check_integer(key, value)
     else:
@@ -75,7 +76,8 @@ def world_parameters(env: str, *, preset: Params | None = None, **overrides: Any
     params = dict(load_preset(env) if preset is None else preset)
     unknown = sorted(set(overrides) - set(params))
     if unknown:
-        raise ValueError(f"unknown world parameter(s) {unknown}; expected some of {sorted(params)}")
+        raise FftnavError(f"unknown world parameter(s) {unknown}; "
+                          f"expected some of {sorted(params)}")
     for key, value in overrides.items():
         _check_like(key, value, params[key])
     params.update(overrides)
@@ -144,6 +146,6 @@ def generate_world(env: str, seed: int, *, preset: Params | None = None,
         if not unreachable_robots(world, radius_m=params["robot_radius_m"],
                                   resolution_m=params["reachability_resolution_m"]):
             return world
-    raise ValueError(f"no world with every obstacle placed and every goal reachable after "
-                     f"max_attempts={params['max_attempts']} (seed={seed}); lower density_per_m2="
-                     f"{params['density_per_m2']} or min_gap_m={params['min_gap_m']}")
+    raise FftnavError(f"no world with every obstacle placed and every goal reachable after "
+                      f"max_attempts={params['max_attempts']} (seed={seed}); lower density_per_m2="
+                      f"{params['density_per_m2']} or min_gap_m={params['min_gap_m']}")

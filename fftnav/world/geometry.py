@@ -11,6 +11,7 @@ from itertools import groupby
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.validate import check_number
 from fftnav.world.model import World
 
@@ -51,10 +52,10 @@ def raycast_world(world: World, origins: np.ndarray, angles: np.ndarray, range_m
     origins = np.asarray(origins, dtype=float)
     angles = np.asarray(angles, dtype=float)
     if origins.ndim != 2 or origins.shape[1] != 2:
-        raise ValueError(f"origins must have shape (K, 2), got shape={origins.shape}")
+        raise FftnavError(f"origins must have shape (K, 2), got shape={origins.shape}")
     if angles.ndim != 2 or angles.shape[0] != origins.shape[0]:
-        raise ValueError(f"angles must have shape (K={origins.shape[0]}, M), got "
-                         f"shape={angles.shape}")
+        raise FftnavError(f"angles must have shape (K={origins.shape[0]}, M), got "
+                          f"shape={angles.shape}")
     check_number("range_m", range_m, low=0, low_open=True)
     p = np.repeat(origins, angles.shape[1], axis=0)
     d = np.c_[np.cos(angles.ravel()), np.sin(angles.ravel())]

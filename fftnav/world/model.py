@@ -28,6 +28,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.files import parse_json, read_text, write_atomic
 from fftnav.limits import MAX_MAP_SIDE_M, MAX_OBSTACLES, check_limit
 from fftnav.validate import (
@@ -122,7 +123,7 @@ class World(Checked):
         except ValueError as exc:
             if where == "world file":
                 raise
-            raise ValueError(f"{where}: {exc}") from None
+            raise FftnavError(f"{where}: {exc}") from None
 
     def obstacle_distance(self, points: np.ndarray) -> np.ndarray:
         """Euclidean distance (m) from each point ``(P, 2)`` to the nearest solid (obstacle or
@@ -142,24 +143,24 @@ class World(Checked):
 
 def _parse_obstacle(data: Any, where: str, size: tuple[float, float]) -> Obstacle:
     if not isinstance(data, dict) or data.get("shape") not in SHAPES:
-        raise ValueError(f"{where}: shape must be one of {sorted(SHAPES)}, got {data!r:.80}")
+        raise FftnavError(f"{where}: shape must be one of {sorted(SHAPES)}, got {data!r:.80}")
     obstacle = SHAPES[data["shape"]].from_dict(data, where)
     lo, hi = obstacle.bounds()
     if np.any(lo < 0) or hi[0] > size[0] or hi[1] > size[1]:
-        raise ValueError(f"{where}: obstacle lies (partly) outside the world [0, {size[0]:g}] x "
-                         f"[0, {size[1]:g}]: it spans [{lo[0]:g}, {hi[0]:g}] x "
-                         f"[{lo[1]:g}, {hi[1]:g}]")
+        raise FftnavError(f"{where}: obstacle lies (partly) outside the world [0, {size[0]:g}] x "
+                          f"[0, {size[1]:g}]: it spans [{lo[0]:g}, {hi[0]:g}] x "
+                          f"[{lo[1]:g}, {hi[1]:g}]")
     return obstacle
 
 
 def _points(value: Any, n: int, where: str, size: tuple[float, float]) -> np.ndarray:
     if not isinstance(value, list) or not value:
-        raise ValueError(f"{where} must be a non-empty list, got {value!r:.80}")
+        raise FftnavError(f"{where} must be a non-empty list, got {value!r:.80}")
     pts = np.array([check_vector(f"{where}[{i}]", v, n) for i, v in enumerate(value)])
     outside = np.flatnonzero((pts[:, 0] < 0) | (pts[:, 0] > size[0]) | (pts[:, 1] < 0)
                              | (pts[:, 1] > size[1]))
     if outside.size:
-        raise ValueError(f"{where}[{outside[0]}] lies outside the world, got {value[outside[0]]}")
+        raise FftnavError(f"{where}[{outside[0]}] lies outside the world, got {value[outside[0]]}")
     return pts
 
 
@@ -175,28 +176,28 @@ def _check_free(where: str, points: np.ndarray, obstacles: tuple[Obstacle, ...],
         i = blocked[0]
         j = int(np.argmin(distance[:, i]))
         what = f"obstacles[{j}]" if j < n_obstacles else "a boundary wall"
-        raise ValueError(f"{where}[{i}] lies inside {what}, got {points[i].tolist()}")
+        raise FftnavError(f"{where}[{i}] lies inside {what}, got {points[i].tolist()}")
 
 
 def _parse_world(data: Any) -> World:
     if not isinstance(data, dict):
-        raise ValueError(f"world file must hold a JSON object, got {type(data).__name__}")
+        raise FftnavError(f"world file must hold a JSON object, got {type(data).__name__}")
     for key in WORLD_KEYS:
         if key not in data:
-            raise ValueError(f"world file is missing key {key!r}")
+            raise FftnavError(f"world file is missing key {key!r}")
     unknown = [key for key in data if key not in WORLD_KEYS + OPTIONAL_WORLD_KEYS]
     if unknown:
-        raise ValueError(f"world file has an unknown key {unknown[0]!r}; its keys are "
-                         f"{list(WORLD_KEYS + OPTIONAL_WORLD_KEYS)}")
+        raise FftnavError(f"world file has an unknown key {unknown[0]!r}; its keys are "
+                          f"{list(WORLD_KEYS + OPTIONAL_WORLD_KEYS)}")
     boundary = check_choice("boundary", data.get("boundary", "open"), BOUNDARIES)
     if not isinstance(data["env"], str):
-        raise ValueError(f"env must be a string, got env={data['env']!r}")
+        raise FftnavError(f"env must be a string, got env={data['env']!r}")
     check_integer("seed", data["seed"])
     size = check_vector("size", data["size"], 2)
     for i, side in enumerate(size):
         check_number(f"size[{i}]", side, low=0, low_open=True, high=MAX_MAP_SIDE_M)
     if not isinstance(data["obstacles"], list):
-        raise ValueError(f"obstacles must be a list, got {data['obstacles']!r:.80}")
+        raise FftnavError(f"obstacles must be a list, got {data['obstacles']!r:.80}")
     check_limit("obstacles", len(data["obstacles"]), MAX_OBSTACLES)
     obstacles = tuple(
         _parse_obstacle(o, f"obstacles[{i}]", size) for i, o in enumerate(data["obstacles"])
@@ -204,8 +205,8 @@ def _parse_world(data: Any) -> World:
     starts = _points(data["starts"], 3, "starts", size)
     goals = _points(data["goals"], 2, "goals", size)
     if len(starts) != len(goals):
-        raise ValueError(f"starts and goals must have the same length, got {len(starts)} starts "
-                         f"and {len(goals)} goals")
+        raise FftnavError(f"starts and goals must have the same length, got {len(starts)} starts "
+                          f"and {len(goals)} goals")
     world = World(data["env"], data["seed"], size, obstacles, starts, goals,  # type: ignore[arg-type]
                   boundary)
     for name, pts in (("starts", starts), ("goals", goals)):

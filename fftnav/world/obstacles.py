@@ -26,6 +26,7 @@ from typing import Any, ClassVar
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.limits import MAX_MAP_SIDE_M
 from fftnav.registry import Registry
 from fftnav.validate import check_number, check_vector
@@ -93,11 +94,11 @@ def _keys(data: dict[str, Any], where: str, required: tuple[str, ...]) -> None:
     """Refuse a missing or an unknown key of an obstacle's JSON object, naming it."""
     for key in required:
         if key not in data:
-            raise ValueError(f"{where}: missing key {key!r}")
+            raise FftnavError(f"{where}: missing key {key!r}")
     unknown = sorted(set(data) - {"shape", *required})
     if unknown:
-        raise ValueError(f"{where}: unknown key {unknown[0]!r}; a {data['shape']} has the keys "
-                         f"{['shape', *required]}")
+        raise FftnavError(f"{where}: unknown key {unknown[0]!r}; a {data['shape']} has the keys "
+                          f"{['shape', *required]}")
 
 
 class Obstacle(ABC):
@@ -287,8 +288,8 @@ class Polygon(Obstacle):
         height = check_number(f"{where}.height", data["height"], low=0, low_open=True)
         raw = data["vertices"]
         if not isinstance(raw, list) or len(raw) < 3:
-            raise ValueError(f"{where}.vertices must be a list of >= 3 [x, y] points, "
-                             f"got {raw!r:.80}")
+            raise FftnavError(f"{where}.vertices must be a list of >= 3 [x, y] points, "
+                              f"got {raw!r:.80}")
         verts = np.array([_point(f"{where}.vertices[{i}]", v) for i, v in enumerate(raw)])
         verts = convex_ccw(verts, f"{where}.vertices")
         return Polygon(tuple(map(tuple, verts.tolist())), height)
@@ -313,10 +314,10 @@ def convex_ccw(vertices: np.ndarray, where: str) -> np.ndarray:
     """Return the vertices counter-clockwise; raise if the polygon is not strictly convex."""
     turns = _cross(vertices, np.roll(vertices, -1, axis=0), np.roll(vertices, -2, axis=0))
     if not (np.all(turns > 0) or np.all(turns < 0)):
-        raise ValueError(f"{where}: polygon is not convex (or has repeated/collinear vertices)")
+        raise FftnavError(f"{where}: polygon is not convex (or has repeated/collinear vertices)")
     edges = np.roll(vertices, -1, axis=0) - vertices
     heading = np.arctan2(edges[:, 1], edges[:, 0])
     winding = np.sum(np.angle(np.exp(1j * (np.roll(heading, -1) - heading)))) / (2 * math.pi)
     if abs(abs(winding) - 1.0) > 1e-6:
-        raise ValueError(f"{where}: polygon is self-intersecting (winds {abs(winding):.0f} times)")
+        raise FftnavError(f"{where}: polygon is self-intersecting (winds {abs(winding):.0f} times)")
     return vertices if turns[0] > 0 else vertices[::-1]

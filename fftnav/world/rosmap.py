@@ -30,11 +30,13 @@ import re
 import sys
 import warnings
 from collections.abc import Iterator, Mapping, Sequence
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.files import check_input, read_text
 from fftnav.limits import MAX_GRID_CELLS, MAX_INPUT_BYTES, MAX_MAP_SIDE_M, check_limit
 from fftnav.validate import check_choice, check_number, check_vector
@@ -88,16 +90,16 @@ def _pgm_header(path: Path) -> tuple[bytes, int, int, int, int]:
     for _ in range(4):
         m = _PGM_TOKEN.match(head, pos)
         if m is None:
-            raise ValueError(f"{path}: not a PGM file (truncated header)")
+            raise FftnavError(f"{path}: not a PGM file (truncated header)")
         tokens.append(m.group(1))
         pos = m.end()
     magic = tokens[0]
     if magic not in (b"P5", b"P2") or not all(t.isdigit() for t in tokens[1:]):
-        raise ValueError(f"{path}: not a grey PGM (P2/P5 magic, then width, height and maxval), "
-                         f"got {b' '.join(tokens)[:60]!r}")
+        raise FftnavError(f"{path}: not a grey PGM (P2/P5 magic, then width, height and maxval), "
+                          f"got {b' '.join(tokens)[:60]!r}")
     cols, rows, maxval = (int(t) for t in tokens[1:])
     if not 0 < maxval < 65536 or cols == 0 or rows == 0:
-        raise ValueError(f"{path}: not a grey PGM, got {cols} x {rows} pixels, maxval {maxval}")
+        raise FftnavError(f"{path}: not a grey PGM, got {cols} x {rows} pixels, maxval {maxval}")
     return magic, cols, rows, maxval, pos + 1
 
 
@@ -119,14 +121,14 @@ def _pgm_blocks(path: Path) -> tuple[tuple[int, int], Iterator[np.ndarray]]:
             warnings.simplefilter("ignore", DeprecationWarning)  # text that is not numbers
             raw = np.fromstring(path.read_bytes()[offset:], dtype=np.int64, sep=" ")
         if raw.size < rows * cols:
-            raise ValueError(f"{path}: PGM holds {raw.size} pixels, expected {rows} x {cols}")
+            raise FftnavError(f"{path}: PGM holds {raw.size} pixels, expected {rows} x {cols}")
         pixels = raw[: rows * cols].reshape(rows, cols) * scale
         return (rows, cols), iter([pixels[r:r + BLOCK_ROWS] for r in range(0, rows, BLOCK_ROWS)])
     dtype = np.dtype(np.uint8) if maxval < 256 else np.dtype(">u2")
     size = path.stat().st_size - offset
     if size < rows * cols * dtype.itemsize:
-        raise ValueError(f"{path}: PGM holds {max(size, 0) // dtype.itemsize} pixels, expected "
-                         f"{rows} x {cols} (truncated)")
+        raise FftnavError(f"{path}: PGM holds {max(size, 0) // dtype.itemsize} pixels, expected "
+                          f"{rows} x {cols} (truncated)")
 
     def blocks() -> Iterator[np.ndarray]:
         with open(path, "rb") as fh:
@@ -166,7 +168,7 @@ def _image_blocks(path: Path) -> tuple[tuple[int, int], Iterator[np.ndarray]]:
                         float(found.group(1)) if found else math.inf, MAX_GRID_CELLS)
             raise  # pragma: no cover - the count is always above the grid limit
         except (OSError, SyntaxError, ValueError) as exc:
-            raise ValueError(f"{path}: not an image that can be read: {exc}") from None
+            raise FftnavError(f"{path}: not an image that can be read: {exc}") from None
         with img:
             cols, rows = img.size
             _check_cells(path, rows, cols)
@@ -174,7 +176,7 @@ def _image_blocks(path: Path) -> tuple[tuple[int, int], Iterator[np.ndarray]]:
                 pixels = np.asarray(img.convert("RGBA") if img.mode in ("P", "LA", "PA")
                                     else img)
             except (OSError, SyntaxError, ValueError) as exc:
-                raise ValueError(f"{path}: damaged image: {exc}") from None
+                raise FftnavError(f"{path}: damaged image: {exc}") from None
 
     def blocks() -> Iterator[np.ndarray]:
         for r in range(0, rows, BLOCK_ROWS):
@@ -194,27 +196,23 @@ def _yaml_number(value: Any) -> Any:
     return value
 
 
-def read_ros_map(yaml_path: str | Path) -> RosMap:
-    """Read a ``map_server`` YAML file and its image.
+@dataclass(frozen=True)
+class _MapMeta:
+    """The checked keys of a ``map_server`` YAML file."""
 
-    Raises
-    ------
-    ValueError
-        A missing or invalid key (named), a rotated origin, an unreadable image.
-    """
-    import yaml  # pyyaml, only for ROS maps
+    image: str
+    resolution: float
+    origin: tuple[float, ...]
+    negate: int
+    occupied_thresh: float
+    free_thresh: float
+    mode: str
 
-    yaml_path = Path(yaml_path)
-    try:
-        meta = yaml.safe_load(read_text(yaml_path))
-    except yaml.YAMLError as exc:
-        raise ValueError(f"{yaml_path}: invalid YAML: {' '.join(str(exc).split())}") from None
-    if not isinstance(meta, Mapping):
-        raise ValueError(f"{yaml_path}: a map YAML must be a mapping, got {meta!r:.80}")
-    for key in ("image", "resolution", "origin"):
-        if key not in meta:
-            raise ValueError(f"{yaml_path}: missing key {key!r}")
-    try:  # each key's message names the file
+    @classmethod
+    def checked(cls, meta: Mapping[str, Any]) -> _MapMeta:
+        """The keys of ``meta`` (a YAML mapping holding ``image``, ``resolution`` and
+        ``origin``) checked, the others defaulted as map_server does; FftnavError naming the
+        key."""
         meta = {k: _yaml_number(v) for k, v in meta.items()}
         if isinstance(meta["origin"], list):
             meta["origin"] = [_yaml_number(v) for v in meta["origin"]]
@@ -222,32 +220,70 @@ def read_ros_map(yaml_path: str | Path) -> RosMap:
                                   high=MAX_MAP_SIDE_M)
         origin = check_vector("origin", meta["origin"], 3)
         if origin[2] != 0:
-            raise ValueError(f"origin yaw must be 0 (rotated maps are not supported), got "
-                             f"origin={list(meta['origin'])}")
+            raise FftnavError(f"origin yaw must be 0 (rotated maps are not supported), got "
+                              f"origin={list(meta['origin'])}")
         negate = check_choice("negate", meta.get("negate", 0), (0, 1))
         occ = check_number("occupied_thresh", meta.get("occupied_thresh", 0.65), low=0, high=1)
         free = check_number("free_thresh", meta.get("free_thresh", 0.196), low=0, high=occ)
         mode = check_choice("mode", meta.get("mode", "trinary"), ("trinary", "scale", "raw"))
+        return cls(image=str(meta["image"]), resolution=resolution, origin=origin,
+                   negate=negate, occupied_thresh=occ, free_thresh=free, mode=mode)
+
+    def classify(self, grey: np.ndarray) -> np.ndarray:
+        """Occupancy (+1 occupied, 0 free, -1 unknown, int8) of image pixels ``grey``, as
+        map_server reads them in this file's ``mode``."""
+        if self.mode == "raw":
+            p = grey / 100.0
+        else:
+            p = grey / 255.0 if self.negate else (255.0 - grey) / 255.0
+        block = np.where(p > self.occupied_thresh, 1,
+                         np.where(p < self.free_thresh, 0, -1)).astype(np.int8)
+        if self.mode == "raw":
+            block[grey > 100] = -1
+        return block
+
+
+def _read_map_yaml(yaml_path: Path) -> _MapMeta:
+    """The checked keys of a ``map_server`` YAML file (errors name the file)."""
+    import yaml  # pyyaml, only for ROS maps
+
+    try:
+        meta = yaml.safe_load(read_text(yaml_path))
+    except yaml.YAMLError as exc:
+        raise FftnavError(f"{yaml_path}: invalid YAML: {' '.join(str(exc).split())}") from None
+    if not isinstance(meta, Mapping):
+        raise FftnavError(f"{yaml_path}: a map YAML must be a mapping, got {meta!r:.80}")
+    for key in ("image", "resolution", "origin"):
+        if key not in meta:
+            raise FftnavError(f"{yaml_path}: missing key {key!r}")
+    try:  # each key's message names the file
+        return _MapMeta.checked(meta)
     except ValueError as exc:
-        raise ValueError(f"{yaml_path}: {exc}") from None
-    image = Path(str(meta["image"]))
+        raise FftnavError(f"{yaml_path}: {exc}") from None
+
+
+def read_ros_map(yaml_path: str | Path) -> RosMap:
+    """Read a ``map_server`` YAML file and its image.
+
+    Raises
+    ------
+    FftnavError
+        A missing or invalid key (named), a rotated origin, an unreadable image.
+    """
+    yaml_path = Path(yaml_path)
+    meta = _read_map_yaml(yaml_path)
+    image = Path(meta.image)
     image = image if image.is_absolute() else yaml_path.parent / image
     (rows, cols), blocks = _image_blocks(image)
-    check_limit(f"{image}: map side ({max(rows, cols)} pixels x resolution {resolution:g} m)",
-                max(rows, cols) * resolution, MAX_MAP_SIDE_M)
+    check_limit(f"{image}: map side ({max(rows, cols)} pixels x resolution {meta.resolution:g} m)",
+                max(rows, cols) * meta.resolution, MAX_MAP_SIDE_M)
     occupancy = np.empty((rows, cols), dtype=np.int8)
     top = rows  # image row 0 is the top of the map: stored last (row 0 = bottom)
     for grey in blocks:
-        if mode == "raw":
-            p = grey / 100.0
-        else:
-            p = grey / 255.0 if negate else (255.0 - grey) / 255.0
-        block = np.where(p > occ, 1, np.where(p < free, 0, -1)).astype(np.int8)
-        if mode == "raw":
-            block[grey > 100] = -1
-        occupancy[top - len(grey):top] = block[::-1]
+        occupancy[top - len(grey):top] = meta.classify(grey)[::-1]
         top -= len(grey)
-    return RosMap(occupancy, float(resolution), (float(origin[0]), float(origin[1])))
+    origin = meta.origin
+    return RosMap(occupancy, float(meta.resolution), (float(origin[0]), float(origin[1])))
 
 
 def grid_rectangles(grid: np.ndarray) -> list[tuple[int, int, int, int]]:
@@ -284,16 +320,16 @@ def read_robots_toml(path: str | Path) -> tuple[np.ndarray, np.ndarray]:
     try:
         data = tomllib.loads(read_text(path))
     except tomllib.TOMLDecodeError as exc:
-        raise ValueError(f"{path}: invalid TOML: {exc}") from None
+        raise FftnavError(f"{path}: invalid TOML: {exc}") from None
     unknown = [k for k in data if k != "robot"]
     if unknown or not isinstance(data.get("robot"), list) or not data["robot"]:
-        raise ValueError(f"{path}: expected one or more [[robot]] tables with start and goal, "
-                         f"got keys {sorted(data)}")
+        raise FftnavError(f"{path}: expected one or more [[robot]] tables with start and goal, "
+                          f"got keys {sorted(data)}")
     starts, goals = [], []
     for i, robot in enumerate(data["robot"]):
         if not isinstance(robot, dict) or set(robot) != {"start", "goal"}:
-            raise ValueError(f"{path}: robot[{i}] must have exactly start and goal, got "
-                             f"{robot!r:.80}")
+            raise FftnavError(f"{path}: robot[{i}] must have exactly start and goal, got "
+                              f"{robot!r:.80}")
         starts.append(check_vector(f"robot[{i}].start", robot["start"], 3))
         goals.append(check_vector(f"robot[{i}].goal", robot["goal"], 2))
     return np.array(starts, dtype=float), np.array(goals, dtype=float)
@@ -334,7 +370,7 @@ def import_ros_map(yaml_path: str | Path, starts: Sequence[Sequence[float]],
     s = np.array(starts, dtype=float).reshape(-1, 3)
     g = np.array(goals, dtype=float).reshape(-1, 2)
     if len(s) == 0:
-        raise ValueError("starts must be at least one start pose (x, y, yaw_deg), got none")
+        raise FftnavError("starts must be at least one start pose (x, y, yaw_deg), got none")
     shift = np.asarray(ros.origin_m)
     s = np.c_[s[:, :2] - shift, np.radians(s[:, 2])]
     g = g - shift

@@ -42,7 +42,8 @@ def piecewise_scan(rng, beams, range_m):
     circular=st.booleans(),
     k=st.integers(1, 4),
 )
-def test_fft_mask_equals_sliding_window_minimum(seed, r0, ratio, beams, fov_frac, circular, k):
+def test_fft_mask_equals_sliding_window_minimum(*, seed, r0, ratio, beams, fov_frac, circular,
+                                                k):
     geom = RobotGeometry(r0_m=r0, r_m=r0 * ratio)
     fov = 2 * math.pi * fov_frac
     circular = circular and fov_frac == 1.0

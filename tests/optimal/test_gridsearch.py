@@ -8,6 +8,7 @@ import pytest
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
+from fftnav.errors import MissingExtraError
 from fftnav.optimal import gridsearch
 from fftnav.optimal.astar import astar
 from fftnav.optimal.geodesic import geodesic_lengths
@@ -102,7 +103,8 @@ def test_geodesic_lengths_methods(monkeypatch):
         geodesic_lengths(occupied, starts, goals, method="bfs")
     monkeypatch.setattr(gridsearch, "AVAILABLE", False)  # no numba: auto is Dijkstra
     assert np.array_equal(geodesic_lengths(occupied, starts, goals), dijkstra_m)
-    with pytest.raises(ValueError, match="astar_lengths needs numba"):
+    with pytest.raises(MissingExtraError, match=r"^compiled A\* lengths \(astar_lengths\) need "
+                                                r"the numba package: pip install 'fftnav\[fast\]'$"):
         geodesic_lengths(occupied, starts, goals, method="astar")
 
 

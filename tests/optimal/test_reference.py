@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import math
+import re
 import subprocess
 import sys
 
@@ -63,12 +64,12 @@ def test_start_inside_inflated_obstacle_is_an_error():
 
 def run_cli(*args: str) -> subprocess.CompletedProcess:
     return subprocess.run(
-        [sys.executable, "-m", "fftnav", "bench", "planning", *args],
+        [sys.executable, "-m", "fftnav", "bench", "optimal", *args],
         capture_output=True, text=True, timeout=120,
     )
 
 
-def test_cli_bench_planning_times_both_solvers_and_they_agree():
+def test_cli_bench_optimal_times_both_solvers_and_they_agree():
     proc = run_cli("--json", "--env", "rocky", "--seed", "2")
     assert proc.returncode == 0, proc.stderr
     result = json.loads(proc.stdout)
@@ -81,8 +82,18 @@ def test_cli_bench_planning_times_both_solvers_and_they_agree():
         assert result["compiled_astar_8_s"] > 0 and result["compiled_astar_32_s"] > 0
 
 
-def test_cli_bench_planning_bad_r0_exits_2_with_one_line():
+def test_cli_bench_optimal_bad_r0_exits_2_with_one_line():
     proc = run_cli("--r0", "-1")
     assert proc.returncode == 2
     assert proc.stderr.strip() == "fftnav bench: error: r0_m must be a finite number >= 0, got r0_m=-1.0"
     assert "Traceback" not in proc.stderr
+
+
+def test_the_optimal_reference_bench_is_named_after_its_package():
+    listed = subprocess.run([sys.executable, "-m", "fftnav", "bench", "--help"],
+                            capture_output=True, text=True, timeout=120)
+    assert listed.returncode == 0
+    assert re.search(r"^\s+optimal\s+time of the optimal-path reference", listed.stdout, re.M)
+    gone = subprocess.run([sys.executable, "-m", "fftnav", "bench", "planning"],
+                          capture_output=True, text=True, timeout=120)
+    assert gone.returncode == 2 and "invalid choice: 'planning'" in gone.stderr

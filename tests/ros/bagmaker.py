@@ -13,20 +13,25 @@ from fftnav.ros import messages as rosmsg
 LASERSCAN = "sensor_msgs/msg/LaserScan"
 
 
-def scan_msg(store, ranges, *, i=0, angle_min=-math.pi / 2, angle_max=math.pi / 2,
-             angle_increment=None, range_min=0.0, range_max=10.0, frame_id="laser",
-             stamp_ns=None):
+#: The LaserScan fields of a test scan that a test does not give: a 180 degree scan, 10 m.
+SCAN_FIELDS = {"angle_min": -math.pi / 2, "angle_max": math.pi / 2, "range_min": 0.0,
+               "range_max": 10.0}
+
+
+def scan_msg(store, ranges, *, i=0, frame_id="laser", stamp_ns=None, **fields):
+    """LaserScan ``i`` (stamped 1 s + 0.1 s i unless ``stamp_ns``) of ``ranges`` (float32);
+    ``fields``: angle_min, angle_max, angle_increment (default: the span over len - 1),
+    range_min, range_max (default :data:`SCAN_FIELDS`)."""
     ranges = np.asarray(ranges, dtype=np.float32)
-    if angle_increment is None:
-        angle_increment = (angle_max - angle_min) / (len(ranges) - 1)
+    fields = {**SCAN_FIELDS, **fields}
+    fields.setdefault("angle_increment",
+                      (fields["angle_max"] - fields["angle_min"]) / (len(ranges) - 1))
     ns = 1_000_000_000 + i * 100_000_000 if stamp_ns is None else stamp_ns
     stamp = rosmsg.make(store, "builtin_interfaces/msg/Time", sec=ns // 10**9,
                         nanosec=ns % 10**9)
     return rosmsg.make(store, LASERSCAN, header=rosmsg.header(store, stamp, frame_id),
-                       angle_min=angle_min, angle_max=angle_max,
-                       angle_increment=angle_increment, range_min=range_min,
-                       range_max=range_max, ranges=ranges,
-                       intensities=np.full(len(ranges), 7.0, dtype=np.float32))
+                       ranges=ranges, intensities=np.full(len(ranges), 7.0, dtype=np.float32),
+                       **fields)
 
 
 def write_bag(path: Path, topics: dict[str, Sequence], *, kind: str | None = None) -> Path:

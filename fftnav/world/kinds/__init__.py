@@ -25,6 +25,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.files import check_input
 from fftnav.registry import Registry, first_line
 from fftnav.world.obstacles import Obstacle
@@ -104,8 +105,8 @@ def load_preset(env_or_path: str | Path) -> Params:
         return get_world_kind(str(env_or_path)).preset()
     path = Path(env_or_path)
     if path.suffix != ".toml":
-        raise ValueError(f"env_or_path must be one of {list(WORLD_KINDS)} or a .toml path, "
-                         f"got env_or_path={str(env_or_path)!r}")
+        raise FftnavError(f"env_or_path must be one of {list(WORLD_KINDS)} or a .toml path, "
+                          f"got env_or_path={str(env_or_path)!r}")
     with check_input(path).open("rb") as fh:
         return tomllib.load(fh)
 

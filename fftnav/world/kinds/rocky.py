@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.validate import check_integer, check_number
 from fftnav.world.kinds import Params, max_obstacle_radius, register_world_kind, scatter_obstacles
 from fftnav.world.obstacles import Obstacle, Polygon
@@ -28,9 +29,9 @@ def _check(params: Params) -> None:
         check_number(f"{key}[1]", high, low=low, high=tops.get(key))
     wall = math.hypot(params["wall_length_m"][1], params["wall_thickness_m"][1]) / 2
     if wall > fit:
-        raise ValueError(f"wall_length_m[1] must leave walls (bounding radius {wall:g} m) "
-                         f"room between the strips (<= {fit:g} m), got wall_length_m[1]="
-                         f"{params['wall_length_m'][1]!r}")
+        raise FftnavError(f"wall_length_m[1] must leave walls (bounding radius {wall:g} m) "
+                          f"room between the strips (<= {fit:g} m), got wall_length_m[1]="
+                          f"{params['wall_length_m'][1]!r}")
 
 
 def _rock_or_wall(params: Params, rng: np.random.Generator) -> tuple[Obstacle, float]:

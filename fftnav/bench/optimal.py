@@ -1,4 +1,4 @@
-"""Timing of the optimal-path reference on a generated world (``fftnav bench planning``).
+"""Timing of the optimal-path reference on a generated world (``fftnav bench optimal``).
 
 Side by side in one run, on the world's 0.05 m grid inflated by r0: the readable heapq A*
 (:func:`fftnav.optimal.astar.astar`, one query per robot), the batched compiled Dijkstra
@@ -63,7 +63,7 @@ def bench_optimal_paths(
                     "compiled_max_rel_diff": float(max(np.max(np.abs(a8 / lengths8 - 1)),
                                                        np.max(np.abs(a32 / lengths32 - 1))))}
     return {
-        "bench": "planning",
+        "bench": "optimal",
         "env": env,
         "seed": seed,
         "robots": len(starts),
