@@ -26,7 +26,7 @@ test: $(STAMP)
 	$(BIN)/python -m pytest -q -n 2 --doctest-modules fftnav tests
 
 lint: $(STAMP)
-	$(BIN)/ruff check fftnav tests
+	$(BIN)/ruff check fftnav tests experiments
 
 benchmark: $(STAMP)
 	$(BIN)/fftnav run experiments/table1.toml --out results/table1

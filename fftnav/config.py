@@ -24,7 +24,7 @@ TOML file (``sensor.range_m must be ...``) or from ``fftnav episode --set``:
 >>> SwarmConfig.from_sections({"sensor": {"beams": 1}})
 Traceback (most recent call last):
 ...
-ValueError: sensor.beams must be an integer in [2, 100000], got sensor.beams=1
+fftnav.errors.FftnavError: sensor.beams must be an integer in [2, 100000], got sensor.beams=1
 """
 
 from __future__ import annotations
@@ -239,14 +239,14 @@ class EpisodeConfig(_Section):
         """Refuse departures that do not fit the physics-step limit: the episode of
         ``n_robots`` robots runs until the last departs plus ``time_limit_s``, so
         ``(last departure + time_limit_s) x physics_hz`` must be at most
-        :data:`~fftnav.limits.MAX_EPISODE_PHYSICS_STEPS` (ValueError naming the key).
+        :data:`~fftnav.limits.MAX_EPISODE_PHYSICS_STEPS` (FftnavError naming the key).
 
         >>> EpisodeConfig(departure="staggered", stagger_s=3e5).check_departures(3)
         Traceback (most recent call last):
         ...
-        ValueError: physics steps per episode ((last departure + time_limit_s) x physics_hz, \
-3 robots staggered by stagger_s=300000.0): 144,028,800 estimated, above the limit of \
-100,000,000; lower stagger_s
+        fftnav.errors.FftnavError: physics steps per episode \
+((last departure + time_limit_s) x physics_hz, 3 robots staggered by stagger_s=300000.0): \
+144,028,800 estimated, above the limit of 100,000,000; lower stagger_s
         """
         key = {"waves": "wave_interval_s", "staggered": "stagger_s"}.get(self.departure)
         if key is None:

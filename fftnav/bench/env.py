@@ -39,7 +39,7 @@ def bench_env(*, env: str = "forest", seconds: float = 60.0, seed: int = 0,
 
     check_number("seconds", seconds, low=0, high=3600, low_open=True)
     sim = bench_sim(env=env, seconds=seconds, seed=seed)
-    nav = SwarmNavEnv(world_kind=env, map_seed=seed, robots=robots, terminate_on_collision=False)
+    nav = SwarmNavEnv(env, map_seed=seed, robots=robots, terminate_on_collision=False)
     nav.reset(seed=seed, options={"time_limit_s": seconds})
     rng = np.random.default_rng(seed)
     steps, live = 0, 0

@@ -91,12 +91,6 @@ __all__ = ["MESSAGE_BYTES", "Observations", "Rewards", "SwarmNavEnv"]
 #: Size of a message slot in the observation (the compact message of up to 31 extrema).
 MESSAGE_BYTES = 128
 
-#: How :meth:`SwarmNavEnv.render` draws a robot of each status (a kind of
-#: :data:`fftnav.report.frames.KINDS`).
-_DRAWN = {Status.WAITING: "waiting", Status.MOVING: "moving", Status.ARRIVED: "arrived",
-          Status.COLLIDED: "failed", Status.TIMED_OUT: "failed"}
-
-
 @dataclass(frozen=True)
 class Rewards(Checked):
     """Reward terms: ``progress`` per metre of progress to the goal, ``arrival`` once on arrival,
@@ -464,7 +458,7 @@ class SwarmNavEnv(ParallelEnv):
         if self.render_mode != "rgb_array" or self._sim is None or self._core is None:
             return None
         # report is the layer above envs: imported here, when a frame is asked for
-        from fftnav.report.frames import KINDS, RasterRenderer, SwarmFrame
+        from fftnav.report.frames import RasterRenderer, SwarmFrame, kinds_of
 
         renderer = getattr(self, "_renderer", None)
         if (renderer is None or renderer.world is not self.world
@@ -473,7 +467,7 @@ class SwarmNavEnv(ParallelEnv):
                                                        resolution_m=0.05)
         trajectories = self._core.trajectories()
         poses = np.array([t[-1] for t in trajectories])
-        kinds = np.array([KINDS.index(_DRAWN[status]) for status in self.statuses()])
+        kinds = kinds_of(np.array([int(status) for status in self.statuses()]))
         return renderer(SwarmFrame(poses=poses, kinds=kinds,
                                    trails=[t[:, :2] for t in trajectories]))
 

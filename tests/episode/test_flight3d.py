@@ -37,14 +37,14 @@ def test_command_takes_the_safe_direction_nearest_the_target() -> None:
     bank = DiscFilterBank(grid)
     depth = np.full((30, 120), np.inf)
     depth[10:20, 55:66] = 1.5  # a wall straight ahead (azimuth -15..18 deg), beyond r
-    v = _command(bank, grid.directions(), depth, _unit(0.0, 0.0), 0.0, 3.0)
+    v = _command(bank, grid.directions(), depth, _unit(0.0, 0.0), yaw=0.0, speed=3.0)
     assert np.linalg.norm(v) == pytest.approx(3.0)
     mask = bank.safe_mask(depth)
     el, az = bank.nearest_direction(mask, 0.0, 0.0)
     np.testing.assert_allclose(v, 3.0 * _unit(el, az), atol=1e-12)
     assert not mask[14, 60] and math.degrees(math.acos(_unit(el, az)[0])) > 20  # around the wall
     # with yaw = 90 deg the same image is seen rotated: the command rotates with it
-    v_yawed = _command(bank, grid.directions(), depth, _unit(0.0, math.pi / 2), math.pi / 2, 3.0)
+    v_yawed = _command(bank, grid.directions(), depth, _unit(0.0, math.pi / 2), yaw=math.pi / 2, speed=3.0)
     np.testing.assert_allclose(v_yawed, 3.0 * _unit(el, az + math.pi / 2), atol=1e-12)
 
 
@@ -93,10 +93,10 @@ def test_command_keeps_the_swept_body_clear_of_close_readings() -> None:
     depth = _close_image(grid, readings)
     points = np.array([d * dirs[i, j] for i, j, d in readings])
     for target_az in (60.0, -120.0, 0.0):  # straight at either side, and along the gap
-        v = _command(bank, dirs, depth, _unit(0.0, math.radians(target_az)), 0.0, 3.0)
+        v = _command(bank, dirs, depth, _unit(0.0, math.radians(target_az)), yaw=0.0, speed=3.0)
         assert np.linalg.norm(v) == pytest.approx(3.0)
         assert _miss_distance(v / 3.0, points).min() >= DRONE.r0_m
-    v = _command(bank, dirs, depth, _unit(0.0, math.radians(60.0)), 0.0, 3.0)
+    v = _command(bank, dirs, depth, _unit(0.0, math.radians(60.0)), yaw=0.0, speed=3.0)
     assert math.degrees(math.acos(v[0] / 3.0 * 0.5 + v[1] / 3.0 * math.sqrt(0.75))) < 40
 
 
@@ -107,7 +107,7 @@ def test_fallback_keeps_the_close_rule_and_breaks_ties_towards_the_target() -> N
     boxed = np.full((30, 120), 1.0)  # nothing safe; y1 ties everywhere
     boxed[15, 70] = 0.3  # a close reading at azimuth +30 deg
     target = _unit(0.1, math.radians(30))
-    v = _command(bank, dirs, boxed, target, 0.0, 3.0)
+    v = _command(bank, dirs, boxed, target, yaw=0.0, speed=3.0)
     assert np.linalg.norm(v) == pytest.approx(0.75)  # a quarter speed
     y1 = bank.filter(boxed)
     clear = _miss_distance(dirs, 0.3 * dirs[15, 70][None]).min(axis=-1) > 0.15
@@ -117,7 +117,7 @@ def test_fallback_keeps_the_close_rule_and_breaks_ties_towards_the_target() -> N
     assert (dirs[candidates] @ target).max() == pytest.approx((v / 0.75) @ target, abs=1e-12)
     assert _miss_distance(v / 0.75, 0.3 * dirs[15, 70][None]).min() > 0.15
     # boxed in at 0.2 m all around: every swept cone is blocked, so it hovers
-    assert not _command(bank, dirs, np.full((30, 120), 0.2), target, 0.0, 3.0).any()
+    assert not _command(bank, dirs, np.full((30, 120), 0.2), target, yaw=0.0, speed=3.0).any()
 
 
 def test_collisions_are_checked_along_the_path() -> None:

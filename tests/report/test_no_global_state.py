@@ -36,7 +36,7 @@ DRAW = textwrap.dedent("""
     rec = read_recording(out + "/r.npz")
     write_image(rec, out + "/f.png", at_s=2.0)
     render_world(rec.world, out + "/w.png")
-    env = SwarmNavEnv(world_kind="forest", map_seed=0, robots=3, render_mode="rgb_array")
+    env = SwarmNavEnv("forest", map_seed=0, robots=3, render_mode="rgb_array")
     env.reset(seed=0)
     frame = env.render()
     env.close()
