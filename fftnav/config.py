@@ -35,6 +35,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from fftnav.errors import FftnavError
 from fftnav.limits import MAX_BEAMS, MAX_EPISODE_PHYSICS_STEPS, MAX_MAP_SIDE_M, check_limit
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.pipeline import Pipeline
@@ -97,7 +98,7 @@ class RobotConfig(_Section):
 
     def _check_together(self) -> None:
         if self.r_m <= self.r0_m:
-            raise ValueError(f"r_m must be > r0_m={self.r0_m!r}, got r_m={self.r_m!r}")
+            raise FftnavError(f"r_m must be > r0_m={self.r0_m!r}, got r_m={self.r_m!r}")
 
     @property
     def geometry(self) -> RobotGeometry:
@@ -133,8 +134,8 @@ class SensorConfig(_Section):
 
     def _check_together(self) -> None:
         if self.blind_deg >= self.fov_deg:
-            raise ValueError(f"blind_deg must be < fov_deg={self.fov_deg!r}, "
-                             f"got blind_deg={self.blind_deg!r}")
+            raise FftnavError(f"blind_deg must be < fov_deg={self.fov_deg!r}, "
+                              f"got blind_deg={self.blind_deg!r}")
 
     @property
     def fov_rad(self) -> float:
@@ -212,9 +213,9 @@ class EpisodeConfig(_Section):
                     self.time_limit_s * self.physics_hz, MAX_EPISODE_PHYSICS_STEPS,
                     hint="lower time_limit_s or physics_hz")
         if self.max_ticks < 1:
-            raise ValueError(f"control_hz must give at least one control tick within "
-                             f"time_limit_s={self.time_limit_s!r} (time_limit_s x control_hz "
-                             f"rounds to 0), got control_hz={self.control_hz!r}")
+            raise FftnavError(f"control_hz must give at least one control tick within "
+                              f"time_limit_s={self.time_limit_s!r} (time_limit_s x control_hz "
+                              f"rounds to 0), got control_hz={self.control_hz!r}")
         self.check_departures(2)  # the first departure after the first robot's
 
     @property
@@ -296,7 +297,7 @@ class PlannerConfig(_Section):
         turns toward the heading at the same time (the rotation command, so the robot follows
         an arc of radius at least v_max / w_max that closes the error); ``"straight"`` drives
         straight (the paper's robots "move straight or rotate in place";
-        :data:`PAPER_MOTION`). The defaults were chosen on the tuning maps (docs/results.md,
+        :data:`PAPER_MOTION`). The defaults were chosen on the tuning maps (docs/history.md,
         "Turning while driving").
     progress_m : float
         Leave rule: the goal distance must be this much below the distance at the hit point.
@@ -390,8 +391,8 @@ class PlannerConfig(_Section):
 
     def _check_together(self) -> None:
         if self.map_squeeze_m > self.map_clearance_m:
-            raise ValueError(f"map_squeeze_m must be <= map_clearance_m={self.map_clearance_m!r}, "
-                             f"got map_squeeze_m={self.map_squeeze_m!r}")
+            raise FftnavError(f"map_squeeze_m must be <= map_clearance_m={self.map_clearance_m!r}, "
+                              f"got map_squeeze_m={self.map_squeeze_m!r}")
 
 
 #: ``SwarmConfig().replace(PAPER_MOTION)``: the paper's motion, straight or rotation in place,
@@ -424,9 +425,9 @@ class SwarmConfig(Checked):
         it could tunnel through a thin obstacle or another robot between two steps)."""
         step_m = self.robot.v_max_mps / self.episode.physics_hz
         if step_m > self.robot.r0_m:
-            raise ValueError(f"robot.v_max_mps must be <= robot.r0_m x episode.physics_hz = "
-                             f"{self.robot.r0_m * self.episode.physics_hz:g} (at most r0 per "
-                             f"physics step), got robot.v_max_mps={self.robot.v_max_mps!r}")
+            raise FftnavError(f"robot.v_max_mps must be <= robot.r0_m x episode.physics_hz = "
+                              f"{self.robot.r0_m * self.episode.physics_hz:g} (at most r0 per "
+                              f"physics step), got robot.v_max_mps={self.robot.v_max_mps!r}")
 
     @classmethod
     def from_sections(cls, sections: Mapping[str, Mapping[str, Any]]) -> SwarmConfig:
@@ -436,9 +437,9 @@ class SwarmConfig(Checked):
         kwargs = {}
         for name, values in sections.items():
             if name not in _SECTIONS:
-                raise ValueError(f"unknown section [{name}]; expected one of {list(_SECTIONS)}")
+                raise FftnavError(f"unknown section [{name}]; expected one of {list(_SECTIONS)}")
             if not isinstance(values, Mapping):
-                raise ValueError(f"[{name}] must be a table, got {values!r:.80}")
+                raise FftnavError(f"[{name}] must be a table, got {values!r:.80}")
             kwargs[name] = _SECTIONS[name].from_table(name, values)
         return cls(**kwargs)
 
@@ -458,7 +459,7 @@ class SwarmConfig(Checked):
             if len(owners) == 1:
                 return owners[0], key
         known = [f"{s}.{k}" for s, c in _SECTIONS.items() for k in c.keys()]
-        raise ValueError(f"unknown key {key!r}; expected one of {known}")
+        raise FftnavError(f"unknown key {key!r}; expected one of {known}")
 
     def replace(self, overrides: Mapping[str, Any]) -> SwarmConfig:
         """A copy with ``overrides`` applied: keys ``"section.key"`` or a bare key, values
@@ -487,5 +488,5 @@ def _parse(text: str, kind: type, key: str) -> Any:
     try:
         return kind(text)
     except ValueError:
-        raise ValueError(f"{key} must be {'an integer' if kind is int else 'a number'}, "
-                         f"got {key}={text!r}") from None
+        raise FftnavError(f"{key} must be {'an integer' if kind is int else 'a number'}, "
+                          f"got {key}={text!r}") from None

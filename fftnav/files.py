@@ -28,6 +28,7 @@ from typing import Any, BinaryIO
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.limits import MAX_BEAMS, MAX_INPUT_BYTES, MAX_JSON_DEPTH, check_limit
 
 if sys.version_info >= (3, 11):
@@ -70,7 +71,7 @@ def check_input(path: str | os.PathLike[str]) -> Path:
     path = Path(path)
     mode = os.stat(path).st_mode
     if not stat.S_ISREG(mode):
-        raise ValueError(f"{path}: is {_file_kind(mode)}, not a file; give a regular file")
+        raise FftnavError(f"{path}: is {_file_kind(mode)}, not a file; give a regular file")
     return path
 
 
@@ -94,23 +95,23 @@ def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
     except (FileNotFoundError, NotADirectoryError):  # checked as the folder below
         mode = None
     except OSError as exc:
-        raise ValueError(f"{name} cannot be written, got {given} ({exc.strerror})") from None
+        raise FftnavError(f"{name} cannot be written, got {given} ({exc.strerror})") from None
     if mode is not None and not stat.S_ISREG(mode):
-        raise ValueError(f"{name} must be a file path, not {_file_kind(mode)}, got {given}")
+        raise FftnavError(f"{name} must be a file path, not {_file_kind(mode)}, got {given}")
     if image and not target.suffix:
-        raise ValueError(f"{name} must end in the image's type, e.g. .png or .svg, got {given}")
+        raise FftnavError(f"{name} must end in the image's type, e.g. .png or .svg, got {given}")
     folder = target.parent
     if make_folder:
         try:
             folder.mkdir(parents=True, exist_ok=True)
         except OSError as exc:
-            raise ValueError(f"{name} must be in a folder that can be made, got {given} "
-                             f"({exc.strerror})") from None
+            raise FftnavError(f"{name} must be in a folder that can be made, got {given} "
+                              f"({exc.strerror})") from None
     if not folder.is_dir():
-        raise ValueError(f"{name} must be in an existing folder, got {given} (no folder "
-                         f"{str(folder)!r})")
+        raise FftnavError(f"{name} must be in an existing folder, got {given} (no folder "
+                          f"{str(folder)!r})")
     if not os.access(folder, os.W_OK | os.X_OK):
-        raise ValueError(f"{name} must be in a writable folder, got {given}")
+        raise FftnavError(f"{name} must be in a writable folder, got {given}")
     return target
 
 
@@ -191,10 +192,10 @@ def _damage(path: str | Path, what: str) -> Iterator[None]:
     try:
         yield
     except UnicodeDecodeError as exc:
-        raise ValueError(f"{path}: not {exc.encoding} text: byte 0x{exc.object[exc.start]:02x} "
-                         f"at offset {exc.start}") from None
+        raise FftnavError(f"{path}: not {exc.encoding} text: byte 0x{exc.object[exc.start]:02x} "
+                          f"at offset {exc.start}") from None
     except _STREAM_ERRORS as exc:
-        raise ValueError(f"{path}: damaged {what}: {exc or type(exc).__name__}") from None
+        raise FftnavError(f"{path}: damaged {what}: {exc or type(exc).__name__}") from None
 
 
 def read_lines(path: str | Path, *, encoding: str = "utf-8") -> Iterator[str]:
@@ -210,8 +211,8 @@ def read_lines(path: str | Path, *, encoding: str = "utf-8") -> Iterator[str]:
             for lineno, line in enumerate(fh, 1):  # noqa: B007 - used in the message
                 yield line
         except UnicodeDecodeError as exc:
-            raise ValueError(f"{path}:{lineno + 1}: not {exc.encoding} text: byte "
-                             f"0x{exc.object[exc.start]:02x}") from None
+            raise FftnavError(f"{path}:{lineno + 1}: not {exc.encoding} text: byte "
+                              f"0x{exc.object[exc.start]:02x}") from None
 
 
 def json_depth(text: str | bytes) -> int:
@@ -241,12 +242,12 @@ def parse_json(text: str, *, where: str) -> Any:
     :data:`fftnav.limits.MAX_JSON_DEPTH`."""
     depth = json_depth(text)
     if depth > MAX_JSON_DEPTH:
-        raise ValueError(f"{where}: JSON nested {depth} levels deep, above the limit of "
-                         f"{MAX_JSON_DEPTH}")
+        raise FftnavError(f"{where}: JSON nested {depth} levels deep, above the limit of "
+                          f"{MAX_JSON_DEPTH}")
     try:
         return json.loads(text)
     except (json.JSONDecodeError, RecursionError) as exc:
-        raise ValueError(f"{where}: not valid JSON: {exc}") from None
+        raise FftnavError(f"{where}: not valid JSON: {exc}") from None
 
 
 def read_json(path: str | Path) -> Any:
@@ -260,7 +261,7 @@ def read_toml(path: str | Path) -> tuple[dict[str, Any], str]:
     try:
         return tomllib.loads(text), text
     except (tomllib.TOMLDecodeError, RecursionError) as exc:
-        raise ValueError(f"{path}: invalid TOML: {exc}") from None
+        raise FftnavError(f"{path}: invalid TOML: {exc}") from None
 
 
 def _check_array_header(fh: Any, where: str) -> tuple[tuple[int, ...], np.dtype]:
@@ -279,9 +280,9 @@ def _read_array_header(fh: Any, where: str) -> tuple[tuple[int, ...], np.dtype, 
             shape, fortran, dtype = np.lib.format.read_array_header_2_0(fh)
     except (ValueError, EOFError, OSError) as exc:
         reason = str(exc).splitlines()[0] if str(exc) else type(exc).__name__
-        raise ValueError(f"{where}: not a .npy array: {reason}") from None
+        raise FftnavError(f"{where}: not a .npy array: {reason}") from None
     if dtype.hasobject:
-        raise ValueError(f"{where}: holds Python objects (dtype={dtype}); only numbers are read")
+        raise FftnavError(f"{where}: holds Python objects (dtype={dtype}); only numbers are read")
     nbytes = float(np.prod([float(s) for s in shape])) * dtype.itemsize
     check_limit(f"{where}: array of shape {shape} and dtype {dtype}: bytes", nbytes,
                 MAX_INPUT_BYTES)
@@ -295,7 +296,7 @@ def load_npy(path: str | Path) -> np.ndarray:
     with open(path, "rb") as fh:
         head = fh.read(4)
         if head.startswith(b"PK"):
-            raise ValueError(f"{path}: is a .npz archive, not one .npy array")
+            raise FftnavError(f"{path}: is a .npz archive, not one .npy array")
         fh.seek(0)
         _check_array_header(fh, str(path))
         fh.seek(0)
@@ -303,7 +304,7 @@ def load_npy(path: str | Path) -> np.ndarray:
             try:
                 return np.load(fh, allow_pickle=False)
             except ValueError as exc:
-                raise ValueError(f"{path}: damaged .npy array: {exc}") from None
+                raise FftnavError(f"{path}: damaged .npy array: {exc}") from None
 
 
 def load_npz(path: str | Path) -> dict[str, np.ndarray]:
@@ -321,7 +322,7 @@ def load_npz(path: str | Path) -> dict[str, np.ndarray]:
             try:
                 out[member.removesuffix(".npy")] = np.load(fh, allow_pickle=False)
             except (ValueError, EOFError) as exc:
-                raise ValueError(f"{where}: damaged array: {exc}") from None
+                raise FftnavError(f"{where}: damaged array: {exc}") from None
     return out
 
 
@@ -335,12 +336,12 @@ def iter_npy_rows(path: str | Path, *, rows: int = 4096, values: int = CHUNK_VAL
     path = check_input(path)
     with open(path, "rb") as fh:
         if fh.read(4).startswith(b"PK"):
-            raise ValueError(f"{path}: is a .npz archive, not one .npy array")
+            raise FftnavError(f"{path}: is a .npz archive, not one .npy array")
         fh.seek(0)
         shape, dtype, fortran = _read_array_header(fh, str(path))
         if len(shape) not in (1, 2) or 0 in shape or dtype.kind not in "biuf":
-            raise ValueError(f"{str(path)!r} must hold a numeric (M,) or (K, M) array, got "
-                             f"shape={shape} dtype={dtype}")
+            raise FftnavError(f"{str(path)!r} must hold a numeric (M,) or (K, M) array, got "
+                              f"shape={shape} dtype={dtype}")
         k, m = (1, shape[0]) if len(shape) == 1 else shape
         check_limit(f"{path}: values per row (beams)", m, max_width)
         step = max(1, min(rows, values // m))
@@ -355,8 +356,8 @@ def iter_npy_rows(path: str | Path, *, rows: int = 4096, values: int = CHUNK_VAL
             chunk = fh.read(n * m * dtype.itemsize)
             if len(chunk) < n * m * dtype.itemsize:
                 end = i + len(chunk) // (m * dtype.itemsize)
-                raise ValueError(f"{path}: damaged .npy array: the file ends at row {end} of "
-                                 f"the {k} its header claims")
+                raise FftnavError(f"{path}: damaged .npy array: the file ends at row {end} of "
+                                  f"the {k} its header claims")
             with np.errstate(invalid="ignore"):  # a signalling NaN reads as NaN, quietly
                 yield np.frombuffer(chunk, dtype=dtype).reshape(n, m).astype(np.float64)
 
@@ -388,8 +389,8 @@ def iter_csv_rows(path: str | Path, *, rows: int = 4096, values: int = CHUNK_VAL
                 beams = f"{path}:{lineno}: values on one line (beams)"
                 if len(line) > MAX_CSV_LINE_BYTES:  # its first bytes only: refused unparsed
                     check_limit(beams, line.count(b",") + 1, max_width)
-                    raise ValueError(f"{path}:{lineno}: line longer than "
-                                     f"{MAX_CSV_LINE_BYTES:,} bytes")
+                    raise FftnavError(f"{path}:{lineno}: line longer than "
+                                      f"{MAX_CSV_LINE_BYTES:,} bytes")
                 text = line.strip()
                 if not text or text.startswith(b"#"):
                     continue
@@ -399,12 +400,12 @@ def iter_csv_rows(path: str | Path, *, rows: int = 4096, values: int = CHUNK_VAL
                 width = width or cells
             if not chunk:
                 if not width:
-                    raise ValueError(f"{path}: holds no numbers")
+                    raise FftnavError(f"{path}: holds no numbers")
                 return
             block = _parse_csv_block(path, chunk)
             if block.shape[1] != width:
-                raise ValueError(f"{path}:{chunk[0][0]}: {block.shape[1]} values, earlier rows "
-                                 f"have {width}")
+                raise FftnavError(f"{path}:{chunk[0][0]}: {block.shape[1]} values, earlier rows "
+                                  f"have {width}")
             yield block
 
 
@@ -422,17 +423,17 @@ def _parse_csv_block(path: Path, chunk: list[tuple[int, bytes]]) -> np.ndarray:
         try:
             cells = line.decode("utf-8").split(",")
         except UnicodeDecodeError as exc:
-            raise ValueError(f"{path}:{lineno}: not utf-8 text: byte "
-                             f"0x{exc.object[exc.start]:02x}") from None
+            raise FftnavError(f"{path}:{lineno}: not utf-8 text: byte "
+                              f"0x{exc.object[exc.start]:02x}") from None
         try:
             row = [float(c) for c in cells]
         except ValueError:
             col = next(i for i, c in enumerate(cells) if not _is_float(c))
-            raise ValueError(f"{path}:{lineno}: column {col + 1} is not a number, got "
-                             f"{cells[col].strip()[:40]!r}") from None
+            raise FftnavError(f"{path}:{lineno}: column {col + 1} is not a number, got "
+                              f"{cells[col].strip()[:40]!r}") from None
         if rows and len(row) != len(rows[0]):
-            raise ValueError(f"{path}:{lineno}: {len(row)} values, earlier rows have "
-                             f"{len(rows[0])}")
+            raise FftnavError(f"{path}:{lineno}: {len(row)} values, earlier rows have "
+                              f"{len(rows[0])}")
         rows.append(row)
     return np.array(rows, dtype=np.float64)
 

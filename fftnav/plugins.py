@@ -62,6 +62,8 @@ from collections.abc import Callable, Iterator, Mapping
 from pathlib import Path
 from typing import Any
 
+from fftnav.errors import FftnavError
+
 __all__ = ["PluginError", "PluginProxy", "entry_points", "file_sha256", "is_reference",
            "load_reference", "plugin_call", "plugin_sources", "reference_file", "source_file"]
 
@@ -70,7 +72,7 @@ _ATTR = re.compile(r"^[A-Za-z_][A-Za-z0-9_]*(\.[A-Za-z_][A-Za-z0-9_]*)*$")
 _NEIGHBOURS: dict[Path, tuple[Path, ...]] = {}
 
 
-class PluginError(ValueError):
+class PluginError(FftnavError):
     """A plugin reference that cannot be loaded (bad form, missing file, import error)."""
 
 

@@ -25,12 +25,14 @@ import importlib.metadata
 from collections.abc import Iterable
 from typing import Any, TypeVar
 
+from fftnav.errors import FftnavError
+
 __all__ = ["Registry", "UnknownNameError", "first_line"]
 
 T = TypeVar("T")
 
 
-class UnknownNameError(ValueError):
+class UnknownNameError(FftnavError):
     """A name that no registry entry (nor installed entry point) has."""
 
 
@@ -79,9 +81,9 @@ class Registry(dict[str, T]):
         """Register ``item`` under ``name``; ValueError if the name is taken or not a
         non-empty string. Returns ``item``."""
         if not isinstance(name, str) or not name:
-            raise ValueError(f"a {self.kind} name must be a non-empty string, got name={name!r}")
+            raise FftnavError(f"a {self.kind} name must be a non-empty string, got name={name!r}")
         if name in self:
-            raise ValueError(f"{self.kind} {name!r} is already registered")
+            raise FftnavError(f"{self.kind} {name!r} is already registered")
         self[name] = item
         return item
 

@@ -42,6 +42,8 @@ from __future__ import annotations
 
 from enum import IntEnum
 
+from fftnav.errors import FftnavError
+
 __all__ = ["State", "Status"]
 
 
@@ -59,8 +61,8 @@ class _Coded(IntEnum):
         for member in cls:
             if member.label == label:
                 return member
-        raise ValueError(f"{cls.__name__.lower()} must be one of "
-                         f"{[m.label for m in cls]}, got {label!r}")
+        raise FftnavError(f"{cls.__name__.lower()} must be one of "
+                          f"{[m.label for m in cls]}, got {label!r}")
 
     @classmethod
     def labels(cls) -> tuple[str, ...]:

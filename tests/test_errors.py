@@ -89,3 +89,64 @@ def test_errors_raised_in_a_worker_process_pickle_whole():
         assert type(back) is type(err) and str(back) == str(err)
     assert (back.name, back.extra, back.needed_for) == ("rosbags.highlevel", "ros", "ROS bags")
     assert pickle.loads(pickle.dumps(UnreachableGoalError((0, 0), (2, 3)))).goal == (2, 3)
+
+
+@pytest.mark.parametrize(("module", "extra", "code"), [
+    ("pettingzoo", "marl", "import fftnav.envs"),
+    ("imageio_ffmpeg", "video",
+     "from fftnav.report.replay import write_video; write_video(None, 'x.mp4')"),
+])
+def test_features_of_an_optional_extra_name_its_pip_line_when_it_is_missing(module, extra, code):
+    """Run in a fresh interpreter with the extra's module made unimportable."""
+    import subprocess
+
+    block = (f"import sys; sys.modules[{module!r}] = None\n"
+             f"from fftnav.errors import MissingExtraError\n"
+             f"try:\n    {code}\nexcept MissingExtraError as err:\n"
+             f"    print(type(err).__name__, err.name, err)\n")
+    done = subprocess.run([sys.executable, "-c", block], capture_output=True, text=True,
+                          check=False, timeout=120)
+    assert done.returncode == 0, done.stderr
+    assert done.stdout.startswith(f"MissingExtraError {module} ")
+    assert f"pip install 'fftnav[{extra}]'" in done.stdout
+
+
+def _raised_builtin_value_errors() -> list[str]:
+    import ast
+    from pathlib import Path
+
+    import fftnav
+
+    found = []
+    for path in sorted(Path(fftnav.__file__).parent.rglob("*.py")):
+        for node in ast.walk(ast.parse(path.read_text(), filename=str(path))):
+            if isinstance(node, ast.Raise) and node.exc is not None:
+                exc = node.exc.func if isinstance(node.exc, ast.Call) else node.exc
+                if isinstance(exc, ast.Name) and exc.id == "ValueError":
+                    found.append(f"{path.name}:{node.lineno}")
+    return found
+
+
+def test_the_package_raises_no_bare_value_error():
+    """Every refusal is an FftnavError (or a subclass), so ``except FftnavError`` catches the
+    library's refusals and nothing else."""
+    assert _raised_builtin_value_errors() == []
+
+
+def test_every_error_class_of_the_package_is_an_fftnav_error():
+    import importlib
+    import inspect
+    import pkgutil
+
+    import fftnav
+
+    optional = {"fftnav.envs", "fftnav.envs.swarm_env"}  # need the extra marl
+    classes = set()
+    for info in pkgutil.walk_packages(fftnav.__path__, "fftnav."):
+        if info.name in optional or info.name == "fftnav.__main__":
+            continue
+        module = importlib.import_module(info.name)
+        classes |= {obj for _, obj in inspect.getmembers(module, inspect.isclass)
+                    if issubclass(obj, ValueError) and obj.__module__.startswith("fftnav")}
+    assert len(classes) >= 5
+    assert [c.__qualname__ for c in classes if not issubclass(c, FftnavError)] == []

@@ -67,6 +67,18 @@ def test_the_wheel_ships_presets_and_urdf_and_no_tests(installed):
     assert not any(n.startswith(("tests/", "worlds/")) for n in names)
 
 
+def test_the_wheel_s_version_is_fftnav_s_version(installed):
+    """The one source of the version: the wheel's metadata and ``run_info.json`` agree with
+    ``fftnav.__version__``."""
+    import fftnav
+
+    wheel = next((installed[0].parents[1] / "dist").glob("fftnav-*.whl"))
+    assert wheel.name.startswith(f"fftnav-{fftnav.__version__}-")
+    shown = _run(installed[0] / "python", "-c", "import importlib.metadata as m, fftnav; "
+                 "print(m.version('fftnav'), fftnav.__version__)", cwd=installed[1])
+    assert shown.stdout.split() == [fftnav.__version__] * 2
+
+
 def test_installed_wheel_generates_runs_an_episode_and_an_experiment(installed):
     bin_dir, work = installed
     where = _run(bin_dir / "python", "-c", "import fftnav; print(fftnav.__file__)", cwd=work)
@@ -84,3 +96,6 @@ def test_installed_wheel_generates_runs_an_episode_and_an_experiment(installed):
     assert len((work / "smoke" / "episodes.csv").read_text().splitlines()) == 1 + 2 * 2 * 3
     info = (work / "smoke" / "run_info.json").read_text()
     assert '"git_revision": "unknown"' in info
+    import fftnav
+
+    assert f'"fftnav_version": "{fftnav.__version__}"' in info

@@ -7,6 +7,7 @@ import argparse
 from pathlib import Path
 
 from fftnav.cli.run import _workers
+from fftnav.errors import FftnavError
 
 
 def cmd_figure_filters(args: argparse.Namespace) -> int:
@@ -23,7 +24,7 @@ def cmd_figure_depth3d(args: argparse.Namespace) -> int:
     from fftnav.report.depth3d import draw_depth3d_figure
 
     if args.seed < 0:
-        raise ValueError(f"--seed must be an integer >= 0, got --seed={args.seed}")
+        raise FftnavError(f"--seed must be an integer >= 0, got --seed={args.seed}")
     for path in draw_depth3d_figure(Path(args.out), seed=args.seed):
         print(path)
     return 0

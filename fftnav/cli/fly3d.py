@@ -7,6 +7,8 @@ import csv
 import io
 import json
 
+from fftnav.errors import FftnavError
+
 
 def cmd_fly3d(args: argparse.Namespace) -> int:
     """Fly seeds ``first .. first + seeds - 1``; write per-seed rows and print a JSON summary."""
@@ -14,13 +16,13 @@ def cmd_fly3d(args: argparse.Namespace) -> int:
     from fftnav.files import check_target, write_atomic
 
     if args.seeds < 1:
-        raise ValueError(f"--seeds must be an integer >= 1, got --seeds={args.seeds}")
+        raise FftnavError(f"--seeds must be an integer >= 1, got --seeds={args.seeds}")
     if args.first < 0:
-        raise ValueError(f"--first must be an integer >= 0, got --first={args.first}")
+        raise FftnavError(f"--first must be an integer >= 0, got --first={args.first}")
     seeds = range(args.first, args.first + args.seeds)
     if args.plot and args.plot_seed not in seeds:
-        raise ValueError(f"--plot-seed must be one of the flown seeds {seeds.start}.."
-                         f"{seeds.stop - 1}, got --plot-seed={args.plot_seed}")
+        raise FftnavError(f"--plot-seed must be one of the flown seeds {seeds.start}.."
+                          f"{seeds.stop - 1}, got --plot-seed={args.plot_seed}")
     config = FlightConfig(rows=args.rows, cols=args.cols)
     for flag in ("--out", "--plot"):  # refused before any flight
         if getattr(args, flag[2:]):

@@ -42,12 +42,9 @@ def _check_options(args: argparse.Namespace, suffix: str) -> None:
     if suffix not in FORMATS:
         raise CliError(f"--out must end in one of {', '.join(FORMATS)}, got --out={args.out!r}")
     if suffix == ".mp4":
-        import importlib.util
+        from fftnav.errors import import_extra
 
-        if importlib.util.find_spec("imageio_ffmpeg") is None:
-            from fftnav.report.replay import VIDEO_HINT
-
-            raise CliError(VIDEO_HINT)
+        import_extra("imageio_ffmpeg", extra="video", needed_for="MP4 videos")
     if suffix != ".png" and args.at is not None:
         raise CliError("--at picks the frame of a .png; use --from and --to for a window")
     if suffix == ".png" and (args.start is not None or args.stop is not None):

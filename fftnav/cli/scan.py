@@ -11,6 +11,8 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
+
 #: Model range R for CARMEN logs (real indoor 2D lidar; "no return" ~81 m reads as R).
 CARMEN_RANGE_M = 10.0
 #: Model range R of the paper's simulated lidar.
@@ -33,8 +35,8 @@ def cmd_scan(args: argparse.Namespace) -> int:
     if is_bag(args.file):
         return _scan_bag(args)
     if args.topic is not None or args.out_bag is not None:
-        raise ValueError(f"--topic and --out-bag need a bag (.bag, .db3, .mcap or a ROS 2 bag "
-                         f"folder), got {args.file!r}")
+        raise FftnavError(f"--topic and --out-bag need a bag (.bag, .db3, .mcap or a ROS 2 bag "
+                          f"folder), got {args.file!r}")
     data = iter_scans(args.file, format=args.format, rows=CHUNK_SCANS)
     first = next(data.chunks)
     beams = first.shape[1]
@@ -84,8 +86,8 @@ def _scan_bag(args: argparse.Namespace) -> int:
     from fftnav.ros.bags import scan_bag
 
     if args.fov is not None or args.format != "auto":
-        raise ValueError("--fov and --format do not apply to bags: each LaserScan gives its own "
-                         "field of view")
+        raise FftnavError("--fov and --format do not apply to bags: each LaserScan gives its own "
+                          "field of view")
     geometry = RobotGeometry(r0_m=REAL_ROBOT.r0_m if args.r0 is None else args.r0,
                              r_m=REAL_ROBOT.r_m if args.r is None else args.r)
     scan_bag(args.file, topic=args.topic, geometry=geometry, range_m=args.range,

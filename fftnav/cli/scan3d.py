@@ -8,6 +8,8 @@ import math
 
 import numpy as np
 
+from fftnav.errors import FftnavError
+
 
 def cmd_scan3d(args: argparse.Namespace) -> int:
     """Load a (rows, cols) depth image in metres and print its safe mask and summary."""
@@ -18,12 +20,12 @@ def cmd_scan3d(args: argparse.Namespace) -> int:
 
     for flag, value, top in (("--fov-el", args.fov_el, 180.0), ("--fov-az", args.fov_az, 360.0)):
         if not 0 < value <= top:
-            raise ValueError(f"{flag} must be in (0, {top:g}] degrees, got {flag}={value:g}")
+            raise FftnavError(f"{flag} must be in (0, {top:g}] degrees, got {flag}={value:g}")
     depth = load_npy(args.file)
     if depth.ndim != 2:
-        raise ValueError(f"FILE must hold a 2D (rows, cols) depth image, got shape={depth.shape}")
+        raise FftnavError(f"FILE must hold a 2D (rows, cols) depth image, got shape={depth.shape}")
     if not np.issubdtype(depth.dtype, np.number) or np.issubdtype(depth.dtype, np.complexfloating):
-        raise ValueError(f"FILE must hold real numbers, got dtype={depth.dtype}")
+        raise FftnavError(f"FILE must hold real numbers, got dtype={depth.dtype}")
     check_limit(f"{args.file}: pixels", depth.size, MAX_DEPTH_PIXELS)
     grid = SphericalGrid(depth.shape[0], depth.shape[1], math.radians(args.fov_el),
                          math.radians(args.fov_az))

@@ -10,6 +10,7 @@ import math
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.files import check_target
 from fftnav.world.kinds import world_kinds
 from fftnav.world.model import BOUNDARIES
@@ -103,8 +104,8 @@ def cmd_scan(args: argparse.Namespace) -> int:
     x, y, yaw_deg = args.pose
     w, h = world.size_m
     if not (0 <= x <= w and 0 <= y <= h and math.isfinite(yaw_deg)):
-        raise ValueError(f"pose must lie in the world [0, {w:g}] x [0, {h:g}] with a finite yaw, "
-                         f"got pose={args.pose}")
+        raise FftnavError(f"pose must lie in the world [0, {w:g}] x [0, {h:g}] with a finite yaw, "
+                          f"got pose={args.pose}")
     probe = world.with_robots([[x, y, math.radians(yaw_deg)]], [[x, y]])
     config = SimConfig(sensor=SensorConfig(beams=args.beams, range_m=args.range,
                                            blind_deg=args.blind))

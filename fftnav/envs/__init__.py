@@ -3,12 +3,11 @@
 Needs the optional extra ``pip install fftnav[marl]`` (``pettingzoo``, ``gymnasium``).
 """
 
-try:
-    from fftnav.envs.swarm_env import MESSAGE_BYTES, Observations, Rewards, SwarmNavEnv
-except ImportError as exc:  # pragma: no cover - depends on the installed extras
-    if exc.name not in ("pettingzoo", "gymnasium"):
-        raise
-    raise ImportError(f"fftnav.envs needs the optional extra: pip install 'fftnav[marl]' "
-                      f"({exc.name} is not installed)", name=exc.name) from None
+from fftnav.errors import import_extra
+
+for _module in ("gymnasium", "pettingzoo"):
+    import_extra(_module, extra="marl", needed_for="the multi-agent environments (fftnav.envs)")
+
+from fftnav.envs.swarm_env import MESSAGE_BYTES, Observations, Rewards, SwarmNavEnv  # noqa: E402
 
 __all__ = ["MESSAGE_BYTES", "Observations", "Rewards", "SwarmNavEnv"]

@@ -78,6 +78,7 @@ from pettingzoo import ParallelEnv
 
 from fftnav.config import SwarmConfig
 from fftnav.episode.core import EpisodeCore
+from fftnav.errors import FftnavError
 from fftnav.navigation.resolve import Resolved, resolve
 from fftnav.observe.safe import beam_index
 from fftnav.observe.scan import wrap_angle
@@ -169,8 +170,8 @@ class SwarmNavEnv(ParallelEnv):
         self.observations = observations or Observations()
         self.terminate_on_collision = bool(terminate_on_collision)
         if not isinstance(world, (str, World)):
-            raise ValueError(f"world must be a world kind (str) or a World, got "
-                             f"world={world!r:.80}")
+            raise FftnavError(f"world must be a world kind (str) or a World, got "
+                              f"world={world!r:.80}")
         self._fixed_world = world if isinstance(world, World) else None
         self._kind = "forest" if self._fixed_world is not None else world
         self._map_seed = check_integer("map_seed", map_seed, low=0)
@@ -246,7 +247,7 @@ class SwarmNavEnv(ParallelEnv):
     def statuses(self) -> list[Status]:
         """Every robot's :class:`~fftnav.states.Status` at the current tick."""
         if self._core is None:
-            raise ValueError("statuses() needs an episode: call reset() first")
+            raise FftnavError("statuses() needs an episode: call reset() first")
         return [Status(int(s)) for s in self._core.status()]
 
     # -- episode -----------------------------------------------------------------------------
@@ -305,8 +306,8 @@ class SwarmNavEnv(ParallelEnv):
         moving); a value that is not a dict of agents to finite ``(2,)`` arrays is a ValueError
         naming it."""
         if not isinstance(actions, Mapping):
-            raise ValueError(f"actions must be a dict mapping each agent to an array "
-                             f"(v_mps, w_radps) of shape (2,), got {type(actions).__name__}")
+            raise FftnavError(f"actions must be a dict mapping each agent to an array "
+                              f"(v_mps, w_radps) of shape (2,), got {type(actions).__name__}")
         assert self._core is not None
         moving = self._core.robots.moving(self._core.tick)
         commands = np.zeros((len(self.possible_agents), 2))
@@ -318,10 +319,10 @@ class SwarmNavEnv(ParallelEnv):
                 value = None
             if value is None or value.shape != (2,):
                 shape = "no number array" if value is None else f"shape {value.shape}"
-                raise ValueError(f"actions[{agent!r}] must be an array (v_mps, w_radps) of "
-                                 f"shape (2,), got {shape}: {action!r:.80}")
+                raise FftnavError(f"actions[{agent!r}] must be an array (v_mps, w_radps) of "
+                                  f"shape (2,), got {shape}: {action!r:.80}")
             if not np.isfinite(value).all():
-                raise ValueError(f"actions[{agent!r}] must be finite, got {value.tolist()}")
+                raise FftnavError(f"actions[{agent!r}] must be finite, got {value.tolist()}")
             if moving[i]:
                 commands[i] = value
         return commands
@@ -332,13 +333,13 @@ class SwarmNavEnv(ParallelEnv):
         if messages is None:
             return self._own_messages
         if not isinstance(messages, Mapping):
-            raise ValueError(f"messages must be a dict mapping agents to bytes, got "
-                             f"{type(messages).__name__}")
+            raise FftnavError(f"messages must be a dict mapping agents to bytes, got "
+                              f"{type(messages).__name__}")
         outgoing = {}
         for agent, payload in messages.items():
             if not isinstance(payload, (bytes, bytearray)):
-                raise ValueError(f"messages[{agent!r}] must be bytes, got "
-                                 f"{type(payload).__name__}")
+                raise FftnavError(f"messages[{agent!r}] must be bytes, got "
+                                  f"{type(payload).__name__}")
             outgoing[self.index(agent)] = bytes(payload)
         return outgoing
 
@@ -349,7 +350,7 @@ class SwarmNavEnv(ParallelEnv):
         a scripted controller's; default: the environment's own, ``Observations``)."""
         core = self._core
         if self._sim is None or core is None or not self.agents:
-            raise ValueError("step() needs a live episode: call reset() first")
+            raise FftnavError("step() needs a live episode: call reset() first")
         commands = self._commands(actions)
         outgoing = self._outgoing(messages)
         agents = list(self.agents)

@@ -35,6 +35,7 @@ import numpy as np
 from fftnav.config import SwarmConfig
 from fftnav.episode.comms import Channel
 from fftnav.episode.recording import Tape
+from fftnav.errors import FftnavError
 from fftnav.navigation.controllers import Controller, ControllerSetup, Packet, SwarmStep
 from fftnav.sim.swarm import Observation, SwarmSim
 from fftnav.states import Status
@@ -239,9 +240,9 @@ class EpisodeCore:
         record the tick, call ``on_tick``, drive the swarm one control period, then take out
         the robots that arrived or touched an obstacle. The next tick is then current."""
         if self.swarm is None or self.swarm.tick != self.tick:
-            raise ValueError(f"advance() needs the swarm of tick {self.tick}: call observe() "
-                             f"first, got the swarm of tick "
-                             f"{None if self.swarm is None else self.swarm.tick}")
+            raise FftnavError(f"advance() needs the swarm of tick {self.tick}: call observe() "
+                              f"first, got the swarm of tick "
+                              f"{None if self.swarm is None else self.swarm.tick}")
         step, robots = self.swarm, self.robots
         outgoing = dict(outgoing)
         for i in sorted(outgoing):

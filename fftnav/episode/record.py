@@ -13,6 +13,8 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
+
 if TYPE_CHECKING:
     from fftnav.episode.recording import Tape
 
@@ -126,8 +128,8 @@ class EpisodeResult:
         """The recording file's bytes (:mod:`fftnav.episode.recording`); needs
         ``run_episode(record=True)``."""
         if self.tape is None:
-            raise ValueError("record must be True in run_episode to get a recording, "
-                             "got record=False")
+            raise FftnavError("record must be True in run_episode to get a recording, "
+                              "got record=False")
         return self.tape.to_bytes([row.as_dict() for row in self.rows])
 
     @property

@@ -63,6 +63,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.config import SwarmConfig
+from fftnav.errors import FftnavError
 from fftnav.files import check_input, check_target, write_atomic
 from fftnav.states import State, Status
 from fftnav.world.model import World
@@ -79,7 +80,7 @@ VERSION = 2
 SCAN_STEP_M = 0.02
 
 
-class RecordingError(ValueError):
+class RecordingError(FftnavError):
     """A file that is not a readable recording."""
 
 
@@ -311,13 +312,13 @@ def _check_shapes(cols: Mapping[str, np.ndarray], meta: dict[str, Any]) -> None:
                 "sent_robot": (len(cols["sent_tick"]),)}
     for key, shape in expected.items():
         if cols[key].shape != shape:
-            raise ValueError(f"column {key} has shape {cols[key].shape}, expected {shape}")
+            raise FftnavError(f"column {key} has shape {cols[key].shape}, expected {shape}")
     offsets = cols["sent_offset"]
     if offsets[0] != 0 or (np.diff(offsets) < 0).any() or offsets[-1] != len(cols["sent_bytes"]):
-        raise ValueError("column sent_offset does not index sent_bytes")
+        raise FftnavError("column sent_offset does not index sent_bytes")
     if len(meta["angles_rad"]) != m or len(meta["rows"]) != n:
-        raise ValueError(f"meta has {len(meta['angles_rad'])} beam angles and "
-                         f"{len(meta['rows'])} rows for {m} beams and {n} robots")
+        raise FftnavError(f"meta has {len(meta['angles_rad'])} beam angles and "
+                          f"{len(meta['rows'])} rows for {m} beams and {n} robots")
 
 
 def _read_meta(path: Any, cols: Mapping[str, np.ndarray]) -> dict[str, Any]:

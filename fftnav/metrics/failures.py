@@ -19,6 +19,7 @@ from dataclasses import dataclass
 import numpy as np
 from numpy.typing import ArrayLike
 
+from fftnav.errors import FftnavError
 from fftnav.metrics.measures import Table, register_measure
 from fftnav.metrics.paths import _positions, arrived, path_length_m
 from fftnav.registry import Registry
@@ -69,7 +70,7 @@ class FailureThresholds(Checked):
     >>> FailureThresholds(jam_share=0)
     Traceback (most recent call last):
     ...
-    ValueError: jam_share must be a finite number in (0, 1], got jam_share=0
+    fftnav.errors.FftnavError: jam_share must be a finite number in (0, 1], got jam_share=0
     """
 
     window_s: float = number_field(20.0, low=0, low_open=True)
@@ -175,8 +176,8 @@ class FailureCause:
         fields = FailureThresholds.keys()
         names = tuple(self.thresholds) if not isinstance(self.thresholds, str) else None
         if names is None or not set(names) <= set(fields):
-            raise ValueError(f"thresholds of failure cause {self.name!r} must be fields of "
-                             f"FailureThresholds {fields}, got thresholds={self.thresholds!r}")
+            raise FftnavError(f"thresholds of failure cause {self.name!r} must be fields of "
+                              f"FailureThresholds {fields}, got thresholds={self.thresholds!r}")
         object.__setattr__(self, "thresholds", names)
 
 
@@ -203,12 +204,12 @@ class FailureCauses(Registry[FailureCause]):
         if before is not None:
             check_choice("before", before, list(self))
             if item.catch_all:
-                raise ValueError(f"failure cause {name!r} is a catch-all and must be tested "
-                                 f"last, got before={before!r}")
+                raise FftnavError(f"failure cause {name!r} is a catch-all and must be tested "
+                                  f"last, got before={before!r}")
         elif last is not None:
-            raise ValueError(f"failure cause {name!r} would never be tested after the catch-all "
-                             f"{last!r} (every robot the causes before {last!r} leave gets it); "
-                             f"register it with before={last!r} or an earlier cause")
+            raise FftnavError(f"failure cause {name!r} would never be tested after the catch-all "
+                              f"{last!r} (every robot the causes before {last!r} leave gets it); "
+                              f"register it with before={last!r} or an earlier cause")
         super().add(name, item)
         if before is not None:
             order = list(self)
@@ -270,7 +271,7 @@ def register_failure_cause(
     ...     lambda f, t: f.progress_m < 0)  # doctest: +ELLIPSIS
     Traceback (most recent call last):
     ...
-    ValueError: failure cause 'away' would never be tested after the catch-all 'detour' ...
+    fftnav.errors.FftnavError: failure cause 'away' would never be tested after the catch-all ...
     """
 
     def register(test: CauseTest) -> CauseTest:
@@ -334,9 +335,9 @@ def _others(others: ArrayLike | None, n: int) -> np.ndarray:
         return np.zeros((n, 0, 2))
     arr = np.asarray(others, dtype=float)
     if arr.ndim != 3 or arr.shape[0] != n or arr.shape[2] != 2 or np.isinf(arr).any():
-        raise ValueError(f"others must be a ({n}, M, 2) array of the other robots' positions at "
-                         f"the trajectory's samples (NaN where absent, no inf), "
-                         f"got others.shape={arr.shape}")
+        raise FftnavError(f"others must be a ({n}, M, 2) array of the other robots' positions at "
+                          f"the trajectory's samples (NaN where absent, no inf), "
+                          f"got others.shape={arr.shape}")
     return arr
 
 
@@ -349,13 +350,13 @@ def _checked_inputs(
         pos = pos[:, :2]  # x, y, yaw poses
     goal_arr = np.asarray(goal, dtype=float)
     if goal_arr.shape != (2,) or not np.isfinite(goal_arr).all():
-        raise ValueError(f"goal must be 2 finite coordinates, got goal={goal!r}")
+        raise FftnavError(f"goal must be 2 finite coordinates, got goal={goal!r}")
     if not isinstance(collided, (bool, np.bool_)):
-        raise ValueError(f"collided must be a bool, got collided={collided!r}")
+        raise FftnavError(f"collided must be a bool, got collided={collided!r}")
     if thresholds is None:
         thresholds = FailureThresholds()
     elif not isinstance(thresholds, FailureThresholds):
-        raise ValueError(f"thresholds must be a FailureThresholds, got thresholds={thresholds!r}")
+        raise FftnavError(f"thresholds must be a FailureThresholds, got thresholds={thresholds!r}")
     return pos, goal_arr, thresholds
 
 
@@ -446,8 +447,8 @@ def classify_failure(features: FailureFeatures) -> str:
     'collision'
     """
     if not isinstance(features, FailureFeatures):
-        raise ValueError(f"features must be a FailureFeatures (failure_features(...)), "
-                         f"got features={features!r:.80}")
+        raise FftnavError(f"features must be a FailureFeatures (failure_features(...)), "
+                          f"got features={features!r:.80}")
     if features.arrived:
         return ""
     for cause in FAILURE_CAUSES.values():

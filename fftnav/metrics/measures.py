@@ -18,6 +18,7 @@ from typing import Any
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.metrics.paths import _success, arrival_rate, average_path_length_m, spl
 from fftnav.registry import Registry, first_line
 
@@ -84,7 +85,7 @@ def register_measure(
 
 def _column(table: Table, name: str) -> np.ndarray:
     if name not in table:
-        raise ValueError(f"table must have a column {name!r}, got columns {list(table)}")
+        raise FftnavError(f"table must have a column {name!r}, got columns {list(table)}")
     return np.asarray(table[name])
 
 

@@ -19,6 +19,7 @@ import math
 import numpy as np
 from numpy.typing import ArrayLike
 
+from fftnav.errors import FftnavError
 from fftnav.validate import check_number
 
 __all__ = [
@@ -37,12 +38,12 @@ __all__ = [
 def _positions(trajectory: ArrayLike) -> np.ndarray:
     pos = np.asarray(trajectory, dtype=float)
     if pos.ndim != 2 or pos.shape[1] not in (2, 3) or pos.shape[0] == 0:
-        raise ValueError(
+        raise FftnavError(
             f"trajectory must be a (T, 2) or (T, 3) array of positions with T >= 1, "
             f"got trajectory.shape={pos.shape}"
         )
     if not np.isfinite(pos).all():
-        raise ValueError("trajectory must be finite, got trajectory with NaN or inf")
+        raise FftnavError("trajectory must be finite, got trajectory with NaN or inf")
     return pos
 
 
@@ -66,7 +67,7 @@ def path_length_m(trajectory: ArrayLike) -> float:
 
 def _times(n: int, dt_s: float | None, times_s: ArrayLike | None) -> np.ndarray:
     if (dt_s is None) == (times_s is None):
-        raise ValueError(
+        raise FftnavError(
             f"give exactly one of dt_s and times_s, got dt_s={dt_s}, times_s={times_s}"
         )
     if dt_s is not None:
@@ -74,7 +75,7 @@ def _times(n: int, dt_s: float | None, times_s: ArrayLike | None) -> np.ndarray:
         return np.arange(n) * dt_s
     times = np.asarray(times_s, dtype=float)
     if times.shape != (n,) or not np.isfinite(times).all() or np.any(np.diff(times) < 0):
-        raise ValueError(
+        raise FftnavError(
             f"times_s must be {n} finite non-decreasing times (one per trajectory sample), "
             f"got times_s with shape={times.shape}"
         )
@@ -111,7 +112,7 @@ def time_to_goal_s(
     pos = _positions(trajectory)
     goal_arr = np.asarray(goal, dtype=float)
     if goal_arr.shape != (pos.shape[1],) or not np.isfinite(goal_arr).all():
-        raise ValueError(
+        raise FftnavError(
             f"goal must be {pos.shape[1]} finite coordinates like the trajectory, got goal={goal}"
         )
     check_number("success_radius_m", success_radius_m, low=0, low_open=True)
@@ -157,7 +158,7 @@ def arrived(
 def _success(success: ArrayLike) -> np.ndarray:
     s = np.asarray(success)
     if s.ndim != 1 or s.size == 0 or not np.isin(s, (0, 1)).all():
-        raise ValueError(
+        raise FftnavError(
             f"success must be a non-empty 1-D array of booleans, got success={success!r}"
         )
     return s.astype(bool)
@@ -166,7 +167,7 @@ def _success(success: ArrayLike) -> np.ndarray:
 def _lengths(values: ArrayLike, name: str, n: int) -> np.ndarray:
     arr = np.asarray(values, dtype=float)
     if arr.shape != (n,) or not np.isfinite(arr).all() or np.any(arr < 0):
-        raise ValueError(
+        raise FftnavError(
             f"{name} must be {n} finite lengths >= 0 (one per robot), got {name}={values!r}"
         )
     return arr
@@ -273,10 +274,10 @@ def motions(command: ArrayLike, moving: ArrayLike, *, control_hz: float,
     command = np.asarray(command, dtype=float)
     moving = np.asarray(moving, dtype=bool)
     if command.ndim != 3 or command.shape[2] != 2:
-        raise ValueError(f"command must have shape (G, N, 2), got shape {command.shape}")
+        raise FftnavError(f"command must have shape (G, N, 2), got shape {command.shape}")
     if moving.shape != command.shape[:2]:
-        raise ValueError(f"moving must have shape {command.shape[:2]} (command's G, N), "
-                         f"got shape {moving.shape}")
+        raise FftnavError(f"moving must have shape {command.shape[:2]} (command's G, N), "
+                          f"got shape {moving.shape}")
     check_number("control_hz", control_hz, low=0, low_open=True)
     check_number("turn_s", turn_s, low=0)
     drive, correct, turn, stand = (MOTIONS.index(k) for k in ("drive", "correct", "turn", "stand"))

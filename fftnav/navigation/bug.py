@@ -24,6 +24,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.config import PlannerConfig, SwarmConfig
+from fftnav.errors import FftnavError
 from fftnav.navigation import kernels
 from fftnav.navigation.memory import (
     FOLLOWING,
@@ -496,7 +497,7 @@ class BugPlanner:
         if side is None:
             side = self.decide(i)
             if side not in (1, -1):
-                raise ValueError(
+                raise FftnavError(
                     f"a policy must return +1 (left) or -1 (right), got {side!r} for robot {i}"
                 )
         else:

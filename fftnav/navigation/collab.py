@@ -38,6 +38,7 @@ import struct
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.observe.scan import wrap_angle
 
 __all__ = [
@@ -89,13 +90,13 @@ def encode_message(segments: np.ndarray, *, goal_m: float) -> bytes:
     """
     seg = np.asarray(segments, dtype=float).reshape(-1, 2, 2)
     if len(seg) > MAX_SEGMENTS_PER_MESSAGE:
-        raise ValueError(f"segments must hold at most {MAX_SEGMENTS_PER_MESSAGE} segments, "
-                         f"got segments with {len(seg)}")
+        raise FftnavError(f"segments must hold at most {MAX_SEGMENTS_PER_MESSAGE} segments, "
+                          f"got segments with {len(seg)}")
     cm = np.round(seg * 100.0)
     if np.any(np.abs(cm) > 32767):
-        raise ValueError(f"segments must lie within +-327.67 m, got segments={seg.tolist()}")
+        raise FftnavError(f"segments must lie within +-327.67 m, got segments={seg.tolist()}")
     if not goal_m >= 0:
-        raise ValueError(f"goal_m must be >= 0, got goal_m={goal_m!r}")
+        raise FftnavError(f"goal_m must be >= 0, got goal_m={goal_m!r}")
     goal_cm = round(min(goal_m, 655.35) * 100.0)
     return struct.pack(f"<BH{4 * len(seg)}h", len(seg), goal_cm, *cm.astype(int).ravel().tolist())
 
@@ -104,7 +105,7 @@ def decode_message(data: bytes) -> tuple[float, np.ndarray]:
     """The goal distance (m) and segments ``(n, 2, 2)`` (m) of a message written by
     :func:`encode_message`."""
     if len(data) < 3 or len(data) != 3 + 8 * data[0]:
-        raise ValueError(f"data must be a walls message (3 + 8 n bytes), got {len(data)} bytes")
+        raise FftnavError(f"data must be a walls message (3 + 8 n bytes), got {len(data)} bytes")
     values = struct.unpack(f"<H{4 * data[0]}h", data[1:])
     return values[0] / 100.0, np.asarray(values[1:], dtype=float).reshape(-1, 2, 2) / 100.0
 

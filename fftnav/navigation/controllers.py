@@ -37,6 +37,7 @@ from typing import ClassVar
 import numpy as np
 
 from fftnav.config import SwarmConfig
+from fftnav.errors import FftnavError
 from fftnav.observe.scan import is_full_circle, wrap_angle
 from fftnav.registry import Registry, first_line
 from fftnav.world.model import World
@@ -308,18 +309,18 @@ class Controller:
                     v, w = action
                     action = Action(float(v), float(w))
                 except (TypeError, ValueError):
-                    raise ValueError(f"{type(self).__name__}.act must return a pair of numbers "
-                                     f"(v_mps, w_radps) or an Action, got "
-                                     f"{type(action).__name__} {action!r:.80} for robot {i}"
-                                     ) from None
+                    raise FftnavError(f"{type(self).__name__}.act must return a pair of numbers "
+                                      f"(v_mps, w_radps) or an Action, got "
+                                      f"{type(action).__name__} {action!r:.80} for robot {i}"
+                                      ) from None
             if not (math.isfinite(action.v_mps) and math.isfinite(action.w_radps)):
-                raise ValueError(f"{type(self).__name__}.act must return finite commands, got "
-                                 f"({action.v_mps!r}, {action.w_radps!r}) for robot {i}")
+                raise FftnavError(f"{type(self).__name__}.act must return finite commands, got "
+                                  f"({action.v_mps!r}, {action.w_radps!r}) for robot {i}")
             commands[i] = (action.v_mps, action.w_radps)
             if action.message is not None:
                 if not isinstance(action.message, (bytes, bytearray)):
-                    raise ValueError(f"{type(self).__name__}: a message must be bytes, got "
-                                     f"{type(action.message).__name__} for robot {i}")
+                    raise FftnavError(f"{type(self).__name__}: a message must be bytes, got "
+                                      f"{type(action.message).__name__} for robot {i}")
                 outgoing[i] = bytes(action.message)
         return commands, outgoing
 
@@ -371,7 +372,7 @@ def register_controller(name: str, *, description: str = ""
 
     def wrap(cls: type[Controller]) -> type[Controller]:
         if not (isinstance(cls, type) and issubclass(cls, Controller)):
-            raise ValueError(f"register_controller expects a Controller subclass, got {cls!r}")
+            raise FftnavError(f"register_controller expects a Controller subclass, got {cls!r}")
         CONTROLLERS.add(name, ControllerSpec(name, cls, description or first_line(cls.__doc__)))
         cls.name = name
         return cls

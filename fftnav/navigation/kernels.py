@@ -25,6 +25,7 @@ from __future__ import annotations
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.observe.kernels import AVAILABLE, njit
 
 __all__ = ["AVAILABLE", "corridor_free_compiled", "mark_scan"]
@@ -35,9 +36,9 @@ def corridor_free_compiled(ranges_m: np.ndarray, angles_rad: np.ndarray, *,
     """:func:`fftnav.navigation.bug.corridor_free` by the compiled loop (needs numba): the
     points within ``reach_m`` (``0 < d < reach``) of each scan, in the frame of each heading."""
     if np.ndim(ranges_m) != 2 or np.shape(angles_rad) != (np.shape(ranges_m)[1],):
-        raise ValueError("ranges_m must be (K, M) and angles_rad (M,), got "
-                         f"ranges_m.shape={np.shape(ranges_m)}, "
-                         f"angles_rad.shape={np.shape(angles_rad)}")
+        raise FftnavError("ranges_m must be (K, M) and angles_rad (M,), got "
+                          f"ranges_m.shape={np.shape(ranges_m)}, "
+                          f"angles_rad.shape={np.shape(angles_rad)}")
     cos_h, sin_h = np.cos(angles_rad), np.sin(angles_rad)
     free = np.ones(ranges_m.shape, dtype=bool)
     _corridor(np.ascontiguousarray(ranges_m, dtype=float), cos_h, sin_h, float(half_width_m),

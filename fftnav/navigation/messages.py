@@ -43,6 +43,7 @@ from typing import ClassVar
 
 import numpy as np
 
+from fftnav.errors import FftnavError
 from fftnav.navigation.collab import (
     MAX_SEGMENTS_PER_MESSAGE,
     NEIGHBOUR_AGE_TICKS,
@@ -123,7 +124,7 @@ def register_message_kind(name: str) -> Callable[[type[MessageKind]], type[Messa
 
     def wrap(cls: type[MessageKind]) -> type[MessageKind]:
         if not (isinstance(cls, type) and issubclass(cls, MessageKind)):
-            raise ValueError(f"register_message_kind expects a MessageKind subclass, got {cls!r}")
+            raise FftnavError(f"register_message_kind expects a MessageKind subclass, got {cls!r}")
         MESSAGE_KINDS.add(name, cls)
         cls.name, cls.description = name, first_line(cls.__doc__)
         return cls

@@ -26,6 +26,7 @@ import pandas as pd
 from matplotlib.figure import Figure
 
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow
+from fftnav.errors import FftnavError
 from fftnav.files import write_atomic
 from fftnav.report import save_figure
 from fftnav.report.difficulty import difficulty_lines
@@ -120,15 +121,15 @@ def report_folder(config: ExperimentConfig, out_dir: str | Path, *,
     """
     out = Path(out_dir)
     if not (out / "episodes.csv").is_file():
-        raise ValueError(f"--out must be a results folder with an episodes.csv, got "
-                         f"--out={str(out)!r}")
+        raise FftnavError(f"--out must be a results folder with an episodes.csv, got "
+                          f"--out={str(out)!r}")
     canonical = canonical_config(config, CSV_COLUMNS)
     stored = (out / "config.json").read_text() if (out / "config.json").is_file() else "{}"
     if stored != canonical:
         changes = config_changes(json.loads(stored), json.loads(canonical))
-        raise ValueError(f"--out must hold results of {config.name!r} as configured, got "
-                         f"--out={str(out)!r} whose config.json differs: "
-                         f"{', '.join(changes) or 'the layout of config.json'}")
+        raise FftnavError(f"--out must hold results of {config.name!r} as configured, got "
+                          f"--out={str(out)!r} whose config.json differs: "
+                          f"{', '.join(changes) or 'the layout of config.json'}")
     with FolderLock(out):
         if not maps_current(out, config):
             write_maps_csv(out, config, workers=workers)

@@ -19,6 +19,7 @@ import numpy as np
 from matplotlib.colors import to_rgb
 
 from fftnav.episode.recording import Recording
+from fftnav.errors import FftnavError, import_extra
 from fftnav.report import new_figure
 from fftnav.report.frames import (
     KIND_COLOURS,
@@ -36,7 +37,7 @@ from fftnav.report.frames import (
 )
 from fftnav.validate import check_integer, check_number
 
-__all__ = ["FPS", "VIDEO_HINT", "default_robot", "end_s", "frame_ticks", "recording_frame",
+__all__ = ["FPS", "default_robot", "end_s", "frame_ticks", "recording_frame",
            "robot_kinds", "window", "write_image", "write_video"]
 
 #: The narrowest frame (pixels).
@@ -44,9 +45,6 @@ MIN_WIDTH_PX = 160
 #: Frames per second of the GIFs and MP4s; at ``speed`` 1 a frame advances 1 / FPS s of the
 #: episode (one tick at the default 10 Hz control rate).
 FPS = 10
-#: What ``.mp4`` needs when imageio-ffmpeg is missing.
-VIDEO_HINT = ("MP4 needs imageio-ffmpeg: pip install 'fftnav[video]' "
-              "(or pip install imageio-ffmpeg); .gif, .html and .png work without it")
 #: The slowest playback: a tenth of real time (a 120 s episode in 12,000 frames).
 MIN_SPEED = 0.1
 #: Figure width (pixels) of the PNG, GIF and MP4 frames, by default; with another ``width_px``
@@ -116,7 +114,7 @@ def window(rec: Recording, from_s: float | None, to_s: float | None) -> tuple[fl
     start = check_number("from_s", 0.0 if from_s is None else from_s, low=0.0, high=end)
     stop = check_number("to_s", end if to_s is None else to_s, low=0.0, high=end)
     if start > stop:
-        raise ValueError(f"from_s must be <= to_s, got from_s={start!r}, to_s={stop!r}")
+        raise FftnavError(f"from_s must be <= to_s, got from_s={start!r}, to_s={stop!r}")
     return start, stop
 
 
@@ -207,17 +205,16 @@ def write_video(rec: Recording, path: str | Path, *, robot: int | None = None,
     Raises
     ------
     ValueError
-        Another suffix, bad bounds (:func:`frame_ticks`), an MP4 without imageio-ffmpeg.
+        Another suffix, bad bounds (:func:`frame_ticks`).
+    fftnav.errors.MissingExtraError
+        An MP4 without imageio-ffmpeg (the extra ``video``).
     """
     path = Path(path)
     suffix = path.suffix.lower()
     if suffix not in (".gif", ".mp4"):
-        raise ValueError(f"path must end in .gif or .mp4, got path={str(path)!r}")
+        raise FftnavError(f"path must end in .gif or .mp4, got path={str(path)!r}")
     if suffix == ".mp4":
-        try:
-            import imageio_ffmpeg
-        except ImportError:
-            raise ValueError(VIDEO_HINT) from None
+        imageio_ffmpeg = import_extra("imageio_ffmpeg", extra="video", needed_for="MP4 videos")
     ticks = frame_ticks(rec, from_s=from_s, to_s=to_s, speed=speed)
     width_px = check_integer("width_px", width_px, low=MIN_WIDTH_PX, high=4096)
     panels = _Panels([rec, *beside], robot, width_px)

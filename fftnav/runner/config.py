@@ -21,6 +21,7 @@ from pathlib import Path
 from typing import Any
 
 from fftnav.config import SwarmConfig
+from fftnav.errors import FftnavError
 from fftnav.files import read_toml
 from fftnav.limits import MAX_RAYS_PER_TICK, MAX_TASKS, check_limit
 from fftnav.navigation.resolve import Resolved, resolve
@@ -39,14 +40,14 @@ _NAME = re.compile(r"^[A-Za-z0-9_.-]+$")
 
 def _check_name(key: str, value: Any) -> str:
     if not (isinstance(value, str) and _NAME.match(value)):
-        raise ValueError(f"{key} must be a non-empty string of letters, digits, '_', '.', '-', "
-                         f"got {key}={value!r}")
+        raise FftnavError(f"{key} must be a non-empty string of letters, digits, '_', '.', '-', "
+                          f"got {key}={value!r}")
     return value
 
 
 def _check_out(key: str, value: Any) -> str:
     if not (isinstance(value, str) and value):
-        raise ValueError(f"{key} must be a non-empty string, got {key}={value!r}")
+        raise FftnavError(f"{key} must be a non-empty string, got {key}={value!r}")
     return value
 
 
@@ -116,8 +117,8 @@ class ExperimentConfig(Checked):
 
     def _check_together(self) -> None:
         if self.trajectory_maps > self.maps:
-            raise ValueError(f"trajectory_maps must be <= maps={self.maps}, "
-                             f"got trajectory_maps={self.trajectory_maps}")
+            raise FftnavError(f"trajectory_maps must be <= maps={self.maps}, "
+                              f"got trajectory_maps={self.trajectory_maps}")
 
     def world_overrides(self, env: str) -> dict[str, Any]:
         """Overrides for ``generate_world(env, seed, **overrides)``.
@@ -162,7 +163,7 @@ def load_config(path: str | Path) -> ExperimentConfig:
     try:
         return parse_config(data, source=text, base=Path(path).parent)
     except ValueError as exc:
-        raise ValueError(f"{path}: {exc}") from None
+        raise FftnavError(f"{path}: {exc}") from None
 
 
 def parse_config(data: dict[str, Any], *, source: str = "",
@@ -191,7 +192,7 @@ def parse_config(data: dict[str, Any], *, source: str = "",
     allowed = ("experiment", "world", "world_files", "sweep", "record", *SwarmConfig.SECTIONS)
     for name in data:
         if name not in allowed:
-            raise ValueError(f"unknown section [{name}]; expected one of {list(allowed)}")
+            raise FftnavError(f"unknown section [{name}]; expected one of {list(allowed)}")
     if "sweep" in data:
         common = {k: v for k, v in data.items() if k != "sweep"}
         config = parse_config(common, source=source, base=base)
@@ -204,7 +205,7 @@ def parse_config(data: dict[str, Any], *, source: str = "",
     envs = _names("experiment.envs", exp["envs"], (*world_kinds(), *world_files))
     for env in world_files:
         if env not in envs:
-            raise ValueError(f"world_files.{env} is not one of experiment.envs={list(envs)}")
+            raise FftnavError(f"world_files.{env} is not one of experiment.envs={list(envs)}")
     policies = _policies(exp["policies"], base)
     check_limit("episodes (envs x maps x policies)", len(envs) * scalars["maps"] * len(policies),
                 MAX_TASKS, hint="lower experiment.maps")
@@ -215,7 +216,7 @@ def parse_config(data: dict[str, Any], *, source: str = "",
     try:
         swarm.episode.check_departures(scalars["robots"])
     except ValueError as exc:
-        raise ValueError(f"[episode] {exc}") from None
+        raise FftnavError(f"[episode] {exc}") from None
     common, by_env = _world_tables(_table(data, "world"), envs, world_files, scalars["robots"],
                                    swarm)
     record = _table(data, "record")
@@ -234,7 +235,7 @@ def _experiment_scalars(exp: dict[str, Any]) -> dict[str, Any]:
     _check_keys("experiment", exp, _EXPERIMENT_KEYS)
     for key in _REQUIRED_KEYS:
         if key not in exp:
-            raise ValueError(f"experiment.{key} is required")
+            raise FftnavError(f"experiment.{key} is required")
     name = ExperimentConfig.checked({"name": exp["name"]}, prefix="experiment.")["name"]
     scalars = {"name": name, "out": f"results/{name}", "trajectory_maps": 1,
                **{k: v for k, v in exp.items() if k not in ("envs", "policies")}}
@@ -249,10 +250,10 @@ def _world_tables(world: dict[str, Any], envs: tuple[str, ...], world_files: dic
     by_env = {k: v for k, v in world.items() if isinstance(v, dict)}
     for env, table in by_env.items():
         if env not in envs:
-            raise ValueError(f"world.{env} is not one of experiment.envs={list(envs)}")
+            raise FftnavError(f"world.{env} is not one of experiment.envs={list(envs)}")
         if env in world_files:
-            raise ValueError(f"world.{env}: a world file env (world_files.{env}) takes no "
-                             "generator overrides")
+            raise FftnavError(f"world.{env}: a world file env (world_files.{env}) takes no "
+                              "generator overrides")
         _check_world_keys(f"world.{env}", env, table)
     for env in envs:
         if env in world_files:
@@ -264,7 +265,7 @@ def _world_tables(world: dict[str, Any], envs: tuple[str, ...], world_files: dic
         try:
             world_parameters(env, **overrides)
         except ValueError as exc:  # name the config section the bad value came from
-            raise ValueError(f"[world] for env {env!r}: {exc}") from None
+            raise FftnavError(f"[world] for env {env!r}: {exc}") from None
     return common, by_env
 
 
@@ -274,13 +275,13 @@ def _world_files(table: dict[str, Any], base: str | Path | None) -> dict[str, st
     out = {}
     for env, path in table.items():
         if not _NAME.match(env):
-            raise ValueError(f"world_files: an env name must be letters, digits, '_', '.', '-', "
-                             f"got {env!r}")
+            raise FftnavError(f"world_files: an env name must be letters, digits, '_', '.', '-', "
+                              f"got {env!r}")
         if env in world_kinds():
-            raise ValueError(f"world_files.{env}: {env!r} is a registered world kind; name the "
-                             "world file's env otherwise")
+            raise FftnavError(f"world_files.{env}: {env!r} is a registered world kind; name the "
+                              "world file's env otherwise")
         if not (isinstance(path, str) and path):
-            raise ValueError(f"world_files.{env} must be a world file path, got {path!r}")
+            raise FftnavError(f"world_files.{env} must be a world file path, got {path!r}")
         full = Path(path).expanduser()
         if not full.is_absolute():
             full = Path(base or ".") / full
@@ -293,10 +294,10 @@ def _check_world_file(env: str, path: str, robots: int) -> None:
     try:
         world = load_world(path)
     except (ValueError, OSError) as exc:
-        raise ValueError(f"world_files.{env}: {exc}") from None
+        raise FftnavError(f"world_files.{env}: {exc}") from None
     if len(world.starts) != robots:
-        raise ValueError(f"world_files.{env}: {path} has {len(world.starts)} robots (starts), "
-                         f"experiment.robots={robots}")
+        raise FftnavError(f"world_files.{env}: {path} has {len(world.starts)} robots (starts), "
+                          f"experiment.robots={robots}")
 
 
 def _policies(value: Any, base: str | Path | None) -> tuple[str, ...]:
@@ -311,10 +312,10 @@ def _policies(value: Any, base: str | Path | None) -> tuple[str, ...]:
         try:
             found = resolve(ref)
         except ValueError as exc:
-            raise ValueError(f"experiment.policies: {exc}") from None
+            raise FftnavError(f"experiment.policies: {exc}") from None
         if found.name in names:
-            raise ValueError(f"experiment.policies: {names[found.name]!r} and {ref!r} have the "
-                             f"same name {found.name!r}")
+            raise FftnavError(f"experiment.policies: {names[found.name]!r} and {ref!r} have the "
+                              f"same name {found.name!r}")
         names[found.name] = ref
         out.append(ref)
     return tuple(out)
@@ -339,10 +340,10 @@ def _sweep_cells(base: dict[str, Any], sweep: dict[str, Any], source: str, *,
         valid = ((len(parts) == 2 and parts[0] in (*SwarmConfig.SECTIONS, "world"))
                  or (len(parts) == 3 and parts[0] == "world"))
         if not valid:
-            raise ValueError(f"unknown key sweep.{axis}; expected 'section.key' of "
-                             f"{[*SwarmConfig.SECTIONS, 'world']} or 'world.<env>.key'")
+            raise FftnavError(f"unknown key sweep.{axis}; expected 'section.key' of "
+                              f"{[*SwarmConfig.SECTIONS, 'world']} or 'world.<env>.key'")
         if not isinstance(values, list) or not values:
-            raise ValueError(f"sweep.{axis} must be a non-empty list of values, got {values!r}")
+            raise FftnavError(f"sweep.{axis} must be a non-empty list of values, got {values!r}")
         for value in values:
             data = copy.deepcopy(base)
             table = data.setdefault(parts[0], {})
@@ -358,21 +359,21 @@ def _sweep_cells(base: dict[str, Any], sweep: dict[str, Any], source: str, *,
             try:
                 cells.append((name, parse_config(data, source=source, base=folder)))
             except ValueError as exc:
-                raise ValueError(f"sweep.{axis} = {value!r}: {exc}") from None
+                raise FftnavError(f"sweep.{axis} = {value!r}: {exc}") from None
     return cells
 
 
 def _table(data: dict[str, Any], name: str) -> dict[str, Any]:
     table = data.get(name, {})
     if not isinstance(table, dict):
-        raise ValueError(f"{name} must be a table [{name}], got {table!r}")
+        raise FftnavError(f"{name} must be a table [{name}], got {table!r}")
     return table
 
 
 def _check_keys(section: str, table: dict[str, Any], keys: tuple[str, ...]) -> None:
     for key in table:
         if key not in keys:
-            raise ValueError(f"unknown key {section}.{key}; expected one of {list(keys)}")
+            raise FftnavError(f"unknown key {section}.{key}; expected one of {list(keys)}")
 
 
 def _check_world_keys(section: str, env: str, table: dict[str, Any]) -> None:
@@ -380,16 +381,16 @@ def _check_world_keys(section: str, env: str, table: dict[str, Any]) -> None:
     preset = load_preset(env)
     for key in table:
         if key in ("env", "robots"):
-            raise ValueError(f"{section}.{key} cannot be overridden; it is set by the experiment")
+            raise FftnavError(f"{section}.{key} cannot be overridden; it is set by the experiment")
         if key not in preset:
-            raise ValueError(f"unknown key {section}.{key}; expected one of {sorted(preset)}")
+            raise FftnavError(f"unknown key {section}.{key}; expected one of {sorted(preset)}")
 
 
 def _names(key: str, value: Any, known: tuple[str, ...] | None) -> tuple[str, ...]:
     if (not isinstance(value, list) or not value
             or not all(isinstance(v, str) for v in value) or len(set(value)) != len(value)):
-        raise ValueError(f"{key} must be a non-empty list of distinct strings, got {value!r}")
+        raise FftnavError(f"{key} must be a non-empty list of distinct strings, got {value!r}")
     for v in value if known is not None else ():
         if v not in known:
-            raise ValueError(f"{key}: {WORLD_KINDS.unknown(v, also=known, forms='a world file')}")
+            raise FftnavError(f"{key}: {WORLD_KINDS.unknown(v, also=known, forms='a world file')}")
     return tuple(value)

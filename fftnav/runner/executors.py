@@ -21,6 +21,7 @@ from concurrent.futures.process import BrokenProcessPool
 from dataclasses import dataclass
 from typing import Any
 
+from fftnav.errors import FftnavError
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import Task, TaskResult
 from fftnav.validate import check_choice, check_integer
@@ -72,7 +73,7 @@ def check_options(*, executor: str, workers: int | None, scheduler: str | None) 
     if workers is not None:
         check_integer("workers", workers, low=1)
     if scheduler is not None and executor != "dask":
-        raise ValueError(f"scheduler needs executor='dask', got executor={executor!r}")
+        raise FftnavError(f"scheduler needs executor='dask', got executor={executor!r}")
     return workers or os.cpu_count() or 1
 
 

@@ -25,6 +25,7 @@ from pathlib import Path
 
 from fftnav.episode.record import episode_csv
 from fftnav.episode.recording import Recording, read_recording
+from fftnav.errors import FftnavError
 from fftnav.runner.config import ExperimentConfig, load_config
 from fftnav.runner.run import CSV_COLUMNS
 from fftnav.runner.tasks import Task, TaskResult, iter_tasks, run_task
@@ -85,8 +86,8 @@ def _check_folder(results_dir: Path) -> None:
             else "; it has a config.toml but no episodes.csv (a sweep's cell keeps its "
             "summaries only: fftnav run CONFIG writes its episodes.csv again)"
             if (results_dir / "config.toml").is_file() else "")
-    raise ValueError(f"results_dir must be a results folder of fftnav run (with "
-                     f"{' and '.join(FOLDER_FILES)}), got results_dir={str(results_dir)!r}{hint}")
+    raise FftnavError(f"results_dir must be a results folder of fftnav run (with "
+                      f"{' and '.join(FOLDER_FILES)}), got results_dir={str(results_dir)!r}{hint}")
 
 
 def folder_config(results_dir: str | Path) -> ExperimentConfig:
@@ -105,8 +106,8 @@ def folder_config(results_dir: str | Path) -> ExperimentConfig:
         return config
     cells = dict(config.cells)
     if results_dir.name not in cells:
-        raise ValueError(f"results_dir must be a cell of the sweep {config.name!r} "
-                         f"({', '.join(cells)}), got results_dir={str(results_dir)!r}")
+        raise FftnavError(f"results_dir must be a cell of the sweep {config.name!r} "
+                          f"({', '.join(cells)}), got results_dir={str(results_dir)!r}")
     return cells[results_dir.name]
 
 
@@ -142,12 +143,12 @@ def _find_task(config: ExperimentConfig, results_dir: Path, name: str) -> Task:
         hint = (f"did you mean {', '.join(close)}?" if close else
                 f"its {len(names)} tasks are named ENV-MAP_SEED-POLICY, e.g. "
                 f"{', '.join(names[:3])}")
-        raise ValueError(f"task must be an episode of {results_dir / 'episodes.csv'}, got "
-                         f"task={name!r}; {hint}")
+        raise FftnavError(f"task must be an episode of {results_dir / 'episodes.csv'}, got "
+                          f"task={name!r}; {hint}")
     found = list(iter_tasks(config, where=lambda task_id: task_id == name))
     if not found:
-        raise ValueError(f"task must be an episode of the folder's config.toml, got task="
-                         f"{name!r}: episodes.csv has it, the config does not")
+        raise FftnavError(f"task must be an episode of the folder's config.toml, got task="
+                          f"{name!r}: episodes.csv has it, the config does not")
     return dataclasses.replace(found[0], keep_trajectories=True)
 
 
@@ -191,8 +192,8 @@ def rerun_task(results_dir: str | Path, task: str) -> Rerun:
     result = run_task(dataclasses.replace(config, record="all"), found)
     committed, rerun = committed_lines(results_dir, found), _rows_lines(found, result)
     if rerun != committed:
-        raise ValueError(f"the rerun of {task} must give the rows of "
-                         f"{results_dir / 'episodes.csv'}, got other rows "
-                         f"({_difference(committed, rerun)}): this fftnav does not reproduce "
-                         "the folder")
+        raise FftnavError(f"the rerun of {task} must give the rows of "
+                          f"{results_dir / 'episodes.csv'}, got other rows "
+                          f"({_difference(committed, rerun)}): this fftnav does not reproduce "
+                          "the folder")
     return Rerun(config, found, result)

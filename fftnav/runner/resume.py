@@ -21,6 +21,7 @@ from typing import Any
 
 import fftnav
 from fftnav.config import PlannerConfig
+from fftnav.errors import FftnavError
 from fftnav.files import load_npz, write_atomic
 from fftnav.plugins import file_sha256, plugin_sources
 from fftnav.runner.config import ExperimentConfig
@@ -126,8 +127,8 @@ class FolderLock:
         except OSError:
             holder = os.read(fd, 64).decode(errors="replace").strip() or "unknown"
             os.close(fd)
-            raise ValueError(f"{self.path.parent} is in use by another fftnav run (pid "
-                             f"{holder}); wait for it or use another --out") from None
+            raise FftnavError(f"{self.path.parent} is in use by another fftnav run (pid "
+                              f"{holder}); wait for it or use another --out") from None
         os.ftruncate(fd, 0)
         os.write(fd, f"{os.getpid()}\n".encode())
         self._fd = fd
@@ -218,8 +219,8 @@ def check_same_experiment(config: ExperimentConfig, out: Path, *, columns: tuple
     problem = _folder_problem(out, canonical, columns)
     if problem is not None:
         if not fresh:
-            raise ValueError(f"{out} {problem}; rerun with --fresh to replace its results, or "
-                             "use another --out")
+            raise FftnavError(f"{out} {problem}; rerun with --fresh to replace its results, or "
+                              "use another --out")
         remove_results(out)
     write_atomic(record, canonical)
 

@@ -43,6 +43,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
+from fftnav.errors import FftnavError
 from fftnav.files import atomic_writer, write_atomic
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, TaskFunction, check_options, execute, guarded
@@ -129,7 +130,7 @@ def run_experiment(
     check_options(executor=executor, workers=workers, scheduler=scheduler)
     out = Path(out_dir)
     if out.exists() and not out.is_dir():
-        raise ValueError(f"--out must be a folder, got {str(out)!r}, a file")
+        raise FftnavError(f"--out must be a folder, got {str(out)!r}, a file")
     out.mkdir(parents=True, exist_ok=True)
     with FolderLock(out):
         remove_stale_temporaries(out)
@@ -311,7 +312,7 @@ def read_episodes(path: Path) -> pd.DataFrame:
     try:
         return pd.read_csv(path)
     except (ValueError, pd.errors.ParserError, UnicodeDecodeError) as exc:
-        raise ValueError(f"{path}: damaged CSV: {str(exc).strip().splitlines()[0]}") from None
+        raise FftnavError(f"{path}: damaged CSV: {str(exc).strip().splitlines()[0]}") from None
 
 
 def run_info(outcome: RunOutcome, *, workers: int | None, executor: str,
@@ -452,10 +453,10 @@ def _save_task(out: Path, task: Task, result: TaskResult) -> TaskResult:
         np.savez_compressed(buffer, *result.trajectories)
         write_atomic(out / "trajectories" / f"{task.task_id}.npz", buffer.getvalue())
     if not result.rows:
-        raise ValueError(f"task {task.task_id} returned no rows")
+        raise FftnavError(f"task {task.task_id} returned no rows")
     wrong = [type(row).__name__ for row in result.rows if not isinstance(row, EpisodeRow)]
     if wrong:
-        raise ValueError(f"task {task.task_id} returned rows of type {wrong[0]}, not EpisodeRow")
+        raise FftnavError(f"task {task.task_id} returned rows of type {wrong[0]}, not EpisodeRow")
     keys = {"env": task.env, "map_seed": task.map_seed, "policy": task.policy,
             "episode_seed": task.episode_seed}
     rows = sorted(({**row.as_dict(), **keys} for row in result.rows), key=lambda r: r["robot"])

@@ -19,6 +19,7 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from fftnav.errors import FftnavError
 from fftnav.metrics import MEASURES
 from fftnav.validate import check_integer, check_number
 
@@ -73,8 +74,8 @@ def bootstrap_ratio_ci(
     num = np.asarray(numerators, dtype=float)
     den = np.asarray(denominators, dtype=float)
     if num.shape != den.shape or num.ndim != 1:
-        raise ValueError(f"numerators and denominators must be 1-D of equal length, "
-                         f"got shapes {num.shape} and {den.shape}")
+        raise FftnavError(f"numerators and denominators must be 1-D of equal length, "
+                          f"got shapes {num.shape} and {den.shape}")
     if num.size < 2:
         return float("nan"), float("nan")
 
@@ -227,10 +228,10 @@ def holm(p_values: Sequence[float] | np.ndarray) -> np.ndarray:
     """
     p = np.asarray(p_values, dtype=float)
     if p.ndim != 1:
-        raise ValueError(f"p_values must be 1-D, got p_values of shape {p.shape}")
+        raise FftnavError(f"p_values must be 1-D, got p_values of shape {p.shape}")
     bad = np.flatnonzero(~np.isnan(p) & ~((p >= 0) & (p <= 1)))
     if bad.size:
-        raise ValueError(f"p_values must be in [0, 1] or NaN, got p_values[{bad[0]}]={p[bad[0]]}")
+        raise FftnavError(f"p_values must be in [0, 1] or NaN, got p_values[{bad[0]}]={p[bad[0]]}")
     tested = np.flatnonzero(~np.isnan(p))
     order = tested[np.argsort(p[tested], kind="stable")]
     factors = np.arange(order.size, 0, -1)  # m, m - 1, ..., 1
