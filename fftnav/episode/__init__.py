@@ -1,10 +1,13 @@
-"""One swarm episode: the robots' message channel, the tick loop and its record; 3D quadrotor
-flights.
+"""One swarm episode: the robots' message channel, the episode's tick, its loop and its record;
+3D quadrotor flights.
 
 Modules: :mod:`~fftnav.episode.comms` (the lossy, delayed, range-limited channel),
 :mod:`~fftnav.episode.record` (``EpisodeRow``, the CSV columns),
 :mod:`~fftnav.episode.recording` (per-tick recordings: ``read_recording``),
-:mod:`~fftnav.episode.loop` (``run_episode``), :mod:`~fftnav.episode.flight3d` (the 3D flight
+:mod:`~fftnav.episode.core` (``EpisodeCore``: one tick of the swarm, the rule of departures,
+arrivals, collisions and time-outs, shared by ``run_episode`` and the environment
+:class:`fftnav.envs.SwarmNavEnv`), :mod:`~fftnav.episode.loop` (``run_episode``: the core
+driven to the end, then the rows), :mod:`~fftnav.episode.flight3d` (the 3D flight
 controller and experiment).
 The robots' controllers are in :mod:`fftnav.navigation`.
 """

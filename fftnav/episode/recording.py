@@ -137,8 +137,8 @@ class Recording:
 
 
 class Tape:
-    """Collects an episode tick by tick (:mod:`fftnav.episode.loop` calls it) and packs it
-    into a recording's columns (:meth:`to_bytes`)."""
+    """Collects an episode tick by tick (:class:`fftnav.episode.core.EpisodeCore` calls it)
+    and packs it into a recording's columns (:meth:`to_bytes`)."""
 
     def __init__(self, world: World, config: SwarmConfig, policy: str, seed: int,
                  angles_rad: np.ndarray) -> None:
