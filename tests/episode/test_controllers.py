@@ -86,9 +86,9 @@ def _line(marker: str) -> int:
 
 
 @pytest.mark.parametrize(("name", "match"), [
-    ("Wrong", r"Wrong\.act raised ValueError: Wrong\.act must return a pair of numbers "
+    ("Wrong", r"Wrong\.act raised FftnavError: Wrong\.act must return a pair of numbers "
               r"\(v_mps, w_radps\) or an Action, got str 'fast' for robot 0"),
-    ("Dict", r"Dict\.act raised ValueError: Dict\.act must return a pair of numbers \(v_mps, "
+    ("Dict", r"Dict\.act raised FftnavError: Dict\.act must return a pair of numbers \(v_mps, "
              r"w_radps\) or an Action, got dict \{'v': 0\.1, 'w': 0\.0\} for robot 0"),
 ])
 def test_a_controller_returning_no_command_is_refused_saying_what_act_must_return(name, match):
