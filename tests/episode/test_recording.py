@@ -21,6 +21,7 @@ from fftnav.episode.recording import SCAN_STEP_M, VERSION, RecordingError, write
 from fftnav.navigation.controllers import Action, Controller
 from fftnav.states import State, Status
 from fftnav.world import Circle, Polygon, World, generate_world
+from tests.navigation.corridor import headon
 
 CFG = SwarmConfig(episode=EpisodeConfig(time_limit_s=12.0))
 
@@ -142,17 +143,6 @@ def _barrier_world():
                  np.array([[x, 8.0] for x in xs]), "walls")
 
 
-def _headon(width_m):
-    """A 6 m corridor ``width_m`` wide; one robot starts at each end (experiments/headon.py)."""
-    half = width_m / 2.0
-
-    def box(x0, y0, x1, y1):
-        return Polygon(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), 1.0)
-
-    return World("headon", 0, (12.0, 8.0),
-                 (box(3.0, 4.0 + half, 9.0, 4.2 + half), box(3.0, 3.8 - half, 9.0, 4.0 - half)),
-                 np.array([[3.5, 4.0, 0.0], [8.5, 4.0, math.pi]]),
-                 np.array([[11.0, 4.0], [1.0, 4.0]]))
 
 
 def _recorded_with_planner(monkeypatch, world, policy, seed, config):
@@ -188,7 +178,7 @@ def test_guided_escaping_and_waiting_robots_report_their_states(monkeypatch):
     escaping = mode == State.ESCAPE
     assert escaping.any() and set(np.unique(rec.state["side"][escaping])) <= {-1.0, 1.0}
     assert (rec.state["side"][mode == State.GUIDED] == 0).all()
-    rec, planner = _recorded_with_planner(monkeypatch, _headon(0.8), "collab", 0, SwarmConfig())
+    rec, planner = _recorded_with_planner(monkeypatch, headon(0.8), "collab", 0, SwarmConfig())
     mode = np.where(rec.status == Status.MOVING, rec.state["mode"], np.nan)
     assert planner.stats.wait_ticks.sum() > 0
     assert ((mode == State.WAIT).sum(axis=0) == planner.stats.wait_ticks).all()

@@ -22,6 +22,7 @@ from fftnav.navigation.collab import (
 )
 from fftnav.navigation.ownmap import OwnMaps
 from fftnav.world import Polygon, World
+from tests.navigation.corridor import headon
 
 UP = math.pi / 2
 R = 3.0
@@ -208,18 +209,6 @@ def test_long_wall_is_longer_than_the_range():
     assert long_wall(np.array([[[0.0, 0.0], [1.0, 0.0]], [[0.0, 1.0], [2.2, 3.2]]]), range_m=R)
 
 
-def _headon(width_m):
-    """A 6 m corridor ``width_m`` wide, open at both ends; one robot starts at each end, its
-    goal 2 m beyond the other end (experiments/headon.py)."""
-    half = width_m / 2.0
-
-    def box(x0, y0, x1, y1):
-        return Polygon(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), 1.0)
-
-    return World("headon", 0, (12.0, 8.0),
-                 (box(3.0, 4.0 + half, 9.0, 4.2 + half), box(3.0, 3.8 - half, 9.0, 4.0 - half)),
-                 np.array([[3.5, 4.0, 0.0], [8.5, 4.0, math.pi]]),
-                 np.array([[11.0, 4.0], [1.0, 4.0]]))
 
 
 def test_two_collab_robots_meeting_head_on_in_a_corridor_pass_each_other(monkeypatch):
@@ -227,7 +216,7 @@ def test_two_collab_robots_meeting_head_on_in_a_corridor_pass_each_other(monkeyp
     middle and pass each other, as own-only's do, because each one's map knows where the other
     stands (its messages) and does not take it for a wall. With OwnMaps.set_robots switched
     off, each maps the other as a wall across the corridor and both go back and round it."""
-    world = _headon(1.2)
+    world = headon(1.2)
     own = run_episode(world, "own-only", seed=0).rows
     collab = run_episode(world, "collab", seed=0).rows
     assert all(r.arrived for r in own + collab)
@@ -283,7 +272,7 @@ def test_in_a_corridor_too_narrow_to_pass_the_robot_with_the_right_of_way_goes_s
     as long, and robot 1 drives through once robot 0 has gone; with it, robot 1 goes round."""
     from fftnav.navigation.messages import Walls
 
-    world = _headon(0.8)
+    world = headon(0.8)
     asked = []
     waits = Walls.waits
 
@@ -316,7 +305,7 @@ def test_with_the_gate_closed_a_collab_robot_never_waits(monkeypatch):
 
     from fftnav.navigation import messages
 
-    world = _headon(0.8)
+    world = headon(0.8)
     monkeypatch.setattr(messages, "long_wall", lambda segments, *, range_m: False)
     collab = run_episode(world, "collab", seed=0)
     own = run_episode(world, "own-only", seed=0)

@@ -5,7 +5,6 @@ that episode's alone; no module the controller imports imports it back."""
 from __future__ import annotations
 
 import dataclasses
-import math
 
 import numpy as np
 import pytest
@@ -22,21 +21,8 @@ from fftnav.navigation.messages import (
     register_message_kind,
 )
 from fftnav.navigation.policies import POLICIES, get_policy
-from fftnav.world import Polygon, World
 from fftnav.world.generate import generate_world
-
-
-def _headon(width_m):
-    """A 6 m corridor ``width_m`` wide, longer than R: collab's gate opens in it."""
-    half = width_m / 2.0
-
-    def box(x0, y0, x1, y1):
-        return Polygon(((x0, y0), (x1, y0), (x1, y1), (x0, y1)), 1.0)
-
-    return World("headon", 0, (12.0, 8.0),
-                 (box(3.0, 4.0 + half, 9.0, 4.2 + half), box(3.0, 3.8 - half, 9.0, 4.0 - half)),
-                 np.array([[3.5, 4.0, 0.0], [8.5, 4.0, math.pi]]),
-                 np.array([[11.0, 4.0], [1.0, 4.0]]))
+from tests.navigation.corridor import headon
 
 
 def test_the_registry_holds_classes_and_a_policy_names_one():
@@ -81,7 +67,7 @@ def test_a_second_episode_does_not_see_the_first_episodes_message_state(monkeypa
     rocky = generate_world("rocky", 1003, robots=4, size_m=(10.0, 10.0), goal_y_m=9.0)
     alone = run_episode(rocky, "collab", seed=1).rows
     monkeypatch.setattr(bugcontrol.BugController, "__init__", keep)
-    run_episode(_headon(1.2), "collab", seed=0)
+    run_episode(headon(1.2), "collab", seed=0)
     after = run_episode(rocky, "collab", seed=1).rows
     (first, _, _), (second, gate, neighbours) = kinds
     assert first.gate.all() and first.read(0) > 0 and first.neighbours[0]
