@@ -21,7 +21,7 @@ from fftnav.episode.recording import SCAN_STEP_M, VERSION, RecordingError, write
 from fftnav.navigation.controllers import Action, Controller
 from fftnav.states import State, Status
 from fftnav.world import Circle, Polygon, World, generate_world
-from tests.navigation.corridor import headon
+from tests.navigation.corridor import headon, keep_planners
 
 CFG = SwarmConfig(episode=EpisodeConfig(time_limit_s=12.0))
 
@@ -143,21 +143,10 @@ def _barrier_world():
                  np.array([[x, 8.0] for x in xs]), "walls")
 
 
-
-
 def _recorded_with_planner(monkeypatch, world, policy, seed, config):
     """The recording of an episode and its Bug planner (the oracle of the states: its
     counters)."""
-    from fftnav.navigation import bugcontrol
-
-    planners = []
-    init = bugcontrol.BugController.__init__
-
-    def keep(self, *args, **kwargs):
-        init(self, *args, **kwargs)
-        planners.append(self.planner)
-
-    monkeypatch.setattr(bugcontrol.BugController, "__init__", keep)
+    planners = keep_planners(monkeypatch)
     result = run_episode(world, policy, seed=seed, config=config, record=True)
     return read_recording(io.BytesIO(result.recording())), planners[0]
 

@@ -1,4 +1,4 @@
-"""A test world shared by the planner's, the message kinds' and the recordings' tests."""
+"""Test helpers shared by the planner's, the message kinds' and the recordings' tests."""
 
 from __future__ import annotations
 
@@ -22,3 +22,19 @@ def headon(width_m: float) -> World:
                  (box(3.0, 4.0 + half, 9.0, 4.2 + half), box(3.0, 3.8 - half, 9.0, 4.0 - half)),
                  np.array([[3.5, 4.0, 0.0], [8.5, 4.0, math.pi]]),
                  np.array([[11.0, 4.0], [1.0, 4.0]]))
+
+
+def keep_planners(monkeypatch) -> list:
+    """A list that receives the Bug planner of every BugController made from now on (the
+    oracle of a test that reads the planner's own state after an episode)."""
+    from fftnav.navigation import bugcontrol
+
+    planners = []
+    init = bugcontrol.BugController.__init__
+
+    def keep(self, *args, **kwargs):
+        init(self, *args, **kwargs)
+        planners.append(self.planner)
+
+    monkeypatch.setattr(bugcontrol.BugController, "__init__", keep)
+    return planners

@@ -22,7 +22,7 @@ from fftnav.navigation.collab import (
 )
 from fftnav.navigation.ownmap import OwnMaps
 from fftnav.world import Polygon, World
-from tests.navigation.corridor import headon
+from tests.navigation.corridor import headon, keep_planners
 
 UP = math.pi / 2
 R = 3.0
@@ -209,8 +209,6 @@ def test_long_wall_is_longer_than_the_range():
     assert long_wall(np.array([[[0.0, 0.0], [1.0, 0.0]], [[0.0, 1.0], [2.2, 3.2]]]), range_m=R)
 
 
-
-
 def test_two_collab_robots_meeting_head_on_in_a_corridor_pass_each_other(monkeypatch):
     """A corridor 1.2 m wide, longer than R (collab's gate opens): the two robots meet in its
     middle and pass each other, as own-only's do, because each one's map knows where the other
@@ -323,16 +321,7 @@ def test_guided_robots_steer_for_the_gap_and_only_collab_is_guided(monkeypatch):
     collab robot heading for its goal steers along its map's way (the planner's guide), toward
     the gap its neighbours and its own scans showed, and no collab robot's path is longer than
     own-only's; fusion's and own-only's robots are never guided."""
-    from fftnav.navigation import bugcontrol
-
-    planners = []
-    init = bugcontrol.BugController.__init__
-
-    def keep(self, *args, **kwargs):
-        init(self, *args, **kwargs)
-        planners.append(self.planner)
-
-    monkeypatch.setattr(bugcontrol.BugController, "__init__", keep)
+    planners = keep_planners(monkeypatch)
     world = _barrier_world()
     # built for the paper's motion (straight, or rotation in place beyond 3 degrees); with the
     # default steered motion two collab robots here go the long way (docs/results.md)
