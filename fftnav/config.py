@@ -1,13 +1,15 @@
 """Swarm configuration: one frozen dataclass per component, one name per quantity, units in names.
 
-A :class:`SwarmConfig` has five sections, the tables of an experiment TOML file:
+A :class:`SwarmConfig` has six sections, the tables of an experiment TOML file:
 
 - ``[robot]`` :class:`RobotConfig`: collision and protective radii, speed limits, embodiment;
 - ``[sensor]`` :class:`SensorConfig`: the lidar (beams, range, field of view, blind sector, noise);
 - ``[comms]`` :class:`CommsConfig`: the message channel (range, loss, delay, when to send);
 - ``[episode]`` :class:`EpisodeConfig`: time limit, control and physics rates, arrival radius;
 - ``[planner]`` :class:`PlannerConfig`: the Bug planner's constants (heading tolerance, loop
-  detection, own maps, escapes).
+  detection, own maps, escapes);
+- ``[localization]`` :class:`LocalizationConfig`: exact poses, or odometry with drift and
+  relative measurements of the neighbours.
 
 The simulator (:class:`fftnav.sim.swarm.SimConfig` composes ``robot`` and ``sensor``), the
 observation pipeline (:meth:`SwarmConfig.pipeline`) and the planner
@@ -37,6 +39,7 @@ from typing import Any, ClassVar
 
 from fftnav.errors import FftnavError
 from fftnav.limits import MAX_BEAMS, MAX_EPISODE_PHYSICS_STEPS, MAX_MAP_SIDE_M, check_limit
+from fftnav.localization.odometry import DRIFT_PRESETS, OdometryNoise
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.observe.pipeline import Pipeline
 from fftnav.validate import (
@@ -48,8 +51,8 @@ from fftnav.validate import (
     number_field,
 )
 
-__all__ = ["CommsConfig", "EpisodeConfig", "PAPER_MOTION", "PlannerConfig", "RobotConfig",
-           "SensorConfig", "SwarmConfig", "check_rates"]
+__all__ = ["CommsConfig", "EpisodeConfig", "LocalizationConfig", "PAPER_MOTION", "PlannerConfig",
+           "RobotConfig", "SensorConfig", "SwarmConfig", "check_rates"]
 
 #: Upper bounds of the speed limits (a robot, not a projectile).
 MAX_SPEED_MPS = 100.0
@@ -402,9 +405,66 @@ PAPER_MOTION: Mapping[str, Any] = {"planner.heading_tol_deg": 3.0,
                                    "planner.drive": "straight"}
 
 
+@dataclass(frozen=True)
+class LocalizationConfig(_Section):
+    """``[localization]``: what a robot knows of where it is (docs/localization.md).
+
+    Attributes
+    ----------
+    mode : {"exact", "odometry"}
+        ``exact``: every robot reads its true pose, and a message's sender is placed at its
+        true pose. ``odometry``: a robot knows its start pose and its goal, and from then on
+        only its wheel odometry (:func:`fftnav.localization.sample_motion_model_odometry`);
+        its map, its goal bearing and everything it sends are in its estimated frame, and it
+        places a sender by measuring it (range, bearing, relative heading, with noise).
+    drift : {"none", "low", "typical", "high", "custom"}
+        The odometry's noise (``odometry`` mode): a preset of
+        :data:`fftnav.localization.DRIFT_PRESETS` (about 0, 0.5, 2 and 5 % of the distance
+        driven), or ``custom``: ``alpha1`` to ``alpha4``.
+    alpha1, alpha2, alpha3, alpha4 : float
+        The odometry motion model's noise parameters (``drift = "custom"`` only).
+    gyro_bias_degps : float
+        A constant error of every robot's heading rate (deg/s; positive turns the estimate
+        left of the truth), added to the preset's noise.
+    range_noise_m, bearing_noise_deg, heading_noise_deg : float
+        Standard deviations of a robot's measurement of a sender's range (m), bearing and
+        relative heading (deg) (``odometry`` mode).
+    """
+
+    name: ClassVar[str] = "localization"
+    mode: str = choice_field("exact", ("exact", "odometry"))
+    drift: str = choice_field("typical", ("none", "low", "typical", "high", "custom"))
+    alpha1: float = number_field(0.0, low=0, high=1e6)
+    alpha2: float = number_field(0.0, low=0, high=1e6)
+    alpha3: float = number_field(0.0, low=0, high=1e6)
+    alpha4: float = number_field(0.0, low=0, high=1e6)
+    gyro_bias_degps: float = number_field(0.0, low=-360.0, high=360.0)
+    range_noise_m: float = number_field(0.05, low=0, high=MAX_MAP_SIDE_M)
+    bearing_noise_deg: float = number_field(2.0, low=0, high=180.0)
+    heading_noise_deg: float = number_field(3.0, low=0, high=180.0)
+
+    def _check_together(self) -> None:
+        alphas = (self.alpha1, self.alpha2, self.alpha3, self.alpha4)
+        if self.drift != "custom" and any(alphas):
+            raise FftnavError(f"alpha1 to alpha4 need drift = \"custom\" (drift {self.drift!r} "
+                              f"is a preset), got drift={self.drift!r} with alphas {list(alphas)}")
+
+    @property
+    def odometry(self) -> bool:
+        """Whether the robots know only their odometry (``mode = "odometry"``)."""
+        return self.mode == "odometry"
+
+    @property
+    def noise(self) -> OdometryNoise:
+        """The odometry's noise: the preset's (or the custom alphas) and the gyro bias."""
+        base = (OdometryNoise(self.alpha1, self.alpha2, self.alpha3, self.alpha4)
+                if self.drift == "custom" else DRIFT_PRESETS[self.drift])
+        return OdometryNoise(*base.alphas, gyro_bias_radps=math.radians(self.gyro_bias_degps))
+
+
 _SECTIONS: dict[str, type[_Section]] = {
     cls.name: cls for cls in (RobotConfig, SensorConfig, CommsConfig, EpisodeConfig,
-                              PlannerConfig)}
+                              PlannerConfig, LocalizationConfig)}
 
 
 @dataclass(frozen=True)
@@ -416,6 +476,7 @@ class SwarmConfig(Checked):
     comms: CommsConfig = field(default_factory=CommsConfig)
     episode: EpisodeConfig = field(default_factory=EpisodeConfig)
     planner: PlannerConfig = field(default_factory=PlannerConfig)
+    localization: LocalizationConfig = field(default_factory=LocalizationConfig)
 
     #: Section name -> its dataclass.
     SECTIONS: ClassVar[dict[str, type[_Section]]] = _SECTIONS
@@ -476,6 +537,18 @@ class SwarmConfig(Checked):
     def geometry(self) -> RobotGeometry:
         """The robot's protective-distance model."""
         return self.robot.geometry
+
+    @property
+    def conditions(self) -> frozenset[str]:
+        """The conditions of this configuration that some measures and failure causes require
+        (:attr:`fftnav.metrics.measures.Measure.requires`): ``"odometry"`` when the robots
+        know only their odometry.
+
+        >>> sorted(SwarmConfig().conditions), sorted(SwarmConfig().replace(
+        ...     {"localization.mode": "odometry"}).conditions)
+        ([], ['odometry'])
+        """
+        return frozenset({"odometry"} if self.localization.odometry else ())
 
     def pipeline(self) -> Pipeline:
         """The FFT observation pipeline of this robot and lidar."""

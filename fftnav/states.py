@@ -2,7 +2,7 @@
 
 :class:`Status` is where a robot is in the episode, as the episode judges it from the true
 poses, whatever controller drives it: waiting at its start, moving, or gone (arrived, collided,
-out of time). :class:`State` is what the Bug planner is doing with a moving robot; every
+out of time, lost). :class:`State` is what the Bug planner is doing with a moving robot; every
 controller reports it through :meth:`fftnav.navigation.controllers.Controller.state` under the
 key ``"mode"`` (a controller without such states reports none). Recordings store both as these
 codes (the ``status`` column and ``state/mode``), and the replays draw a robot by them.
@@ -30,12 +30,15 @@ code      Status          the robot ...
 2         ``ARRIVED``     came within ``success_radius_m`` of its goal (parked)
 3         ``COLLIDED``    touched an obstacle (parked)
 4         ``TIMED_OUT``   ran out of time (parked)
+5         ``LOST``        stopped where its estimate said it had arrived, but
+                          its true pose was not within ``success_radius_m`` of
+                          its goal (``localization.mode = "odometry"``; parked)
 ========  ==============  ====================================================
 
 >>> State.ESCAPE.label, int(State.ESCAPE), State.from_label("guided")
 ('escape', 2, <State.GUIDED: 5>)
 >>> [s.label for s in Status if s.gone]
-['arrived', 'collided', 'timed_out']
+['arrived', 'collided', 'timed_out', 'lost']
 """
 
 from __future__ import annotations
@@ -94,8 +97,9 @@ class Status(_Coded):
     ARRIVED = 2
     COLLIDED = 3
     TIMED_OUT = 4
+    LOST = 5
 
     @property
     def gone(self) -> bool:
-        """Whether the robot has left the episode (arrived, collided or out of time)."""
+        """Whether the robot has left the episode (arrived, collided, out of time or lost)."""
         return self >= Status.ARRIVED

@@ -20,17 +20,18 @@ PACKAGE = Path(fftnav.__file__).parent
 
 def test_the_code_tables():
     """The codes recordings of version 1 already hold (state 0-4, status 0-4) keep their
-    meaning; guided is new at 5."""
+    meaning; guided is new at 5, and so is lost."""
     assert {s.label: int(s) for s in State} == {
         "goal": 0, "follow": 1, "escape": 2, "done": 3, "wait": 4, "guided": 5}
     assert {s.label: int(s) for s in Status} == {
-        "waiting": 0, "moving": 1, "arrived": 2, "collided": 3, "timed_out": 4}
+        "waiting": 0, "moving": 1, "arrived": 2, "collided": 3, "timed_out": 4, "lost": 5}
     assert [s for s in State if s.moving] == [State.GOAL, State.FOLLOW, State.ESCAPE,
                                               State.GUIDED]
-    assert [s for s in Status if s.gone] == [Status.ARRIVED, Status.COLLIDED, Status.TIMED_OUT]
+    assert [s for s in Status if s.gone] == [Status.ARRIVED, Status.COLLIDED, Status.TIMED_OUT,
+                                            Status.LOST]
     assert Status.from_label("timed_out") is Status.TIMED_OUT
-    with pytest.raises(FftnavError, match=r"^status must be one of \['waiting', .*got 'lost'$"):
-        Status.from_label("lost")
+    with pytest.raises(FftnavError, match=r"^status must be one of \['waiting', .*got 'gone'$"):
+        Status.from_label("gone")
 
 
 def test_every_state_and_status_is_drawn():
@@ -40,7 +41,7 @@ def test_every_state_and_status_is_drawn():
     status = np.array([int(s) for s in Status] + [int(Status.MOVING)] * len(State))
     mode = np.array([np.nan] * len(Status) + [int(s) for s in State])
     drawn = [KINDS[k] for k in kinds_of(status, mode)]
-    assert drawn[:len(Status)] == ["waiting", "moving", "arrived", "failed", "failed"]
+    assert drawn[:len(Status)] == ["waiting", "moving", "arrived", "failed", "failed", "lost"]
     assert drawn[len(Status):] == ["moving", "following", "escaping", "moving", "waiting",
                                    "guided"]
 

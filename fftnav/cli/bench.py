@@ -1,5 +1,6 @@
-"""``fftnav bench {pipeline,sim,scale,env,optimal,worlds}``: measured latency, simulation speed,
-scale, the PettingZoo environment, the optimal-path reference, large worlds."""
+"""``fftnav bench {pipeline,sim,scale,env,optimal,worlds,drift}``: measured latency, simulation
+speed, scale, the PettingZoo environment, the optimal-path reference, large worlds, the odometry
+drift presets."""
 
 from __future__ import annotations
 
@@ -112,13 +113,36 @@ def cmd_bench_worlds(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_bench_drift(args: argparse.Namespace) -> int:
+    """The drift of each odometry preset, on reference paths and on an episode's paths."""
+    from fftnav.bench.drift import bench_drift, format_drift
+    from fftnav.bench.pipeline import record_csv
+
+    rows = bench_drift(runs=args.runs, seed=args.seed)
+    for i, row in enumerate(rows):
+        if args.csv:
+            record_csv(row, args.csv, append=i > 0)
+    print("\n".join(json.dumps(r) for r in rows) if args.json else format_drift(rows))
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("bench", help="measure latency and simulation speed")
     benches = p.add_subparsers(dest="bench", metavar="BENCH", parser_class=type(p))
     benches.required = True
     for add in (_pipeline_parser, _sim_parser, _env_parser, _scale_parser, _optimal_parser,
-                _worlds_parser):
+                _worlds_parser, _drift_parser):
         add(benches)
+
+
+def _drift_parser(benches: argparse._SubParsersAction) -> None:
+    d = benches.add_parser("drift", help="drift of the odometry presets (docs/localization.md)")
+    d.add_argument("--runs", type=int, default=20_000,
+                   help="simulated robots per preset and path (default 20000)")
+    d.add_argument("--seed", type=int, default=0)
+    d.add_argument("--json", action="store_true", help="print one JSON object per preset")
+    d.add_argument("--csv", metavar="PATH", help="also record the rows in this CSV")
+    d.set_defaults(func=cmd_bench_drift)
 
 
 def _record_options(q: argparse.ArgumentParser) -> None:

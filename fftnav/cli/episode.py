@@ -30,8 +30,9 @@ def _overrides(pairs: list[str]) -> dict[str, str]:
 
 
 def outcome_line(rows: Sequence[EpisodeRow]) -> str:
-    """How an episode went, in one line: robots arrived, mean SPL, collided, timed out (neither
-    arrived nor collided), and the failures by cause (``failure`` column).
+    """How an episode went, in one line: robots arrived, mean SPL, collided, lost (stopped at a
+    goal only their odometry believed in, when there are any), timed out (the others), and the
+    failures by cause (``failure`` column).
 
     >>> from fftnav.episode.record import EpisodeRow
     >>> def row(arrived, collided, spl, failure=""):
@@ -40,6 +41,8 @@ def outcome_line(rows: Sequence[EpisodeRow]) -> str:
     >>> outcome_line([row(True, False, 0.9), row(False, True, 0, "collision"),
     ...               row(False, False, 0, "stuck")])
     '1/3 arrived, SPL 0.30, 1 collided, 1 timed out; failures: collision 1, stuck 1'
+    >>> outcome_line([row(True, False, 0.9), row(False, False, 0, "lost")])
+    '1/2 arrived, SPL 0.45, 0 collided, 1 lost, 0 timed out; failures: lost 1'
     """
     arrived = sum(bool(r.arrived) for r in rows)
     collided = sum(bool(r.collided) for r in rows)
@@ -47,8 +50,10 @@ def outcome_line(rows: Sequence[EpisodeRow]) -> str:
     causes = Counter(r.failure for r in rows if r.failure)
     why = ("; failures: " + ", ".join(f"{c} {n}" for c, n in sorted(causes.items()))
            if causes else "")
+    lost = causes.get("lost", 0)
     return (f"{arrived}/{len(rows)} arrived, SPL {spl:.2f}, {collided} collided, "
-            f"{len(rows) - arrived - collided} timed out{why}")
+            f"{f'{lost} lost, ' if lost else ''}{len(rows) - arrived - collided - lost} "
+            f"timed out{why}")
 
 
 def cmd_episode(args: argparse.Namespace) -> int:

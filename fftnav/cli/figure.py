@@ -40,6 +40,17 @@ def cmd_figure_sweep(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_figure_drift(args: argparse.Namespace) -> int:
+    """SPL and AR of every method against the odometry's drift (docs/localization.md)."""
+    from fftnav.report.drift import write_drift_report
+    from fftnav.runner import load_config
+
+    configs = [load_config(c) for c in args.config]
+    roots = [c.out for c in configs]
+    print(write_drift_report(configs, roots, args.out, exact=args.exact, sources=args.config))
+    return 0
+
+
 def cmd_figure_report(args: argparse.Namespace) -> int:
     """``maps.csv`` (if missing or stale) and the report of a finished results folder, running
     no episode."""
@@ -81,6 +92,12 @@ def register(sub: argparse._SubParsersAction) -> None:
     w.add_argument("config", help="experiment TOML (with or without [sweep])")
     w.add_argument("--out", metavar="DIR", help="results folder (default: experiment.out)")
     w.set_defaults(func=cmd_figure_sweep)
+    dr = figs.add_parser("drift", help="SPL and AR of every method against odometry drift")
+    dr.add_argument("config", nargs="+", help="drift experiment TOMLs (experiments/drift/)")
+    dr.add_argument("--exact", nargs="*", default=[], metavar="DIR",
+                    help="results folders of the same maps with exact localization")
+    dr.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    dr.set_defaults(func=cmd_figure_drift)
     r = figs.add_parser("report", help="maps.csv and report.md of a finished results folder "
                         "(no episode run, its CSVs and run_info.json untouched)")
     r.add_argument("config", help="experiment TOML of the results folder")

@@ -16,13 +16,15 @@ else, NaN or inf included, is a ``ValueError`` naming the agent. Finite values o
 ``scan``
     its lidar ranges (m, ``float32``, ``(M,)``; no return reads R, blind beams 0);
 ``goal``
-    its goal in its own frame, ``(x_m, y_m)`` (x ahead, y to the left);
+    its goal in its own frame, ``(x_m, y_m)`` (x ahead, y to the left), from the pose it
+    knows (with ``localization.mode = "odometry"``, its odometry's estimate);
 ``safe_mask`` (``Observations(safe_mask=True)``)
     the FFT pipeline's safe beams (``MultiBinary(M)``);
 ``messages``, ``neighbours`` (``Observations(max_neighbours > 0)``)
     the latest compressed observations received from up to ``max_neighbours`` neighbours (raw
     bytes, zero-padded to ``MESSAGE_BYTES``, ``uint8``) and the senders' poses relative to the
-    receiver ``(x_m, y_m, yaw_rad)`` (zeros where there is no message). Every moving robot
+    receiver ``(x_m, y_m, yaw_rad)`` (zeros where there is no message; with odometry, as the
+    receiver measured them). Every moving robot
     broadcasts its compact message as ``comms.broadcast`` says (``on_obstacle``: when the goal
     direction is not safe; ``every_tick``) through the same lossy, delayed, range-limited
     channel as the benchmark's ``fusion``.
@@ -30,11 +32,13 @@ else, NaN or inf included, is a ``ValueError`` naming the agent. Finite values o
 Rewards (:class:`Rewards`, configurable): ``progress`` times the decrease of the distance to the
 goal over the step (m), plus ``arrival`` once on arrival (within ``success_radius_m``), plus
 ``collision`` (negative) once on touching an obstacle, plus ``step`` every step. An agent
-terminates on arrival or collision (it is then parked out of the world;
+terminates on arrival, collision or, with odometry, when it stops where its estimate says its
+goal is and it is not (lost; it is then parked out of the world;
 ``terminate_on_collision=False`` keeps it driving, with the collision reward on every step in
 contact) and is truncated at the time limit (``episode.time_limit_s`` after its departure).
 ``infos`` give each agent's ``arrived``, ``collided``, ``goal_distance_m`` and true ``pose``
-``(x_m, y_m, yaw_rad)`` after the step. ``render_mode="rgb_array"`` returns a top-down frame
+``(x_m, y_m, yaw_rad)`` after the step: the benchmark's judgement, not an observation (with
+odometry a policy that read them would know more than its robot). ``render_mode="rgb_array"`` returns a top-down frame
 drawn like ``fftnav replay``'s (:meth:`SwarmNavEnv.render`).
 
 ``reset(seed=..., options=...)``: ``seed`` seeds the episode (sensor noise, packet loss);
@@ -365,7 +369,8 @@ class SwarmNavEnv(ParallelEnv):
         reward = (self.rewards.progress * (self._dist - dist) + self.rewards.step
                   + self.rewards.arrival * arrived + self.rewards.collision * collided)
         self._dist = dist
-        ended = (arrived | (status == int(Status.COLLIDED))).tolist()
+        ended = (arrived | (status == int(Status.COLLIDED))
+                 | (status == int(Status.LOST))).tolist()
         timed_out = (status == int(Status.TIMED_OUT)).tolist()
         rewards, terminations, truncations, infos = {}, {}, {}, {}
         for agent in agents:
@@ -404,10 +409,16 @@ class SwarmNavEnv(ParallelEnv):
             out[agent] = self._agent_obs(i, view)
         return out
 
+    def _known_pose(self, i: int) -> np.ndarray:
+        """Robot ``i``'s pose as it knows it (its estimate with ``localization.mode =
+        "odometry"``)."""
+        assert self._core is not None
+        return self._core.localizer.poses(self._core.obs.poses)[i]
+
     def _agent_obs(self, i: int, view: Any) -> dict[str, np.ndarray]:
         """Robot ``i``'s observation from ``view`` (the swarm or a :class:`Sensed`)."""
         assert self._core is not None
-        x, y, yaw = self._core.obs.poses[i]
+        x, y, yaw = self._known_pose(i)
         d = self._core.goals[i] - (x, y)
         c, s = math.cos(yaw), math.sin(yaw)
         obs = {"scan": view.ranges_m[i].astype(np.float32),
@@ -425,7 +436,7 @@ class SwarmNavEnv(ParallelEnv):
         messages = np.zeros((n, MESSAGE_BYTES), np.uint8)
         rel = np.zeros((n, 3), np.float32)
         packets = core.channel.inbox(i, tick=core.tick, max_age_ticks=core.max_age_ticks)
-        x, y, yaw = core.obs.poses[i]
+        x, y, yaw = self._known_pose(i)
         c, s = math.cos(yaw), math.sin(yaw)
         packets = sorted(packets, key=lambda p: math.hypot(p.sender_pose[0] - x,
                                                            p.sender_pose[1] - y))[:n]

@@ -10,12 +10,19 @@ randomness (packet loss) comes from the episode's seeded ``numpy.random.Generato
 
 from __future__ import annotations
 
+from collections.abc import Callable
+
 import numpy as np
 
 from fftnav.navigation.controllers import Packet
 from fftnav.validate import check_integer, check_number
 
-__all__ = ["Channel"]
+__all__ = ["Channel", "Locate"]
+
+#: ``locate(sender, receivers, poses)``: where each of ``receivers`` (indices, ``(k,)``) places
+#: ``sender``, in its own frame ``(k, 3)``, given the true ``poses`` at sending time
+#: (:meth:`fftnav.episode.localize.Localizer.locate`).
+Locate = Callable[[int, np.ndarray, np.ndarray], np.ndarray]
 
 
 class Channel:
@@ -75,12 +82,15 @@ class Channel:
     NEVER = -(1 << 40)
 
     def broadcast(
-        self, sender: int, payload: bytes, *, tick: int, poses: np.ndarray, active: np.ndarray
+        self, sender: int, payload: bytes, *, tick: int, poses: np.ndarray, active: np.ndarray,
+        locate: Locate | None = None,
     ) -> None:
         """Send ``payload`` from ``sender`` to every other active robot within range.
 
         ``poses`` is the ``(n_robots, 3)`` array of ground-truth poses at sending time and
-        ``active`` a boolean mask of robots still in the world.
+        ``active`` a boolean mask of robots still in the world. Each packet's ``sender_pose``
+        is where its receiver places the sender (``locate``; default: the sender's true pose,
+        the same for every receiver).
         """
         self.bytes_sent[sender] += len(payload)
         self.messages_sent[sender] += 1
@@ -95,10 +105,17 @@ class Channel:
             kept = self._rng.random(len(receivers)) >= self.loss
             self.last_lost[sender, receivers[~kept]] = tick
             receivers = receivers[kept]
-        pose = tuple(float(v) for v in poses[sender])
-        packet = Packet(sender=sender, tick=tick, payload=payload, sender_pose=pose)  # type: ignore[arg-type]
-        for r in receivers:
-            self._in_flight.append((tick + 1 + self.delay_ticks, int(r), packet))
+        due = tick + 1 + self.delay_ticks
+        if locate is None:
+            pose = tuple(float(v) for v in poses[sender])
+            packet = Packet(sender=sender, tick=tick, payload=payload, sender_pose=pose)  # type: ignore[arg-type]
+            self._in_flight.extend((due, int(r), packet) for r in receivers)
+            return
+        placed = locate(sender, receivers, poses)
+        for r, where in zip(receivers.tolist(), placed, strict=True):
+            pose = tuple(float(v) for v in where)
+            self._in_flight.append((due, int(r), Packet(sender=sender, tick=tick, payload=payload,
+                                                        sender_pose=pose)))  # type: ignore[arg-type]
 
     def deliver(self, tick: int) -> None:
         """Move the packets due at or before ``tick`` into the receivers' inboxes; they are

@@ -20,8 +20,12 @@ with the agents' actions. A control tick is
 
 Every robot has a :class:`fftnav.states.Status` at every tick: waiting at its start until its
 departure tick (``episode.departure``), moving, then arrived (within ``success_radius_m`` of its
-goal), collided (touched an obstacle; a collision outranks an arrival in the same period) or
-timed out (``episode.time_limit_s`` after its departure). A robot that leaves is parked (taken out
+goal), collided (touched an obstacle; a collision outranks an arrival in the same period),
+timed out (``episode.time_limit_s`` after its departure) or lost (with ``localization.mode =
+"odometry"``: it stopped where its estimate said its goal was, and it was not). The rule judges
+the true poses; the controller sees only the poses the robots know
+(:class:`~fftnav.episode.localize.Localizer`: the true ones, or their odometry's estimates), and
+each packet places its sender where its receiver measures it. A robot that leaves is parked (taken out
 of the world) and the controller's ``finish(robot)`` is called, once for every robot.
 """
 
@@ -34,6 +38,7 @@ import numpy as np
 
 from fftnav.config import SwarmConfig
 from fftnav.episode.comms import Channel
+from fftnav.episode.localize import Localizer, localization_rng
 from fftnav.episode.recording import Tape
 from fftnav.errors import FftnavError
 from fftnav.navigation.controllers import Controller, ControllerSetup, Packet, SwarmStep
@@ -44,10 +49,13 @@ from fftnav.world.model import World
 
 __all__ = ["EpisodeCore", "OnTick", "Robots", "Sensed", "episode_seeds"]
 
-#: ``on_tick(step, scans, commands, outgoing)``: the swarm at a control tick, every robot's raw
-#: lidar ranges ``(N, M)`` (m; rows of robots not in ``step.active`` are stale), the commands
-#: ``(N, 2)`` (v m/s, omega rad/s) and the messages sent, by robot.
-OnTick = Callable[[SwarmStep, np.ndarray, np.ndarray, dict[int, bytes]], None]
+#: ``on_tick(step, scans, commands, outgoing, truth)``: the swarm at a control tick (its poses
+#: those the robots know), every robot's raw lidar ranges ``(N, M)`` (m; rows of robots not in
+#: ``step.active`` are stale), the commands ``(N, 2)`` (v m/s, omega rad/s), the messages sent,
+#: by robot, and the true poses ``(N, 3)`` (the same as ``step.poses`` with exact
+#: localization). A hook observes the episode for the benchmark (a bag, a log): unlike a
+#: controller, it may see the truth.
+OnTick = Callable[[SwarmStep, np.ndarray, np.ndarray, dict[int, bytes], np.ndarray], None]
 
 
 def episode_seeds(seed: int) -> tuple[int, np.random.Generator]:
@@ -180,9 +188,11 @@ class EpisodeCore:
         self.controller: Controller = (Controller if controller is None else controller)(
             self.setup)
         self.max_age_ticks = int(config.episode.control_hz)
-        #: The simulator's latest observation and the current control tick.
+        #: The simulator's latest observation (true poses) and the current control tick.
         self.obs = sim.reset(seed=sim_seed)
         self.tick = 0
+        #: What the robots know of their poses (exact, or their odometry's estimates).
+        self.localizer = Localizer(config, self.obs.poses, localization_rng(seed))
         self.robots = Robots.start(self.obs, config.episode.departure_ticks(n))
         #: The swarm as :meth:`observe` saw it at the current tick (None before).
         self.swarm: SwarmStep | None = None
@@ -213,7 +223,8 @@ class EpisodeCore:
                                            else pipeline))
         self.channel.deliver(tick)
         self.swarm = SwarmStep(
-            tick=tick, time_s=obs.time_s, poses=obs.poses, goals=self.goals, active=idx,
+            tick=tick, time_s=obs.time_s, poses=self.localizer.poses(obs.poses),
+            goals=self.goals, active=idx,
             ranges_m=sensed.ranges_m, angles_rad=self.pipe.angles_rad, safe=sensed.safe,
             y1=sensed.y1, messages=sensed.messages, inbox=self._inbox(tick), sigma=sensed.sigma,
             present=robots.active, arrived=self.channel.arrived,
@@ -243,17 +254,20 @@ class EpisodeCore:
             raise FftnavError(f"advance() needs the swarm of tick {self.tick}: call observe() "
                               f"first, got the swarm of tick "
                               f"{None if self.swarm is None else self.swarm.tick}")
-        step, robots = self.swarm, self.robots
+        step, robots, localizer = self.swarm, self.robots, self.localizer
         outgoing = dict(outgoing)
+        locate = localizer.locate if localizer.odometry else None
         for i in sorted(outgoing):
             self.channel.broadcast(int(i), outgoing[i], tick=self.tick, poses=self.obs.poses,
-                                   active=robots.active)
+                                   active=robots.active, locate=locate)
         if self.tape is not None:
             self._record(step, commands, outgoing)
         if self.on_tick is not None:
-            self.on_tick(step, self.obs.scans, commands, outgoing)
+            self.on_tick(step, self.obs.scans, commands, outgoing, self.obs.poses)
         idx = np.flatnonzero(robots.moving(self.tick))
+        before = self.obs.poses
         obs = self.obs = self.sim.step(commands)
+        localizer.moved(before, obs.poses, idx)
         robots.robot_contacts += obs.robot_contact & robots.active & ~robots.in_contact  # onsets
         robots.in_contact = obs.robot_contact & robots.active
         if self.tape is not None:
@@ -265,17 +279,21 @@ class EpisodeCore:
         return obs
 
     def _judge(self, i: int) -> None:
-        """The rule after a control period: robot ``i`` collided if it touched an obstacle
-        (``collisions_end``), else arrived if it is within ``success_radius_m`` of its goal."""
-        obs = self.obs
+        """The rule after a control period, on the true poses: robot ``i`` collided if it
+        touched an obstacle (``collisions_end``), else arrived if it is within
+        ``success_radius_m`` of its goal, else is lost if its estimate says it is there
+        (odometry mode: it stops where it believes its goal is)."""
+        obs, radius = self.obs, self.config.episode.success_radius_m
         hit = bool(obs.obstacle_contact[i])
-        home = (np.hypot(*(obs.poses[i, :2] - self.goals[i]))
-                <= self.config.episode.success_radius_m)
+        home = np.hypot(*(obs.poses[i, :2] - self.goals[i])) <= radius
         if hit and self.collisions_end:
             self.robots.collided[i] = True
             self._leave(i, Status.COLLIDED)
         elif home and not hit:
             self._leave(i, Status.ARRIVED)
+        elif (self.localizer.odometry and not hit and np.hypot(
+                *(self.localizer.poses(obs.poses)[i, :2] - self.goals[i])) <= radius):
+            self._leave(i, Status.LOST)
 
     def _leave(self, i: int, how: Status) -> None:
         self.robots.leave(i, how)
@@ -288,7 +306,8 @@ class EpisodeCore:
         for i in np.flatnonzero(self.robots.active):
             self._leave(int(i), Status.TIMED_OUT)
         if self.tape is not None:
-            self.tape.end(self.obs.time_s, self.obs.poses, self.status())
+            self.tape.end(self.obs.time_s, self.obs.poses, self.status(),
+                          estimates=self.localizer.estimates)
 
     def run(self) -> None:
         """Run the episode to its end with its controller's commands and messages."""
@@ -318,7 +337,8 @@ class EpisodeCore:
                 ) -> None:
         """Put one tick on the tape: what the robots saw, decided, sent and received."""
         assert self.tape is not None
-        self.tape.tick(step.time_s, step.poses, self.robots.status(step.tick), commands=commands,
+        self.tape.tick(step.time_s, self.obs.poses, self.robots.status(step.tick),
+                       estimates=self.localizer.estimates, commands=commands,
                        ranges_m=step.ranges_m, safe=step.safe,
                        state={int(i): self.controller.state(int(i)) for i in step.active})
         for i in sorted(outgoing):

@@ -24,6 +24,7 @@ from fftnav.episode.recording import Tape
 from fftnav.navigation.resolve import resolve
 from fftnav.optimal.reference import optimal_lengths
 from fftnav.sim.swarm import SimConfig, SwarmSim
+from fftnav.states import Status
 from fftnav.validate import check_integer
 from fftnav.world.model import World
 
@@ -152,7 +153,8 @@ def _failure(core: EpisodeCore, i: int, trajectory: np.ndarray, by_tick: np.ndar
     thresholds = metrics.FailureThresholds.for_robot(r0_m=config.robot.r0_m,
                                                      v_max_mps=config.robot.v_max_mps)
     return metrics.classify_failure(metrics.failure_features(
-        trajectory, core.goals[i], collided=bool(core.robots.collided[i]), others=others,
+        trajectory, core.goals[i], collided=bool(core.robots.collided[i]),
+        lost=bool(core.robots.left[i] == Status.LOST), others=others,
         dt_s=1.0 / ep.control_hz, time_limit_s=ep.time_limit_s,
         success_radius_m=ep.success_radius_m, thresholds=thresholds))
 

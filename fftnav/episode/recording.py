@@ -3,15 +3,18 @@
 A recording is one file per episode that replays with nothing else: the world, the swarm
 configuration, the policy's name and the seed, and per control tick and robot the pose, the
 command, the controller's state (:meth:`fftnav.navigation.controllers.Controller.state`), the
-lidar scan (quantised), the FFT pipeline's safe mask (bit-packed), the contacts, and the
-messages sent and delivered. ``fftnav replay`` draws it (docs/analysis.md).
+lidar scan (quantised), the FFT pipeline's safe mask (bit-packed), the contacts, the
+messages sent and delivered, and, when the robots localize by their own odometry
+(``[localization] mode = "odometry"``), the pose each robot estimated. ``fftnav replay`` draws it
+(docs/analysis.md).
 
 Format: a NumPy ``.npz`` archive (a zip of ``.npy`` arrays, deflate-compressed), one array per
 column. It needs nothing beyond NumPy to read, each column loads on its own, and the deflate
 pass shrinks the scans (mostly "no return") several times. The ``meta`` entry is UTF-8 JSON
 with ``format`` (:data:`FORMAT`) and ``version`` (:data:`VERSION`); the reader refuses other
 formats and newer versions, and reads every earlier one: version 1 differs only in that its
-``state/mode`` never holds ``GUIDED`` (5), so its codes 0-4 read the same. The columns, with
+``state/mode`` never holds ``GUIDED`` (5), version 2 in that its ``status`` never holds
+``LOST`` (5) and it has no ``estimates``, so their codes read the same. The columns, with
 G ticks, N robots and M beams:
 
 ========================= ================ ==================================================
@@ -19,10 +22,13 @@ column                    dtype, shape     meaning
 ========================= ================ ==================================================
 ``time_s``                float64 (G,)     episode time at the start of the tick (s)
 ``pose``                  float32 (G,N,3)  x (m), y (m), yaw (rad) the tick's scan was taken at
+``estimates``             float32 (G,N,3)  the pose each robot estimated at that time (x, y,
+                                           yaw), NaN at a tick without one; only in a
+                                           recording whose episode passed estimates
 ``command``               float32 (G,N,2)  the command of the tick: v (m/s), w (rad/s)
 ``status``                uint8 (G,N)      :class:`~fftnav.states.Status` code: 0 waiting,
-                                           1 moving, 2 arrived, 3 collided, 4 timed_out
-                                           (at the start of the tick)
+                                           1 moving, 2 arrived, 3 collided, 4 timed_out,
+                                           5 lost (at the start of the tick)
 ``scan``                  uint8/16 (G,N,M) range in steps of ``meta["scan_step_m"]`` (0.02 m:
                                            at most 1 cm error); 0 for robots not moving
 ``safe_bits``             uint8 (G,N,M/8)  the safe mask, ``numpy.packbits`` along beams
@@ -38,6 +44,10 @@ column                    dtype, shape     meaning
 ``sent_bytes``            uint8 (B,)       the payloads, concatenated
 ``delivered``             int32 (D,4)      packets delivered: tick, sender, receiver, sent tick
 ========================= ================ ==================================================
+
+The ``estimates`` column is optional: the reader reads a recording with or without it (of any
+version), and an episode without estimates (``Tape.tick(..., estimates=None)``) writes no such
+column.
 
 The last tick (``G - 1``) is the end of the episode: poses and statuses only.
 
@@ -75,7 +85,7 @@ __all__ = ["FORMAT", "SCAN_STEP_M", "VERSION", "Recording", "RecordingError", "T
 FORMAT = "fftnav-recording"
 #: Schema version written (2: ``state/mode`` may hold ``State.GUIDED``); the reader reads this
 #: version and earlier ones.
-VERSION = 2
+VERSION = 3
 #: Quantisation step of the recorded scans (m): the error is at most half of it.
 SCAN_STEP_M = 0.02
 
@@ -99,6 +109,9 @@ class Recording:
         The episode's rows (``episodes.csv`` columns), one per robot.
     angles_rad : ndarray, (M,)
         Beam angles, CCW from the heading.
+    estimates : ndarray, (G, N, 3), or None
+        Each robot's estimated pose (x, y in m, yaw in rad; NaN at a tick without one), or None
+        when the recording has none (exact localization).
     """
 
     world: World
@@ -121,6 +134,7 @@ class Recording:
     sent_payloads: list[bytes]
     delivered: np.ndarray
     meta: dict[str, Any] = field(default_factory=dict)
+    estimates: np.ndarray | None = None
 
     @property
     def n_ticks(self) -> int:
@@ -151,23 +165,44 @@ class Tape:
         self.sent: list[tuple[int, int, bytes]] = []
         self.delivered: list[tuple[int, int, int, int]] = []
         self.state_names: dict[str, None] = {}
+        self.estimated = False  # whether any tick had estimates: then the column is stored
         steps = math.ceil(config.sensor.range_m / SCAN_STEP_M)
         self.scan_dtype = np.uint8 if steps <= np.iinfo(np.uint8).max else np.uint16
 
     def tick(self, time_s: float, poses: np.ndarray, status: np.ndarray, *,
              commands: np.ndarray, ranges_m: np.ndarray, safe: np.ndarray | None,
-             state: Mapping[int, Mapping[str, float]]) -> None:
+             state: Mapping[int, Mapping[str, float]],
+             estimates: np.ndarray | None = None) -> None:
         """One control tick: poses at the scan, statuses (:class:`~fftnav.states.Status` codes),
         commands, ranges (m, finite, >= 0) and safe masks of every robot (zeros for robots not
         moving; arrays the episode does not modify afterwards), the controller's state of the
-        moving robots. The scans are quantised now, the rest packed by :meth:`columns`."""
+        moving robots, and the poses the robots estimated (``estimates``, (N, 3): x, y, yaw;
+        None when the robots know their true poses). The scans are quantised now, the rest
+        packed by :meth:`columns`.
+
+        Raises
+        ------
+        FftnavError
+            ``estimates`` is not of shape (N, 3).
+        """
         for values in state.values():
             self.state_names.update(dict.fromkeys(values))
         scan = ranges_m * (1.0 / SCAN_STEP_M) + 0.5  # rounded by the cast (ranges >= 0)
         self.ticks.append({"time_s": time_s, "pose": poses.copy(), "status": status,
                            "command": commands.copy(), "scan": scan.astype(self.scan_dtype),
-                           "safe": safe,
+                           "safe": safe, "estimates": self._estimates(estimates),
                            "state": state, "contact_obstacle": None, "contact_robot": None})
+
+    def _estimates(self, estimates: np.ndarray | None) -> np.ndarray | None:
+        """A copy of a tick's estimated poses, checked to be (N, 3); None stays None."""
+        if estimates is None:
+            return None
+        array = np.array(estimates, dtype=np.float64)
+        if array.shape != (self.n, 3):
+            raise FftnavError(f"estimates must be an array of shape ({self.n}, 3), got "
+                              f"estimates.shape={array.shape}")
+        self.estimated = True
+        return array
 
     def contacts(self, obstacle: np.ndarray, robot: np.ndarray) -> None:
         """The contacts Bullet reported while the last tick's commands ran."""
@@ -180,11 +215,13 @@ class Tape:
     def delivery(self, tick: int, sender: int, receiver: int, sent_tick: int) -> None:
         self.delivered.append((tick, sender, receiver, sent_tick))
 
-    def end(self, time_s: float, poses: np.ndarray, status: np.ndarray) -> None:
-        """The end of the episode: a last tick with poses and statuses only."""
+    def end(self, time_s: float, poses: np.ndarray, status: np.ndarray, *,
+            estimates: np.ndarray | None = None) -> None:
+        """The end of the episode: a last tick with poses, statuses and (``estimates``, as in
+        :meth:`tick`) the estimated poses only."""
         zeros = np.zeros((self.n, len(self.angles_rad)))
         self.tick(time_s, poses, status, commands=np.zeros((self.n, 2)), ranges_m=zeros,
-                  safe=None, state={})
+                  safe=None, state={}, estimates=estimates)
 
     def columns(self, rows: Sequence[Mapping[str, Any]]) -> dict[str, np.ndarray]:
         """The recording's columns (the ``meta`` column carries ``rows``)."""
@@ -193,6 +230,7 @@ class Tape:
         cols: dict[str, np.ndarray] = {
             "time_s": np.array([t["time_s"] for t in self.ticks], dtype=np.float64),
             "pose": np.stack([t["pose"] for t in self.ticks]).astype(np.float32),
+            **self._estimates_column(),
             "command": np.stack([t["command"] for t in self.ticks]).astype(np.float32),
             "status": np.stack([t["status"] for t in self.ticks]).astype(np.uint8),
             "scan": np.stack([t["scan"] for t in self.ticks]),
@@ -210,6 +248,15 @@ class Tape:
         cols.update(self._messages())
         cols["meta"] = np.frombuffer(json.dumps(self._meta(rows)).encode(), dtype=np.uint8)
         return cols
+
+    def _estimates_column(self) -> dict[str, np.ndarray]:
+        """``{"estimates": (G, N, 3) float32}``, NaN at the ticks without estimates, when any
+        tick had them; else nothing."""
+        if not self.estimated:
+            return {}
+        missing = np.full((self.n, 3), np.nan)
+        return {"estimates": np.stack([missing if t["estimates"] is None else t["estimates"]
+                                       for t in self.ticks]).astype(np.float32)}
 
     def _messages(self) -> dict[str, np.ndarray]:
         payloads = [p for _, _, p in self.sent]
@@ -309,7 +356,8 @@ def _check_shapes(cols: Mapping[str, np.ndarray], meta: dict[str, Any]) -> None:
                 "safe_bits": (g, n, (m + 7) // 8),
                 **{key: (g, n) for key in cols if key.startswith("state/")},
                 "sent_offset": (len(cols["sent_tick"]) + 1,),
-                "sent_robot": (len(cols["sent_tick"]),)}
+                "sent_robot": (len(cols["sent_tick"]),),
+                **({"estimates": (g, n, 3)} if "estimates" in cols else {})}
     for key, shape in expected.items():
         if cols[key].shape != shape:
             raise FftnavError(f"column {key} has shape {cols[key].shape}, expected {shape}")
@@ -359,4 +407,5 @@ def _decode(cols: Mapping[str, np.ndarray], meta: dict[str, Any]) -> Recording:
         sent_payloads=[data[a:b] for a, b in zip(offsets[:-1], offsets[1:], strict=True)],
         delivered=cols["delivered"].astype(np.int64),
         meta={k: v for k, v in meta.items() if k not in ("world", "config", "rows")},
+        estimates=cols["estimates"].astype(np.float64) if "estimates" in cols else None,
     )

@@ -110,6 +110,8 @@ class FailureFeatures:
     ----------
     arrived, collided : bool
         Success S_i (:func:`fftnav.metrics.paths.arrived`) and contact with an obstacle.
+    lost : bool
+        It stopped believing it had arrived, short of its goal (odometry).
     window_s : float
         The seconds looked at: ``thresholds.window_s``, or the whole trajectory if it is
         shorter.
@@ -132,6 +134,7 @@ class FailureFeatures:
 
     arrived: bool
     collided: bool
+    lost: bool
     window_s: float
     extent_m: float
     path_m: float
@@ -164,6 +167,9 @@ class FailureCause:
     catch_all : bool
         Its test holds for every robot that the causes before it leave, so no cause after it
         could ever be given: it must be the last.
+    requires : str
+        The experiment condition without which it is never given (``"odometry"``; its measure's
+        :attr:`~fftnav.metrics.measures.Measure.requires`); empty: always possible.
     """
 
     name: str
@@ -171,6 +177,7 @@ class FailureCause:
     thresholds: tuple[str, ...]
     test: CauseTest
     catch_all: bool = False
+    requires: str = ""
 
     def __post_init__(self) -> None:
         fields = FailureThresholds.keys()
@@ -245,7 +252,7 @@ def _failure_count(cause: str, definition: str) -> Callable[[Table], float]:
 
 def register_failure_cause(
     name: str, definition: str, *, thresholds: Iterable[str] = (), before: str | None = None,
-    catch_all: bool = False,
+    catch_all: bool = False, requires: str = "",
 ) -> Callable[[CauseTest], CauseTest]:
     """Decorator registering ``test(features, thresholds) -> bool`` as failure cause ``name``
     (see :class:`FailureCause`), with its measure ``failures_<name>``.
@@ -262,6 +269,9 @@ def register_failure_cause(
         cause).
     catch_all : bool
         The test holds for every robot the causes before it leave (it must be the last).
+    requires : str
+        The experiment condition without which the cause is never given (see
+        :class:`FailureCause`).
 
     Examples
     --------
@@ -275,10 +285,11 @@ def register_failure_cause(
     """
 
     def register(test: CauseTest) -> CauseTest:
-        cause = FailureCause(name, definition, thresholds, test, catch_all)
+        cause = FailureCause(name, definition, thresholds, test, catch_all, requires)
         FAILURE_CAUSES.add(name, cause, before=before)
         try:
-            register_measure(f"failures_{name}")(_failure_count(name, definition))
+            register_measure(f"failures_{name}", requires=requires)(
+                _failure_count(name, definition))
         except ValueError:
             del FAILURE_CAUSES[name]  # a cause is registered with its measure or not at all
             raise
@@ -290,6 +301,14 @@ def register_failure_cause(
 @register_failure_cause("collision", "it touched an obstacle (the episode's collided flag)")
 def _collision(f: FailureFeatures, t: FailureThresholds) -> bool:
     return f.collided
+
+
+@register_failure_cause(
+    "lost", "it stopped where its own estimate of its pose said its goal was, and its true pose "
+    "was not within the arrival radius (the episode's lost flag: odometry only)",
+    requires="odometry")
+def _lost(f: FailureFeatures, t: FailureThresholds) -> bool:
+    return f.lost
 
 
 @register_failure_cause(
@@ -365,6 +384,7 @@ def failure_features(
     goal: ArrayLike,
     *,
     collided: bool = False,
+    lost: bool = False,
     others: ArrayLike | None = None,
     dt_s: float = 0.1,
     time_limit_s: float = 120.0,
@@ -383,6 +403,8 @@ def failure_features(
         Its goal (m).
     collided : bool
         It touched an obstacle.
+    lost : bool
+        It stopped where its estimate said its goal was, short of it (odometry).
     others : array_like, shape (T, M, 2), optional
         The other robots' positions at the same ticks, NaN where a robot is not in the world
         (parked after arriving or failing); default none.
@@ -414,7 +436,9 @@ def failure_features(
     with np.errstate(invalid="ignore"):
         gaps = np.hypot(*(near_to[start:] - win[:, None, :]).transpose(2, 0, 1))
     near = (gaps <= limits.jam_distance_m).any(axis=1)  # NaN (absent) is never near
-    return FailureFeatures(arrived=ok, collided=bool(collided),
+    if not isinstance(lost, (bool, np.bool_)):
+        raise FftnavError(f"lost must be a bool, got lost={lost!r}")
+    return FailureFeatures(arrived=ok, collided=bool(collided), lost=bool(lost),
                            window_s=(len(win) - 1) * float(dt_s), extent_m=extent,
                            path_m=path_length_m(win),
                            displacement_m=float(np.hypot(*(win[-1] - win[0]))),

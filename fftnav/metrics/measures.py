@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.errors import FftnavError
-from fftnav.metrics.paths import _success, arrival_rate, average_path_length_m, spl
+from fftnav.metrics.paths import _success, arrival_rate, average_path_length_m, spl, spl_terms
 from fftnav.registry import Registry, first_line
 
 __all__ = ["MEASURES", "Measure", "NEIGHBOUR_REASONS", "Table", "evaluate", "register_measure"]
@@ -46,6 +46,10 @@ class Measure:
         Prefix of the interval columns (default: the name).
     description : str
         One line (the function's docstring).
+    requires : str
+        A condition of the experiment without which the measure means nothing (``"odometry"``:
+        the robots know only their odometry, :attr:`fftnav.config.SwarmConfig.conditions`);
+        summaries of other experiments leave its columns out. Empty: always.
     """
 
     name: str
@@ -53,6 +57,11 @@ class Measure:
     terms: Callable[[Table], tuple[np.ndarray, np.ndarray]] | None = None
     interval: str = ""
     description: str = ""
+    requires: str = ""
+
+    def applies(self, conditions: Iterable[str]) -> bool:
+        """Whether an experiment with ``conditions`` has this measure's columns."""
+        return not self.requires or self.requires in set(conditions)
 
     def __call__(self, table: Table) -> float:
         return self.fn(table)
@@ -72,12 +81,12 @@ MEASURES: Registry[Measure] = Registry("measure", parameter="names")
 
 def register_measure(
     name: str, *, terms: Callable[[Table], tuple[np.ndarray, np.ndarray]] | None = None,
-    interval: str = "",
+    interval: str = "", requires: str = "",
 ) -> Callable[[Callable[[Table], float]], Callable[[Table], float]]:
     """Decorator registering ``fn(table) -> float`` as measure ``name`` (see :class:`Measure`)."""
 
     def register(fn: Callable[[Table], float]) -> Callable[[Table], float]:
-        MEASURES.add(name, Measure(name, fn, terms, interval, first_line(fn.__doc__)))
+        MEASURES.add(name, Measure(name, fn, terms, interval, first_line(fn.__doc__), requires))
         return fn
 
     return register
@@ -215,6 +224,37 @@ def _neighbour_share(reason: str) -> Callable[[Table], float]:
 
 for _reason in NEIGHBOUR_REASONS:
     register_measure(f"share_neighbours_{_reason}")(_neighbour_share(_reason))
+
+
+def _believed(table: Table) -> np.ndarray:
+    """Per robot: it arrived, or it stopped where its estimate said its goal was (``failure``
+    ``lost``)."""
+    failure = np.asarray(table["failure"], dtype=object) if "failure" in table else None
+    lost = np.zeros(len(_ones(table)), bool) if failure is None else failure == "lost"
+    return _column(table, "arrived").astype(bool) | lost
+
+
+def _believed_spl_terms(table: Table) -> np.ndarray:
+    return spl_terms(_believed(table), _column(table, "path_length_m").astype(float),
+                     _column(table, "optimal_length_m").astype(float))
+
+
+@register_measure("ar_believed", terms=lambda t: (_believed(t).astype(float), _ones(t)),
+                  requires="odometry")
+def _ar_believed(table: Table) -> float:
+    """The fraction of robots that reached their goal as they believed it (arrived, or stopped
+    where their own estimate put the goal: ``lost``): how well they navigated, whatever their
+    drift (odometry only)."""
+    return float(np.mean(_believed(table))) if len(_ones(table)) else float("nan")
+
+
+@register_measure("spl_believed", terms=lambda t: (_believed_spl_terms(t), _ones(t)),
+                  requires="odometry")
+def _spl_believed(table: Table) -> float:
+    """SPL with the robots that stopped at their believed goal counted as successes
+    (``ar_believed``; odometry only)."""
+    terms = _believed_spl_terms(table)
+    return float(np.mean(terms)) if len(terms) else float("nan")
 
 
 def evaluate(table: Table, names: Iterable[str] | None = None) -> dict[str, float]:

@@ -76,9 +76,12 @@ class Packet:
     payload : bytes
         The message's bytes.
     sender_pose : tuple of float
-        The sender's ground-truth pose ``(x_m, y_m, yaw_rad)`` when it sent the message; the
-        receiver turns it into a relative pose (optionally with noise), e.g. to rotate the
-        sender's Sigma into its own frame.
+        Where the receiver places the sender when it sent the message, ``(x_m, y_m, yaw_rad)``
+        in the receiver's own frame: the sender's true pose with ``localization.mode =
+        "exact"`` (every robot's frame is the world's), else the receiver's estimate moved by
+        its noisy measurement of the sender's range, bearing and relative heading
+        (:class:`fftnav.episode.localize.Localizer`). The receiver turns it into a relative
+        pose, e.g. to rotate the sender's Sigma into its own frame.
     """
 
     sender: int
@@ -144,9 +147,10 @@ class RobotObservation:
     time_s : float
         Episode time (s).
     pose : ndarray, shape (3,)
-        ``x_m, y_m, yaw_rad`` in the world frame.
+        ``x_m, y_m, yaw_rad`` as the robot knows it: its true pose with
+        ``localization.mode = "exact"``, its odometry's estimate with ``"odometry"``.
     goal : ndarray, shape (2,)
-        Goal position in the world frame.
+        Goal position, in the same frame as ``pose``.
     ranges_m : ndarray, shape (M,)
         The lidar scan, sanitised (no return reads R, blind and invalid beams read 0).
     angles_rad : ndarray, shape (M,)
@@ -214,6 +218,12 @@ class SwarmStep:
 
     Attributes
     ----------
+    poses : ndarray, shape (K, 3)
+        Every robot's pose as it knows it (``x_m, y_m, yaw_rad``): the true poses with
+        ``localization.mode = "exact"``, the odometry's estimates with ``"odometry"``; a
+        controller never sees more.
+    goals : ndarray, shape (K, 2)
+        Every robot's goal, in the frame of its pose.
     inbox : callable
         ``inbox(i)``: robot ``i``'s received packets, the newest of each sender sent within the
         last second, in sender order.

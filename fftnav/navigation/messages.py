@@ -44,6 +44,7 @@ from typing import ClassVar
 import numpy as np
 
 from fftnav.errors import FftnavError
+from fftnav.localization.relative import from_frame, to_frame
 from fftnav.navigation.collab import (
     MAX_SEGMENTS_PER_MESSAGE,
     NEIGHBOUR_AGE_TICKS,
@@ -166,11 +167,26 @@ class Walls(MessageKind):
         its first message).
     drawn : ndarray of int
         Per robot, the messages drawn into its map (:meth:`read`).
+    refused : ndarray of int
+        Per robot, the messages it did not draw because one of their segments crosses what its
+        own scans see free (:data:`CONFLICT_SHARE`; odometry only).
+    body_frame : bool
+        Whether messages carry their segments in the sender's body frame, placed by the
+        receiver through its measurement of the sender (``localization.mode = "odometry"``:
+        no two robots share a frame), rather than in the frame all robots share (``exact``).
     """
+
+    #: With odometry, a received message is not drawn when one of its segments has at least
+    #: this share of its cells where the receiver's own scans see free space
+    #: (:meth:`~fftnav.navigation.ownmap.OwnMaps.free_share`): the sender was placed wrong, or
+    #: its wall disagrees with what the receiver sees; the receiver keeps its own map.
+    CONFLICT_SHARE: ClassVar[float] = 0.2
 
     def __init__(self, setup: ControllerSetup) -> None:
         super().__init__(setup)
         n = setup.n_robots
+        self.body_frame = setup.config.localization.odometry
+        self.refused = np.zeros(n, dtype=np.int64)
         self.held: list[list[tuple[int, np.ndarray]]] = [[] for _ in range(n)]
         self.gate = np.zeros(n, dtype=bool)
         self.neighbours: list[dict[int, tuple[float, float, int, float]]] = [
@@ -187,6 +203,8 @@ class Walls(MessageKind):
         for r in np.flatnonzero(swarm.present_mask()).tolist():
             for pkt in swarm.arrived(r):
                 goal_m, segments = decode_message(pkt.payload)
+                if self.body_frame:
+                    segments = to_frame(segments, np.asarray(pkt.sender_pose))
                 self.held[r].append((swarm.tick, segments))
                 x, y = pkt.sender_pose[0], pkt.sender_pose[1]
                 self.neighbours[r][pkt.sender] = (float(x), float(y), swarm.tick, goal_m)
@@ -217,8 +235,13 @@ class Walls(MessageKind):
         return bool(self.gate[robot])
 
     def _draw(self, maps: OwnMaps, robot: int) -> None:
-        """Draw robot ``robot``'s held segments into its map, at their arrival ticks."""
+        """Draw robot ``robot``'s held segments into its map, at their arrival ticks (with
+        odometry, not those of a message that crosses what its own scans see free)."""
         for tick, segments in self.held[robot]:
+            if self.body_frame and len(segments) and (
+                    maps.free_share(robot, segments) >= self.CONFLICT_SHARE).any():
+                self.refused[robot] += 1
+                continue
             maps.add_segments(robot, tick, segments)
             self.drawn[robot] += 1
         self.held[robot].clear()
@@ -243,6 +266,9 @@ class Walls(MessageKind):
                 if maps is not None:
                     maps.add_walls(i, swarm.tick, segments)
                 goal_m = float(np.hypot(*(swarm.goals[i] - swarm.poses[i, :2])))
-                outgoing[i] = encode_message(segments[:MAX_SEGMENTS_PER_MESSAGE], goal_m=goal_m)
+                sent = segments[:MAX_SEGMENTS_PER_MESSAGE]
+                if self.body_frame:
+                    sent = from_frame(sent, swarm.poses[i])
+                outgoing[i] = encode_message(sent, goal_m=goal_m)
                 self.announced_m[i] = decode_message(outgoing[i])[0]  # as neighbours read it
         return outgoing

@@ -186,6 +186,27 @@ class OwnMaps:
         self._mark_segments((self.last_hit, self.last_shared, self.last_wall), robot, tick,
                             segments)
 
+    def free_share(self, robot: int, segments: np.ndarray) -> np.ndarray:
+        """For each line segment ``(n, 2, 2)`` (m), the share of its cells inside the grid that
+        robot ``robot``'s own scans see free with all their 8 neighbours (seen free, and not hit
+        since): a segment through such cells lies where the robot sees nothing (0 for a segment
+        outside the grid). The one-cell margin forgives a wall placed a cell off its face."""
+        free = (self.last_free[robot] >= 0) & (self.last_free[robot] > self.last_hit[robot])
+        shares = []
+        for a, b in np.asarray(segments, dtype=float).reshape(-1, 2, 2):
+            n = int(math.ceil(float(np.hypot(*(b - a))) / (self.res / 2.0))) + 1
+            cells = self.cell(a + np.linspace(0.0, 1.0, n)[:, None] * (b - a))
+            cells = np.unique(cells[self.inside(cells)], axis=0)
+            if not len(cells):
+                shares.append(0.0)
+                continue
+            around = cells[:, None, :] + np.vstack([[0, 0], _NEIGHBOURS])[None, :, :]
+            ok = self.inside(around)
+            clear = np.where(ok, free[np.clip(around[..., 0], 0, self.shape[0] - 1),
+                                      np.clip(around[..., 1], 0, self.shape[1] - 1)], False)
+            shares.append(float(clear.all(axis=1).mean()))
+        return np.array(shares, dtype=float)
+
     def add_walls(self, robot: int, tick: int, segments: np.ndarray) -> None:
         """Mark the cells along line segments ``(n, 2, 2)`` (m; walls robot ``robot`` fitted to
         its own scan) as walls at ``tick``: only ``plan(..., walls_only=True)`` reads them."""

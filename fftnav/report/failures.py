@@ -32,7 +32,8 @@ from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import Task, task_id, task_world
 
 __all__ = ["POSITION_COLUMNS", "REPLAY_COLUMN", "draw_failure_positions", "failure_lines",
-           "failure_positions", "failure_table", "last_positions", "record_path", "shown_path"]
+           "failure_positions", "failure_table", "last_positions", "record_path", "shown_causes",
+           "shown_path"]
 
 #: The column of :func:`failure_table` naming the episodes to replay.
 REPLAY_COLUMN = "replay --task"
@@ -54,6 +55,19 @@ def _failed(episodes: pd.DataFrame) -> pd.DataFrame:
     return failed
 
 
+def shown_causes(failures: pd.Series) -> list[str]:
+    """The causes a report shows, in their order: every cause that needs no condition
+    (:attr:`fftnav.metrics.FailureCause.requires`), and those that do where ``failures`` (a
+    ``failure`` column) holds them.
+
+    >>> shown_causes(pd.Series(["stuck"]))[:3], "lost" in shown_causes(pd.Series(["lost"]))
+    (['collision', 'jam', 'stuck'], True)
+    """
+    present = set(failures.dropna().astype(str))
+    return [name for name, cause in FAILURE_CAUSES.items()
+            if not cause.requires or name in present]
+
+
 def failure_table(episodes: pd.DataFrame, *, envs: Sequence[str],
                   policies: Sequence[str]) -> pd.DataFrame:
     """Failure counts by cause per env and policy, with the episodes to replay.
@@ -68,12 +82,13 @@ def failure_table(episodes: pd.DataFrame, *, envs: Sequence[str],
     Returns
     -------
     pandas.DataFrame
-        Columns env, policy, robots, failed, one column per registered cause of
-        :data:`fftnav.metrics.FAILURE_CAUSES` (in its order), then :data:`REPLAY_COLUMN`: the
+        Columns env, policy, robots, failed, one column per cause of :func:`shown_causes`
+        (in the order of :data:`fftnav.metrics.FAILURE_CAUSES`), then :data:`REPLAY_COLUMN`: the
         task of every episode with a failure, in map order (``rocky-1003-bug-left``, what
         ``fftnav replay RESULTS_DIR --task`` takes), as code, or ``-``.
     """
     failed = _failed(episodes)
+    causes = shown_causes(failed["failure"])
     rows = []
     for env in envs:
         for policy in policies:
@@ -82,12 +97,12 @@ def failure_table(episodes: pd.DataFrame, *, envs: Sequence[str],
                 continue
             fails = failed[(failed["env"] == env) & (failed["policy"] == policy)]
             row = {"env": env, "policy": policy, "robots": len(mine), "failed": len(fails)}
-            row |= {cause: int((fails["failure"] == cause).sum()) for cause in FAILURE_CAUSES}
+            row |= {cause: int((fails["failure"] == cause).sum()) for cause in causes}
             tasks = [f"`{task_id(env, int(seed), policy)}`"
                      for seed in sorted(set(fails["map_seed"]))]
             row[REPLAY_COLUMN] = ", ".join(tasks) or "-"
             rows.append(row)
-    columns = ["env", "policy", "robots", "failed", *FAILURE_CAUSES, REPLAY_COLUMN]
+    columns = ["env", "policy", "robots", "failed", *causes, REPLAY_COLUMN]
     return pd.DataFrame(rows, columns=columns)
 
 
@@ -152,7 +167,7 @@ def draw_failure_positions(config: ExperimentConfig, positions: pd.DataFrame, pa
     marker and colour per cause, and a grey line to the robot's goal; the maps of an env are
     overlaid (their obstacles differ and are not drawn), the frame is that of the env's first
     map."""
-    causes = list(FAILURE_CAUSES)
+    causes = shown_causes(positions["cause"])
     fig = Figure(figsize=(4.8 * len(envs), 5.0), layout="constrained")
     for ax, env in zip(fig.subplots(1, len(envs), squeeze=False)[0], envs, strict=True):
         width, height = task_world(config, env, config.map_seed).size_m

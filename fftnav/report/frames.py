@@ -7,15 +7,18 @@ disc of radius ``r0_m`` filled with the colour of its drawn kind (:data:`KIND_CO
 heading as a short dark tick out of the disc, its trail, a dashed line to its goal while it
 drives, a cross where it failed (with the cause, when known), the picked robot's scan (returns as
 dots) and safe sectors (green fans out to the sensor range), a line for each message delivered in
-the tick (sender to receiver) and the clock. :class:`FramePainter` draws the map once and updates
-the robots' artists frame by frame (the videos); :func:`draw_frame` draws one frame and
-:class:`RasterRenderer` returns frames as pixels.
+the tick (sender to receiver) and the clock. When the robots estimate their poses (odometry), each
+robot's estimated pose is drawn too, as a dashed hollow disc with its heading in the robot's colour,
+and its estimated path as a dashed line, with a legend telling truth from estimate.
+:class:`FramePainter` draws the map once and updates the robots' artists frame by frame (the
+videos); :func:`draw_frame` draws one frame and :class:`RasterRenderer` returns frames as pixels.
 
 A robot's drawn kind comes from the one state vocabulary, :mod:`fftnav.states`
 (:func:`kinds_of`): its :class:`~fftnav.states.Status` (waiting, arrived, or failed for
-collided and timed out) and, while it moves, the planner's :class:`~fftnav.states.State`
-(``mode``; none: moving). The replays (PNG, GIF, MP4, the HTML player) and
-:meth:`fftnav.envs.SwarmNavEnv.render` all draw by it.
+collided and timed out, or a kind of its own for any other status, named by its label, such as
+``lost``) and, while it moves, the planner's :class:`~fftnav.states.State` (``mode``; none:
+moving). The replays (PNG, GIF, MP4, the HTML player) and :meth:`fftnav.envs.SwarmNavEnv.render`
+all draw by it.
 
 >>> KINDS[:3]
 ('waiting', 'moving', 'following')
@@ -34,26 +37,43 @@ from typing import Any
 import numpy as np
 from matplotlib.collections import EllipseCollection, LineCollection, PolyCollection
 from matplotlib.colors import to_rgb
+from matplotlib.lines import Line2D
 from matplotlib.patches import Circle
 
 from fftnav.report.world_plot import draw_world
 from fftnav.states import State, Status
 from fftnav.world.model import World
 
-__all__ = ["DRIVING", "KINDS", "KIND_COLOURS", "MESSAGE_ALPHA", "MESSAGE_COLOUR", "SAFE_ALPHA",
-           "SAFE_COLOUR", "STATE_KINDS", "STATUS_KINDS", "TRAIL_ALPHA", "FramePainter",
-           "RasterRenderer", "ScanView", "SwarmFrame", "draw_frame", "kind_rgb", "kinds_of",
-           "runs_of"]
+__all__ = ["DRIVING", "ESTIMATE_LABEL", "KINDS", "KIND_COLOURS", "MESSAGE_ALPHA",
+           "MESSAGE_COLOUR", "SAFE_ALPHA", "SAFE_COLOUR", "STATE_KINDS", "STATUS_KINDS",
+           "TRAIL_ALPHA", "TRUTH_LABEL", "FramePainter", "RasterRenderer", "ScanView",
+           "SwarmFrame", "draw_frame", "kind_rgb", "kinds_of", "runs_of"]
 
-#: What a robot is drawn as, by its code in :attr:`SwarmFrame.kinds` (:func:`kinds_of`).
-KINDS = ("waiting", "moving", "following", "escaping", "guided", "arrived", "failed")
-#: The fill colour of each kind (the HTML player uses the same).
-KIND_COLOURS = {"waiting": "#9e9e9e", "moving": "#1f77b4", "following": "#ff7f0e",
-                "escaping": "#9467bd", "guided": "#e377c2", "arrived": "#2ca02c",
-                "failed": "#d62728"}
-#: The kind of a robot by its episode status; a moving robot is drawn by its state.
-STATUS_KINDS = {Status.WAITING: "waiting", Status.MOVING: "moving", Status.ARRIVED: "arrived",
-                Status.COLLIDED: "failed", Status.TIMED_OUT: "failed"}
+#: The kinds every robot may be drawn as, whatever statuses :class:`~fftnav.states.Status` has.
+_SHARED_KINDS = ("waiting", "moving", "following", "escaping", "guided", "arrived", "failed")
+#: The statuses drawn as one of the shared kinds; every other status is drawn as a kind of its
+#: own, named by its label.
+_STATUS_SHARED_KINDS = {Status.WAITING: "waiting", Status.MOVING: "moving",
+                        Status.ARRIVED: "arrived", Status.COLLIDED: "failed",
+                        Status.TIMED_OUT: "failed"}
+#: The kind of a robot by its episode status (every member of :class:`~fftnav.states.Status`);
+#: a moving robot is drawn by its state.
+STATUS_KINDS = {status: _STATUS_SHARED_KINDS.get(status, status.label) for status in Status}
+#: What a robot is drawn as, by its code in :attr:`SwarmFrame.kinds` (:func:`kinds_of`): the
+#: shared kinds, then those of the statuses drawn as themselves, in code order.
+KINDS = _SHARED_KINDS + tuple(dict.fromkeys(kind for kind in STATUS_KINDS.values()
+                                            if kind not in _SHARED_KINDS))
+#: The fill colour of each shared kind.
+_SHARED_COLOURS = {"waiting": "#9e9e9e", "moving": "#1f77b4", "following": "#ff7f0e",
+                   "escaping": "#9467bd", "guided": "#e377c2", "arrived": "#2ca02c",
+                   "failed": "#d62728"}
+#: The colours of the statuses drawn as themselves, by label (``lost``: brown); a status not
+#: listed is drawn in :data:`_OTHER_STATUS_COLOUR`.
+_STATUS_COLOURS = {"lost": "#8c564b"}
+_OTHER_STATUS_COLOUR = "#bcbd22"
+#: The fill colour of each kind of :data:`KINDS` (the HTML player uses the same).
+KIND_COLOURS = {kind: _SHARED_COLOURS.get(kind) or _STATUS_COLOURS.get(kind, _OTHER_STATUS_COLOUR)
+                for kind in KINDS}
 #: The kind of a moving robot by the planner's state; the states not listed (``DONE``, a
 #: robot let go, and no state at all) draw as moving.
 STATE_KINDS = {State.GOAL: "moving", State.FOLLOW: "following", State.ESCAPE: "escaping",
@@ -66,6 +86,11 @@ SAFE_COLOUR = "#2ca02c"
 SCAN_COLOUR = "#000000"
 #: Opacity of the trails, the safe sectors and the message lines.
 TRAIL_ALPHA, SAFE_ALPHA, MESSAGE_ALPHA = 0.7, 0.22, 0.8
+#: The legend's names of the true poses (filled discs) and the estimated ones (dashed hollow
+#: discs), shown when a frame has estimates (the HTML player uses the same).
+TRUTH_LABEL, ESTIMATE_LABEL = "truth", "estimate (odometry)"
+#: The dash pattern of the estimated poses' outlines and paths (on, off, in points).
+ESTIMATE_DASHES = (0, (2.5, 1.5))
 
 
 def kind_rgb(kind: str) -> tuple[int, int, int]:
@@ -131,6 +156,11 @@ class SwarmFrame:
         Sender and receiver of each message delivered in the tick.
     causes : sequence of str
         Each robot's failure cause ("" for none), written next to its cross.
+    estimates : ndarray, (N, 3), or None
+        x (m), y (m), yaw (rad) of every robot's estimated pose (NaN: none), or None when the
+        robots know their true poses (nothing of estimates is drawn).
+    estimate_trails : sequence of ndarray, (T_i, 2)
+        Each robot's estimated path so far (may be empty).
     """
 
     poses: np.ndarray
@@ -141,6 +171,8 @@ class SwarmFrame:
     scan: ScanView | None = None
     messages: np.ndarray = field(default_factory=lambda: np.zeros((0, 2), int))
     causes: Sequence[str] = ()
+    estimates: np.ndarray | None = None
+    estimate_trails: Sequence[np.ndarray] = ()
 
 
 def runs_of(mask: np.ndarray, *, wrap: bool) -> list[tuple[int, int]]:
@@ -216,6 +248,24 @@ class FramePainter:
                              fontsize=9, zorder=8,
                              bbox={"fc": "white", "ec": "0.6", "alpha": 0.85, "pad": 2})
         self.labels: list[Any] = []
+        self._add_estimate_artists()
+
+    def _add_estimate_artists(self) -> None:
+        """The estimated poses' artists (empty until a frame has estimates): dashed paths,
+        dashed hollow discs under the true ones, headings; the legend is made when first
+        needed."""
+        ax, size = self.ax, 2 * self.r0_m
+        self.estimate_trails = LineCollection([], linewidths=1.0, alpha=TRAIL_ALPHA,
+                                              linestyles=ESTIMATE_DASHES, zorder=3)
+        self.estimate_robots = EllipseCollection(size, size, 0.0, units="xy",
+                                                 offsets=np.zeros((0, 2)),
+                                                 offset_transform=ax.transData,
+                                                 facecolors="none", linewidths=1.1,
+                                                 linestyles=ESTIMATE_DASHES, zorder=5)
+        self.estimate_headings = LineCollection([], linewidths=1.1, zorder=5)
+        for artist in (self.estimate_trails, self.estimate_robots, self.estimate_headings):
+            ax.add_collection(artist)
+        self.legend: Any = None
 
     def update(self, frame: SwarmFrame) -> None:
         """Draw ``frame`` over the map, replacing the previous one."""
@@ -246,8 +296,37 @@ class FramePainter:
                                                np.array([[x - d, y + d], [x + d, y - d]]))])
         self._draw_labels(poses, failed, frame.causes)
         self._draw_scan(poses, frame)
+        self._draw_estimates(frame, colours)
         self.clock.set_text("" if frame.time_s is None else f"t = {frame.time_s:5.1f} s")
         self.clock.set_visible(frame.time_s is not None)
+
+    def _draw_estimates(self, frame: SwarmFrame, colours: Sequence[str]) -> None:
+        """The estimated poses (dashed hollow discs and headings) and paths (dashed) in each
+        robot's colour, and the legend; nothing when ``frame`` has no estimates."""
+        shown = frame.estimates is not None
+        est = (np.asarray(frame.estimates, dtype=np.float64).reshape(-1, 3) if shown
+               else np.zeros((0, 3)))
+        known = np.flatnonzero(np.isfinite(est).all(axis=1))
+        est, colour = est[known], [colours[i] for i in known]
+        self.estimate_robots.set_offsets(est[:, :2])
+        self.estimate_robots.set_edgecolors(colour)
+        c, s = np.cos(est[:, 2]), np.sin(est[:, 2])
+        self.estimate_headings.set_segments(
+            [np.array([[x + self.r0_m * ci, y + self.r0_m * si],
+                       [x + 2 * self.r0_m * ci, y + 2 * self.r0_m * si]])
+             for (x, y, _), ci, si in zip(est, c, s, strict=True)])
+        self.estimate_headings.set_color(colour)
+        trails = [(np.asarray(t)[:, :2], col) for t, col in
+                  zip(frame.estimate_trails if shown else (), colours, strict=False)
+                  if len(t) > 1]
+        self.estimate_trails.set_segments([t for t, _ in trails])
+        self.estimate_trails.set_color([col for _, col in trails])
+        if shown and self.legend is None:
+            self.legend = self.ax.legend(handles=_estimate_legend(), loc="lower right",
+                                         ncol=2, fontsize=7, framealpha=0.85)
+            self.legend.set_zorder(8)
+        if self.legend is not None:
+            self.legend.set_visible(shown)
 
     def _draw_labels(self, poses: np.ndarray, failed: np.ndarray, causes: Sequence[str]) -> None:
         for label in self.labels:
@@ -271,6 +350,15 @@ class FramePainter:
         hit = (scan.ranges_m > 0) & (scan.ranges_m < scan.range_m - 1e-6)
         a, r = yaw + scan.angles_rad[hit], scan.ranges_m[hit]
         self.returns.set_data(x + r * np.cos(a), y + r * np.sin(a))
+
+
+def _estimate_legend() -> list[Line2D]:
+    """The legend's two entries: a true pose (a filled disc) and an estimated one (a dashed
+    hollow disc on its dashed path), in grey (the colours are the robots' kinds)."""
+    return [Line2D([], [], marker="o", ms=7, mfc="0.6", mec="0.15", mew=0.4, ls="-",
+                   color="0.45", lw=1.1, label=TRUTH_LABEL),
+            Line2D([], [], marker="o", ms=7, mfc="none", mec="0.3", mew=1.1,
+                   ls=ESTIMATE_DASHES, color="0.45", lw=1.0, label=ESTIMATE_LABEL)]
 
 
 def draw_frame(ax: Any, world: World, frame: SwarmFrame, r0_m: float, *,

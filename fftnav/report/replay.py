@@ -5,7 +5,8 @@ by :mod:`fftnav.report.frames`; the HTML player is :mod:`fftnav.report.replay_ht
 A robot's drawn kind at a tick (:func:`robot_kinds`) comes from the recording's ``status``
 column (:class:`fftnav.states.Status`) and, while it moves, its controller's ``state/mode``
 (:class:`fftnav.states.State`; controllers without a ``mode`` draw as moving), by
-:func:`fftnav.report.frames.kinds_of`.
+:func:`fftnav.report.frames.kinds_of`. A recording with the robots' estimated poses (odometry
+localization, its ``estimates``) draws them too, beside the true ones.
 """
 
 from __future__ import annotations
@@ -87,18 +88,23 @@ def check_robot(rec: Recording, robot: int | None) -> int:
 def recording_frame(rec: Recording, tick: int, picked: int | None,
                     kinds: np.ndarray | None = None) -> SwarmFrame:
     """The frame of ``tick``: poses, states, trails since the start, the messages delivered in
-    the tick, the picked robot's scan and the failure causes."""
+    the tick, the picked robot's scan and the failure causes; and, when the recording has
+    estimated poses, those of the tick and the estimated paths since the start."""
     kinds = robot_kinds(rec) if kinds is None else kinds
     scan = None
     if picked is not None:
         scan = ScanView(rec.angles_rad, rec.scan_m[tick, picked], rec.safe[tick, picked],
                         rec.config.sensor.range_m)
     delivered = rec.delivered[rec.delivered[:, 0] == tick]
+    est = rec.estimates
     return SwarmFrame(
         poses=rec.pose[tick], kinds=kinds[tick],
         trails=[rec.pose[: tick + 1, i, :2] for i in range(rec.n_robots)],
         time_s=float(rec.time_s[tick]), picked=picked, scan=scan,
-        messages=delivered[:, 1:3], causes=[str(r.get("failure") or "") for r in rec.rows])
+        messages=delivered[:, 1:3], causes=[str(r.get("failure") or "") for r in rec.rows],
+        estimates=None if est is None else est[tick],
+        estimate_trails=() if est is None else [est[: tick + 1, i, :2]
+                                                for i in range(rec.n_robots)])
 
 
 def window(rec: Recording, from_s: float | None, to_s: float | None) -> tuple[float, float]:

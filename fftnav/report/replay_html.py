@@ -4,10 +4,10 @@ PATH --out X.html``).
 The page is the template ``replay_player.html`` (package data of :mod:`fftnav.report`) with two
 things put in: a JSON header (the world's obstacle outlines, goals, robot radius, the beam
 angles, the colours and opacities of :mod:`fftnav.report.frames`, the drawn kinds' names
-(and which of them drive), each robot's
-outcome, and where each array lies in the data) and the data, one zlib-deflated block of
-little-endian arrays, base64-encoded, which the page inflates with the browser's own
-``DecompressionStream``:
+(and which of them drive), each robot's outcome, whether the recording has estimated poses
+(``estimates``) with the legend's names for them, and where each array lies in the data) and
+the data, one zlib-deflated block of little-endian arrays, base64-encoded, which the page
+inflates with the browser's own ``DecompressionStream``:
 
 =============== ========= ==========================================================
 array           type      shape
@@ -20,11 +20,17 @@ array           type      shape
 ``state``       float32   (S, G, N) the controller's state values, then command v, w
 ``msgStart``    int32     (G + 1,) messages delivered in tick g: ``msg[msgStart[g]:...]``
 ``msg``         int32     (D, 2) sender, receiver
+``estimate``    float32   (G, N, 3) estimated x, y (m), yaw (rad), NaN: none; only
+                          when the recording has estimates
 =============== ========= ==========================================================
 
 No script, style or data comes from elsewhere: the page makes no network request. The player
 exposes ``window.fftnavPlayer`` (``ready``, ``play``, ``pause``, ``seek``, ``pick``,
-``toCanvas``, ``toPage``, ``tick``, ``picked``) for scripting and the browser test.
+``setLayer``, ``toCanvas``, ``toPage``, ``tick``, ``picked``, and ``estimates``: whether the page
+has estimated poses) for scripting and the browser test. With estimates, the page draws each
+robot's estimated pose (a dashed hollow disc and its heading) and path (dashed) in its colour,
+under a check box "show estimates", and the picked robot's line tells how far its estimate is
+from its true position.
 """
 
 from __future__ import annotations
@@ -41,6 +47,7 @@ import numpy as np
 from fftnav.episode.recording import Recording
 from fftnav.report.frames import (
     DRIVING,
+    ESTIMATE_LABEL,
     KIND_COLOURS,
     KINDS,
     MESSAGE_ALPHA,
@@ -48,6 +55,7 @@ from fftnav.report.frames import (
     SAFE_ALPHA,
     SAFE_COLOUR,
     TRAIL_ALPHA,
+    TRUTH_LABEL,
 )
 from fftnav.report.replay import MIN_SPEED, check_robot, robot_kinds, window
 from fftnav.validate import check_number
@@ -83,6 +91,8 @@ def _arrays(rec: Recording, g0: int, g1: int) -> tuple[dict[str, np.ndarray], li
         "msgStart": np.searchsorted(delivered[:, 0], np.arange(g0, g1 + 1)).astype("<i4"),
         "msg": delivered[:, 1:3].astype("<i4"),
     }
+    if rec.estimates is not None:
+        arrays["estimate"] = rec.estimates[g0:g1].astype("<f4")
     return arrays, names
 
 
@@ -124,6 +134,8 @@ def player_data(rec: Recording, *, robot: int | None = None, from_s: float | Non
         "outcomes": [{"arrived": bool(r.get("arrived")), "failure": r.get("failure") or ""}
                      for r in rec.rows],
         "picked": picked, "speed": speed, "arrays": layout,
+        "estimates": rec.estimates is not None,
+        "estimateLabels": {"truth": TRUTH_LABEL, "estimate": ESTIMATE_LABEL},
     }
     return header, zlib.compress(blob, 9)
 

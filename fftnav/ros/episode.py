@@ -5,11 +5,12 @@ simulated time (the stamps and the bag's times) it writes:
 
 - ``/world``: a ``visualization_msgs/MarkerArray`` in frame ``map``, once: the outline of every
   obstacle and boundary wall (a LINE_LIST) and the goals (a SPHERE_LIST);
-- ``/tf``: ``map -> robot_i/base_link`` of every robot in the world, each tick;
+- ``/tf``: ``map -> robot_i/base_link`` of every robot in the world, each tick (its true pose);
 - per robot ``i`` driving at that tick: ``/robot_i/scan`` (the simulated lidar's raw readings
   as a LaserScan in ``robot_i/base_link``: misses read ``range_max`` = R, the blind sector at the
-  back reads 0), ``/robot_i/odom`` (``nav_msgs/Odometry``: the pose in ``map``, the commanded
-  twist) and ``/robot_i/cmd_vel`` (``geometry_msgs/Twist``);
+  back reads 0), ``/robot_i/odom`` (``nav_msgs/Odometry``: the pose the robot knows, in ``map``:
+  its true pose, or its odometry's estimate with ``localization.mode = "odometry"``; the
+  commanded twist) and ``/robot_i/cmd_vel`` (``geometry_msgs/Twist``);
 - ``/robot_i/messages``: each swarm message robot ``i`` broadcast, as
   ``std_msgs/UInt8MultiArray``.
 """
@@ -98,15 +99,18 @@ class EpisodeBag(BagWriter):
                                                          markers=[outline, goals]))
 
     def __call__(self, step: SwarmStep, scans: np.ndarray, commands: np.ndarray,
-                 outgoing: dict[int, bytes]) -> None:
-        """Write one control tick (:data:`fftnav.episode.loop.OnTick`)."""
+                 outgoing: dict[int, bytes], truth: np.ndarray | None = None) -> None:
+        """Write one control tick (:data:`fftnav.episode.loop.OnTick`): ``/tf`` from the true
+        poses ``truth`` (default ``step.poses``), each robot's ``odom`` from the pose it knows
+        (``step.poses``: its odometry's estimate with ``localization.mode = "odometry"``)."""
         s, t_ns = self.store, round(step.time_s * 1e9)
         when = rosmsg.stamp(s, step.time_s)
         poses = np.asarray(step.poses, dtype=float)
+        true = poses if truth is None else np.asarray(truth, dtype=float)
         present = np.flatnonzero(step.present_mask())
         self._put("/tf", "tf2_msgs/msg/TFMessage", t_ns, rosmsg.make(
             s, "tf2_msgs/msg/TFMessage",
-            transforms=[self._transform(when, i, poses[i]) for i in present]))
+            transforms=[self._transform(when, i, true[i]) for i in present]))
         for i in np.asarray(step.active, dtype=int).tolist():
             frame = f"robot_{i}/base_link"
             self._put(f"/robot_{i}/scan", LASERSCAN, t_ns, self._scan(when, frame, scans[i]))

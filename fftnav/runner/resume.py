@@ -20,7 +20,7 @@ from pathlib import Path
 from typing import Any
 
 import fftnav
-from fftnav.config import PlannerConfig
+from fftnav.config import LocalizationConfig, PlannerConfig
 from fftnav.errors import FftnavError
 from fftnav.files import load_npz, write_atomic
 from fftnav.plugins import file_sha256, plugin_sources
@@ -186,13 +186,16 @@ def canonical_config(config: ExperimentConfig, columns: tuple[str, ...]) -> str:
     text), the fftnav version, the CSV ``columns``, and the SHA-256 of every plugin source
     (:func:`fftnav.plugins.plugin_sources`: the plugin files named by path and the modules
     beside them they import) and world file. A config without plugin or world files has no key
-    for them (nor ``world_files``), and one with the default ``[planner]`` no ``planner`` key:
+    for them (nor ``world_files``), and one with the default ``[planner]`` or ``[localization]``
+    no ``planner`` or ``localization`` key:
     the ``config.json`` of results folders that hold no such key stays valid. ``record`` is
     left out: recordings change no result."""
     fields = {k: v for k, v in asdict(config).items()
               if not (k == "world_files" and not v) and k != "record"}
     if config.swarm.planner == PlannerConfig():
         del fields["swarm"]["planner"]
+    if config.swarm.localization == LocalizationConfig():
+        del fields["swarm"]["localization"]
     plugins = {str(source): file_sha256(source) for found in config.resolved.values()
                if found.file for source in plugin_sources(found.file)}
     worlds = {path: file_sha256(Path(path)) for path in config.world_files.values()}
@@ -257,13 +260,14 @@ def _folder_problem(out: Path, canonical: str, columns: tuple[str, ...]) -> str 
 
 
 def _with_planner(stored: dict[str, Any]) -> dict[str, Any]:
-    """A ``config.json`` content with its default ``planner`` table filled in, if it has none
-    (:func:`canonical_config` leaves a default planner out), so that a changed constant is
-    named by its key."""
+    """A ``config.json`` content with its default ``planner`` and ``localization`` tables
+    filled in where it has none (:func:`canonical_config` leaves default ones out), so that a
+    changed constant is named by its key."""
     swarm = stored.get("swarm")
-    if not isinstance(swarm, dict) or "planner" in swarm:
+    if not isinstance(swarm, dict):
         return stored
-    return {**stored, "swarm": {**swarm, "planner": asdict(PlannerConfig())}}
+    defaults = {"planner": asdict(PlannerConfig()), "localization": asdict(LocalizationConfig())}
+    return {**stored, "swarm": {**defaults, **swarm}}
 
 
 def config_changes(old: dict[str, Any], new: dict[str, Any]) -> list[str]:

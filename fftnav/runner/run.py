@@ -143,7 +143,8 @@ def run_experiment(
         _write_errors(out, outcome.failed)
         episodes = read_episodes(out / "episodes.csv")
         order = {"envs": config.envs, "policies": config.policy_names}
-        write_atomic(out / "summary.csv", summarize(episodes, **order).to_csv(
+        write_atomic(out / "summary.csv", summarize(
+            episodes, **order, conditions=config.swarm.conditions).to_csv(
             index=False, float_format=FLOAT_FORMAT))
         write_atomic(out / "paired_tests.csv", paired_tests(episodes, **order).to_csv(
             index=False, float_format="%.6g"))  # p-values can be far below 1e-6

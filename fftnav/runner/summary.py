@@ -24,16 +24,20 @@ from fftnav.metrics import MEASURES
 from fftnav.validate import check_integer, check_number
 
 __all__ = ["PAIRED_COLUMNS", "SWEEP_COLUMNS", "bootstrap_ratio_ci", "gain_table", "holm",
-           "in_order", "paired_tests", "summarize", "summary_columns", "sweep_table"]
+           "in_order", "paired_gain", "paired_tests", "summarize", "summary_columns",
+           "sweep_table"]
 
 #: Columns of a summary before the measures: the group and its size.
 _KEYS: tuple[str, ...] = ("env", "policy", "episodes", "robots")
 
 
-def summary_columns() -> tuple[str, ...]:
+def summary_columns(conditions: Iterable[str] = ()) -> tuple[str, ...]:
     """Columns of :func:`summarize`: env, policy, episodes, robots, then the columns of every
-    registered measure (:data:`fftnav.metrics.MEASURES`) in registration order."""
-    return _KEYS + tuple(c for m in MEASURES.values() for c in m.columns)
+    registered measure (:data:`fftnav.metrics.MEASURES`) in registration order, but those of a
+    measure that requires a condition not in ``conditions``
+    (:attr:`fftnav.config.SwarmConfig.conditions`, e.g. ``"odometry"``)."""
+    kept = [m for m in MEASURES.values() if m.applies(conditions)]
+    return _KEYS + tuple(c for m in kept for c in m.columns)
 
 
 PAIRED_COLUMNS: tuple[str, ...] = (
@@ -113,7 +117,7 @@ def _groups(episodes: pd.DataFrame, envs: Sequence[str] | None,
 
 def summarize(episodes: pd.DataFrame, *, envs: Sequence[str] | None = None,
               policies: Sequence[str] | None = None, n_resamples: int = 2000,
-              seed: int = 0) -> pd.DataFrame:
+              seed: int = 0, conditions: Iterable[str] = ()) -> pd.DataFrame:
     """One row per (env, policy): counts, then every registered measure.
 
     Parameters
@@ -124,19 +128,23 @@ def summarize(episodes: pd.DataFrame, *, envs: Sequence[str] | None = None,
         The order of the rows (the config's; see :func:`in_order`); default alphabetical.
     n_resamples, seed
         Bootstrap resamples and seed (see :func:`bootstrap_ratio_ci`).
+    conditions : iterable of str
+        The experiment's conditions (:attr:`fftnav.config.SwarmConfig.conditions`): the
+        measures that require another are left out.
 
     Returns
     -------
     DataFrame
-        Columns :func:`summary_columns`, ordered by env, then policy. Each measure's value is
+        Columns :func:`summary_columns` of ``conditions``, ordered by env, then policy. Each measure's value is
         ``measure(table)`` of the group's robots; measures with ``terms`` (AR, APL, SPL) get a
         95% bootstrap interval over maps of the ratio of their per-map sums.
     """
     rows = []
+    conditions = tuple(conditions)
     for env, policy, g in _groups(episodes, envs, policies):
         maps = g.groupby("map_seed")
         row: list[object] = [env, policy, maps.ngroups, len(g)]
-        for measure in MEASURES.values():
+        for measure in (m for m in MEASURES.values() if m.applies(conditions)):
             row.append(measure(g))
             if measure.terms is not None:
                 num, den = measure.terms(g)
@@ -145,7 +153,7 @@ def summarize(episodes: pd.DataFrame, *, envs: Sequence[str] | None = None,
                 row += bootstrap_ratio_ci(sums["num"].to_numpy(), sums["den"].to_numpy(),
                                           n_resamples=n_resamples, seed=seed)
         rows.append(row)
-    return pd.DataFrame(rows, columns=list(summary_columns()))
+    return pd.DataFrame(rows, columns=list(summary_columns(conditions)))
 
 
 def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion",
@@ -267,6 +275,20 @@ def _wilcoxon(diff: np.ndarray) -> float:
         return float(stats.wilcoxon(diff).pvalue)
 
 
+def paired_gain(diff: Sequence[float] | np.ndarray) -> tuple[float, float, float, float]:
+    """Mean of paired per-map differences ``diff``, its 95% bootstrap interval and the
+    two-sided Wilcoxon signed-rank p (NaN when every difference is 0): what
+    :func:`gain_table` reports for each comparison.
+
+    >>> gain, low, high, p = paired_gain(np.array([0.1, 0.2, 0.15, 0.05, 0.12, 0.3, 0.2, 0.1]))
+    >>> round(gain, 4), low < gain < high, round(p, 4)
+    (0.1525, True, 0.0078)
+    """
+    d = np.asarray(diff, dtype=float)
+    low, high = _mean_ci(d)
+    return (float(d.mean()) if len(d) else float("nan")), low, high, _wilcoxon(d)
+
+
 def gain_table(episodes: pd.DataFrame, cell: str, *, envs: Sequence[str] | None = None,
                policies: Sequence[str] | None = None) -> pd.DataFrame:
     """Rows :data:`SWEEP_COLUMNS` of one sweep cell's ``episodes.csv``: each (env, policy)
@@ -292,10 +314,7 @@ def gain_table(episodes: pd.DataFrame, cell: str, *, envs: Sequence[str] | None 
             gain = lo = hi = p = np.nan
             if ref:
                 pair = per_map.loc[env][[policy, ref]].dropna()
-                diff = (pair[policy] - pair[ref]).to_numpy()
-                gain = float(diff.mean()) if len(diff) else np.nan
-                lo, hi = _mean_ci(diff)
-                p = _wilcoxon(diff)
+                gain, lo, hi, p = paired_gain((pair[policy] - pair[ref]).to_numpy())
             rows.append((cell, env, policy, g["map_seed"].nunique(), ar, *ar_ci, spl, *spl_ci,
                          g["bytes_sent"].mean(), ref, gain, lo, hi, p, np.nan))
     return sweep_table([pd.DataFrame(rows, columns=list(SWEEP_COLUMNS))])

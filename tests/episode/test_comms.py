@@ -83,3 +83,22 @@ def test_packet_loss_rate_is_seeded_and_close_to_nominal():
 def test_bad_parameters(kwargs, match):
     with pytest.raises(ValueError, match=match):
         Channel(2, rng=np.random.default_rng(0), **kwargs)
+
+
+def test_each_receiver_places_the_sender_where_locate_says():
+    """With a ``locate`` (odometry), each receiver's packet carries the sender as that
+    receiver placed it; the lost and the out-of-range get none and no draw is asked for them."""
+    ch = Channel(4, range_m=5.0, rng=np.random.default_rng(0))
+    poses = _poses((0, 0), (1, 0), (2, 0), (9, 0))
+    asked = []
+
+    def locate(sender, receivers, truth):
+        asked.append((sender, receivers.tolist()))
+        return np.array([[10.0 * r, 0.0, 0.5] for r in receivers])
+
+    ch.broadcast(0, b"x", tick=0, poses=poses, active=np.ones(4, bool), locate=locate)
+    ch.deliver(1)
+    assert asked == [(0, [1, 2])]
+    assert [p.sender_pose for p in ch.arrived(1)] == [(10.0, 0.0, 0.5)]
+    assert [p.sender_pose for p in ch.arrived(2)] == [(20.0, 0.0, 0.5)]
+    assert ch.arrived(3) == []

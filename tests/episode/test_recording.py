@@ -17,7 +17,8 @@ import pytest
 
 from fftnav.config import PAPER_MOTION, EpisodeConfig, SwarmConfig
 from fftnav.episode import episode_csv, read_recording, run_episode
-from fftnav.episode.recording import SCAN_STEP_M, VERSION, RecordingError, write_recording
+from fftnav.episode.recording import SCAN_STEP_M, VERSION, RecordingError, Tape, write_recording
+from fftnav.errors import FftnavError
 from fftnav.navigation.controllers import Action, Controller
 from fftnav.states import State, Status
 from fftnav.world import Circle, Polygon, World, generate_world
@@ -180,19 +181,19 @@ def test_a_version_1_recording_still_reads():
     sensor.beams=90``, barrier.json being the wall with a gap of ``_barrier_world`` with two
     robots, at x = 5.5 and 7.5 m. Its codes read as today's: robot 1 waits at its start, then
     moves and arrives; robot 0 heads for its goal, follows the wall, escapes and runs out of
-    time. A recording written now is of version 2 and names its state codes."""
+    time. A recording written now is of version 3 and names its state codes."""
     rec = read_recording(Path(__file__).resolve().parents[1] / "data" / "recording_v1.npz")
-    assert rec.meta["version"] == 1 < VERSION == 2
-    assert rec.meta["status"] == list(Status.labels())
+    assert rec.meta["version"] == 1 < VERSION == 3
+    assert rec.meta["status"] == list(Status.labels())[:len(rec.meta["status"])]  # a prefix
     assert [r["arrived"] for r in rec.rows] == [False, True]
     assert rec.status[0].tolist() == [Status.MOVING, Status.WAITING]
     assert rec.status[-1].tolist() == [Status.TIMED_OUT, Status.ARRIVED]
     modes = rec.state["mode"][rec.status == Status.MOVING]
     assert set(np.unique(modes)) == {State.GOAL, State.FOLLOW, State.ESCAPE}
-    assert rec.n_robots == 2 and rec.safe.shape[2] == 90
+    assert rec.n_robots == 2 and rec.safe.shape[2] == 90 and rec.estimates is None
     now = json.loads(np.load(io.BytesIO(run_episode(_world(), "fusion", seed=0, config=CFG,
                                                     record=True).recording()))["meta"].tobytes())
-    assert now["version"] == 2 and now["states"] == list(State.labels())
+    assert now["version"] == 3 and now["states"] == list(State.labels())
 
 
 class Circle15(Controller):
@@ -318,3 +319,98 @@ def test_the_obstacle_contact_is_on_the_tick_the_robot_collided(spied):
     assert np.flatnonzero(rec.contact_obstacle[:, 0]).tolist() == [last]
     assert rec.status[last + 1, 0] == Status.COLLIDED
     assert not rec.contact_obstacle[:, 1].any() and not rec.contact_robot.any()
+
+
+#: The beams of the tapes made by hand below.
+BEAMS = 8
+
+
+def _estimated(tick):
+    """The oracle of the estimated poses at ``tick``: the true pose (:func:`_taped`) drifted
+    along +x and turned."""
+    return _true_pose(tick) + [0.01 * tick + 0.123456, -0.02 * tick, 0.05]
+
+
+def _true_pose(tick):
+    return _world().starts + [0.0, 0.1 * tick, 0.0]
+
+
+def _taped(estimated_ticks=(), end_estimates=False, keyword=True):
+    """The bytes of a tape of four ticks and the end of the two robots of :func:`_world`, with
+    estimates on ``estimated_ticks`` (and the end with ``end_estimates``); ``keyword``: whether
+    the ticks without estimates pass ``estimates=None`` or no keyword at all."""
+    tape = Tape(_world(), CFG, "by-hand", 1, -math.pi + np.arange(BEAMS) * 2 * math.pi / BEAMS)
+    for g in range(4):
+        given = ({"estimates": _estimated(g) if g in estimated_ticks else None} if keyword
+                 else {"estimates": _estimated(g)} if g in estimated_ticks else {})
+        tape.tick(0.1 * g, _true_pose(g), np.full(2, int(Status.MOVING), np.uint8),
+                  commands=np.full((2, 2), 0.5), ranges_m=np.full((2, BEAMS), 1.0),
+                  safe=np.ones((2, BEAMS), bool), state={0: {"mode": 0.0}, 1: {"mode": 1.0}},
+                  **given)
+    tape.end(0.4, _true_pose(4), np.full(2, int(Status.ARRIVED), np.uint8),
+             **({"estimates": _estimated(4)} if end_estimates else {}))
+    return tape.to_bytes([{"robot": 0}, {"robot": 1}])
+
+
+def test_estimated_poses_round_trip():
+    data = _taped(range(4), end_estimates=True)
+    with np.load(io.BytesIO(data)) as npz:
+        column = npz["estimates"]
+        assert column.dtype == npz["pose"].dtype == np.float32
+    rec = read_recording(io.BytesIO(data))
+    assert rec.estimates.shape == rec.pose.shape == (5, 2, 3)
+    assert rec.estimates.dtype == np.float64
+    for g in range(5):
+        np.testing.assert_allclose(rec.estimates[g], _estimated(g), atol=1e-5)
+        np.testing.assert_allclose(rec.pose[g], _true_pose(g), atol=1e-5)
+    assert rec.meta["version"] == VERSION
+
+
+def test_ticks_without_estimates_read_as_nan():
+    rec = read_recording(io.BytesIO(_taped(estimated_ticks=(1, 2))))
+    assert np.isnan(rec.estimates[[0, 3, 4]]).all()
+    np.testing.assert_allclose(rec.estimates[1:3], [_estimated(1), _estimated(2)], atol=1e-5)
+
+
+def test_a_recording_without_estimates_is_the_exact_one(monkeypatch):
+    """Exact localization: no ``estimates`` column, the columns of a recording without
+    estimates, and the same bytes whether the ticks pass ``estimates=None`` or nothing (the
+    zip entries' times held still)."""
+    monkeypatch.setattr("time.time", lambda: 1_800_000_000.0)
+    plain, with_none = _taped(keyword=False), _taped(keyword=True)
+    assert plain == with_none
+    with zipfile.ZipFile(io.BytesIO(plain)) as z:
+        names = [i.filename for i in z.infolist()]
+    assert names == [f"{k}.npy" for k in (
+        "time_s", "pose", "command", "status", "scan", "safe_bits", "contact_obstacle",
+        "contact_robot", "state/mode", "sent_tick", "sent_robot", "sent_offset", "sent_bytes",
+        "delivered", "meta")]
+    assert read_recording(io.BytesIO(plain)).estimates is None
+    with zipfile.ZipFile(io.BytesIO(_taped(range(4)))) as z:
+        assert [i.filename for i in z.infolist()] == [*names[:2], "estimates.npy", *names[2:]]
+
+
+def test_a_recording_of_exact_localization_has_no_estimates(spied):
+    """A recording of an episode of exact localization (version 3, as written now) reads with
+    no estimates."""
+    result, rec, _ = spied
+    assert json.loads(np.load(io.BytesIO(result.recording()))["meta"].tobytes())["version"] == 3
+    assert rec.estimates is None
+
+
+def test_estimates_of_another_shape_are_refused():
+    tape = Tape(_world(), CFG, "by-hand", 1, np.zeros(BEAMS))
+    with pytest.raises(FftnavError, match=r"^estimates must be an array of shape \(2, 3\), got "
+                                          r"estimates.shape=\(2, 2\)$"):
+        tape.tick(0.0, _true_pose(0), np.zeros(2, np.uint8), commands=np.zeros((2, 2)),
+                  ranges_m=np.zeros((2, BEAMS)), safe=None, state={}, estimates=np.zeros((2, 2)))
+
+
+def test_a_damaged_estimates_column_is_refused_by_name():
+    data = _taped(range(4), end_estimates=True)
+    with pytest.raises(RecordingError, match=r"consistent fftnav recording, got path=.*\(column "
+                                             r"estimates has shape \(5, 1, 3\), expected "
+                                             r"\(5, 2, 3\)\)"):
+        read_recording(_rewritten(data, estimates=np.zeros((5, 1, 3), np.float32)))
+    with pytest.raises(RecordingError, match=r"column estimates has shape \(4, 2, 3\)"):
+        read_recording(_rewritten(data, estimates=np.zeros((4, 2, 3), np.float32)))

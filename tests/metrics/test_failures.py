@@ -154,7 +154,8 @@ def test_only_the_last_window_counts():
 
 
 def test_every_robot_that_did_not_arrive_gets_a_registered_cause():
-    assert tuple(FAILURE_CAUSES) == ("collision", "jam", "stuck", "loop", "slow", "detour")
+    assert tuple(FAILURE_CAUSES) == ("collision", "lost", "jam", "stuck", "loop", "slow",
+                                     "detour")
     assert FAILURE_CAUSES.catch_all() == "detour"
     rng = np.random.default_rng(0)
     seen = set()
@@ -164,9 +165,11 @@ def test_every_robot_that_did_not_arrive_gets_a_registered_cause():
         path = np.r_[[[0.0, 0.0]], np.cumsum(steps, axis=0)]
         others = path[:, None, :] + rng.choice([0.3, 5.0])
         collided = bool(rng.random() < 0.1)
-        cause = _classify(path, others=others, goal=(0.0, 20.0), collided=collided)
+        lost = bool(rng.random() < 0.1)
+        cause = _classify(path, others=others, goal=(0.0, 20.0), collided=collided, lost=lost)
         home = np.hypot(*(path - (0.0, 20.0)).T).min() <= 0.3 and not collided
         assert cause == "" if home else cause in FAILURE_CAUSES
+        assert home or cause == ("collision" if collided else "lost" if lost else cause)
         seen.add(cause)
     assert seen >= set(FAILURE_CAUSES), seen
 
@@ -207,15 +210,22 @@ def test_failure_counts_are_measures_and_summary_columns():
 
     table = {**episode_table(), "failure": ["", "collision", "loop"]}
     got = evaluate(table)
-    assert [got[f"failures_{c}"] for c in FAILURE_CAUSES] == [1.0, 0.0, 0.0, 1.0, 0.0, 0.0]
+    assert [got[f"failures_{c}"] for c in FAILURE_CAUSES] == [1.0, 0.0, 0.0, 0.0, 1.0, 0.0, 0.0]
     assert np.isnan(got_old := evaluate(episode_table())["failures_loop"]), got_old
     frame = pd.DataFrame({**table, "env": "forest", "policy": "fusion", "map_seed": 1})
     frame.loc[0, "failure"] = np.nan  # pandas reads an empty field as NaN
     summary = summarize(frame, n_resamples=10)
-    assert summary_columns()[-len(FAILURE_CAUSES):] == tuple(f"failures_{c}"
-                                                             for c in FAILURE_CAUSES)
+    always = [c for c, cause in FAILURE_CAUSES.items() if not cause.requires]
+    assert always == ["collision", "jam", "stuck", "loop", "slow", "detour"]
+    assert summary_columns()[-len(always):] == tuple(f"failures_{c}" for c in always)
     assert summary[["failures_collision", "failures_loop", "failures_stuck"]].values.tolist() \
         == [[1.0, 1.0, 0.0]]
+    # an experiment whose robots know only their odometry also counts the lost ones
+    odometry = summarize(frame, n_resamples=10, conditions={"odometry"})
+    assert summary_columns({"odometry"})[-len(FAILURE_CAUSES):] == tuple(
+        f"failures_{c}" for c in FAILURE_CAUSES)
+    assert list(odometry.columns) == list(summary_columns({"odometry"}))
+    assert "failures_lost" not in summary and odometry["failures_lost"].tolist() == [0.0]
 
 
 @pytest.mark.parametrize(
@@ -257,7 +267,7 @@ def test_classify_failure_refuses_a_bad_trajectory():
 
 # --- The declared order of the causes ---------------------------------------------------------
 
-BUILT_IN = ("collision", "jam", "stuck", "loop", "slow", "detour")
+BUILT_IN = ("collision", "lost", "jam", "stuck", "loop", "slow", "detour")
 
 
 @pytest.fixture
@@ -289,7 +299,8 @@ def test_a_cause_registered_before_the_catch_all_takes_its_robots(registries):
     before = [_classify(w) for w in walks]
     register_failure_cause("away", "it ended the window at least progress_m farther from its "
                            "goal", thresholds=("progress_m",), before="detour")(_away)
-    assert tuple(causes) == ("collision", "jam", "stuck", "loop", "slow", "away", "detour")
+    assert tuple(causes) == ("collision", "lost", "jam", "stuck", "loop", "slow", "away",
+                            "detour")
     assert causes.catch_all() == "detour" and list(measures)[-1] == "failures_away"
     # it takes exactly the detours whose robot got progress_m (1 m) farther; the rest stay
     after = [_classify(w) for w in walks]
@@ -310,7 +321,7 @@ def test_a_cause_goes_just_before_the_cause_it_names(registries):
     register_failure_cause("first", "never given", before="collision")(lambda f, t: False)
     register_failure_cause("late", "never given", before="detour")(lambda f, t: False)
     register_failure_cause("mid", "never given", before="stuck")(lambda f, t: False)
-    assert tuple(causes) == ("first", "collision", "jam", "mid", "stuck", "loop", "slow",
+    assert tuple(causes) == ("first", "collision", "lost", "jam", "mid", "stuck", "loop", "slow",
                              "late", "detour")
     assert _classify(_still(), collided=True) == "collision"
     # an always-true cause before stuck takes what stuck, loop, slow and detour had
@@ -330,7 +341,8 @@ def test_a_cause_goes_just_before_the_cause_it_names(registries):
         ("rest", {"catch_all": True, "before": "slow"},
          r"^failure cause 'rest' is a catch-all and must be tested last, got before='slow'$"),
         ("away", {"before": "detuor"},
-         r"^before must be one of \['collision', 'jam', 'stuck', 'loop', 'slow', 'detour'\], "
+         r"^before must be one of \[.collision., .lost., .jam., .stuck., .loop., .slow., "
+         r".detour.\], "
          r"got before='detuor'$"),
         ("away", {"thresholds": ("progress",), "before": "detour"},
          r"^thresholds of failure cause 'away' must be fields of FailureThresholds "

@@ -101,3 +101,51 @@ def test_the_controller_asks_its_kind_through_methods_only():
     calls = []
     control._decide = lambda i: calls.append(i) or -1
     assert control._reconsider(0, 1) == -1 and calls == [0]  # 7 read since the decision (0)
+
+
+def _step(tick, poses, ranges, arrived=lambda i: ()):
+    from fftnav.navigation.controllers import SwarmStep
+
+    angles = -np.pi + np.arange(ranges.shape[1]) * 2 * np.pi / ranges.shape[1]
+    return SwarmStep(tick=tick, time_s=tick / 10, poses=poses, goals=np.array([[0.0, 20.0]] * 2),
+                     active=np.array([0]), ranges_m=ranges, angles_rad=angles, safe=None, y1=None,
+                     messages=None, inbox=lambda i: (), present=np.ones(2, bool), arrived=arrived)
+
+
+def test_with_odometry_walls_travel_in_the_senders_body_frame_and_conflicts_are_refused():
+    """A sender at (5, 5) facing +y sees a wall 2 m ahead; its message holds the wall in its
+    body frame (2 m ahead: x = 2). A receiver that places the sender at (0, 0) facing +x draws
+    the wall at x = 2 in its own frame; one whose own scans see that place free refuses it."""
+    from fftnav.localization.relative import to_frame
+    from fftnav.navigation.collab import decode_message, scan_segments
+    from fftnav.navigation.controllers import Packet
+    from fftnav.navigation.ownmap import OwnMaps
+
+    cfg = SwarmConfig().replace({"localization.mode": "odometry"})
+    kind = Walls(ControllerSetup(2, cfg, np.random.default_rng(0)))
+    assert kind.body_frame and not Walls(ControllerSetup(2, SwarmConfig(),
+                                                         np.random.default_rng(0))).body_frame
+    angles = -np.pi + np.arange(360) * 2 * np.pi / 360
+    ahead = np.where(np.abs(angles) < 0.5, 2.0 / np.cos(angles), 3.0)  # a wall 2 m ahead
+    ranges = np.vstack([ahead, np.full(360, 3.0)])
+    sender = np.array([[5.0, 5.0, np.pi / 2], [0.0, 0.0, 0.0]])
+    sent = kind.send(_step(0, sender, ranges), np.zeros(2, bool), None)
+    _, body = decode_message(sent[0])
+    world = scan_segments(sender[0], ahead, angles, range_m=3.0)
+    assert np.allclose(to_frame(body, sender[0]), world[:len(body)], atol=0.01)
+    assert np.allclose(body[0][:, 0], 2.0, atol=0.01)  # 2 m ahead of the sender
+    # two receivers place the sender at the origin facing +x
+    packet = Packet(sender=0, tick=0, payload=sent[0], sender_pose=(0.0, 0.0, 0.0))
+    for sees_free, drawn, refused in [(False, 1, 0), (True, 0, 1)]:
+        maps = OwnMaps(2, np.array([-5.0, -5.0]), np.array([5.0, 5.0]), resolution_m=0.2,
+                       range_m=3.0, clearance_m=0.3)
+        if sees_free:  # robot 1's own scan at (0, 0) sees 3 m of free space all around
+            maps.update(1, np.array([1]), np.zeros((2, 3)), np.full((2, 360), 3.0), angles)
+        kind = Walls(ControllerSetup(2, cfg, np.random.default_rng(0)))
+        kind.gate[1] = True
+        kind.receive(_step(1, sender, ranges, arrived=lambda i: (packet,) if i == 1 else ()),
+                     maps)
+        assert (kind.drawn[1], kind.refused[1]) == (drawn, refused)
+        marked = np.argwhere(maps.last_shared[1] >= 0)
+        xs = maps.lo[0] + (marked[:, 1] + 0.5) * maps.res
+        assert (len(marked) > 0) == (drawn == 1) and np.allclose(xs, 2.1, atol=0.11)

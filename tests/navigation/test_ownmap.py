@@ -323,3 +323,17 @@ def test_the_walls_only_plan_of_a_walled_arena_stays_inside_it():
     assert walled.plan(0, start, goal)  # the ordinary plan does not read the walls layer
     assert walled.way_length(0, start) == pytest.approx(
         astar(np.zeros(walled.shape, dtype=bool), here, there).length_cells * 0.2, abs=1e-9)
+
+
+def test_free_share_says_where_a_segment_crosses_what_the_robot_sees_free():
+    """A robot 2.1 m before a wall: a neighbour's copy of that wall lies on what it sees hit
+    (share 0, even a cell off its face), a copy moved 1 m toward the robot lies in what it sees
+    free (share 1), a segment beyond its range in what it has never seen (share 0)."""
+    maps = _maps()
+    wall = [((2.1, -1.0), (2.1, 1.0))]
+    maps.update(1, np.array([0]), np.zeros((1, 3)), _scan_of_segments(0.0, 0.0, 0.0, wall)[None],
+                ANGLES)
+    segments = np.array([[[2.1, -0.8], [2.1, 0.8]], [[1.95, -0.8], [1.95, 0.8]],
+                         [[1.1, -0.8], [1.1, 0.8]], [[6.0, 5.0], [7.0, 5.0]],
+                         [[20.0, 0.0], [21.0, 0.0]]])
+    assert maps.free_share(0, segments).tolist() == [0.0, 0.0, 1.0, 0.0, 0.0]

@@ -15,6 +15,10 @@ States and statuses are the codes of :mod:`fftnav.states` (the recording's ``sta
 
 Robot 1's scan returns 1.0 m on every beam ahead (|angle| < 90 degrees), nothing behind, and
 its safe mask is the beams behind. Every tick robot 0 delivers a message to robot 1.
+
+With ``estimates`` (:func:`make_recording`), every robot's estimated pose (odometry) drifts from
+its true one by 0.01 m per tick along +x and by 0.1 rad in yaw (:func:`estimate`): 0.42 m off at
+tick 42.
 """
 
 from __future__ import annotations
@@ -79,8 +83,16 @@ def angles() -> np.ndarray:
     return -math.pi + np.arange(m) * 2 * math.pi / m
 
 
-def make_recording(path) -> None:
-    """Write the recording to ``path``."""
+def estimate(robot: int, tick: int) -> tuple[float, float, float]:
+    """Robot ``robot``'s estimated pose at tick ``tick`` in a recording with estimates (the
+    oracle): its pose shifted by 0.01 m per tick along +x, its yaw turned by 0.1 rad."""
+    x, y, yaw = pose(robot, tick)
+    return x + 0.01 * tick, y, yaw + 0.1
+
+
+def make_recording(path, *, estimates: bool = False) -> None:
+    """Write the recording to ``path``; with ``estimates``, the estimated poses of
+    :func:`estimate` too."""
     a = angles()
     ahead = np.abs(a) < math.pi / 2
     tape = Tape(WORLD, CONFIG, "by-hand", 5, a)
@@ -95,10 +107,16 @@ def make_recording(path) -> None:
         safe[1] = ~ahead
         tape.tick(g * DT, poses, st, commands=np.tile([0.5, 0.0], (n, 1)), ranges_m=ranges,
                   safe=safe, state={i: {"mode": float(MODES[i]), "side": 1.0, "decisions": float(g // 10)}
-                                    for i in np.flatnonzero(moving).tolist()})
+                                    for i in np.flatnonzero(moving).tolist()},
+                  **_estimates(estimates, n, g))
         tape.delivery(g, 0, 1, g)
     tape.end(TICKS * DT, np.array([pose(i, TICKS) for i in range(n)]),
-             np.array([status(i, TICKS) for i in range(n)]))
+             np.array([status(i, TICKS) for i in range(n)]), **_estimates(estimates, n, TICKS))
     rows = [{"robot": i, "policy": "by-hand", "arrived": i == 0,
              "failure": {2: "slow", 3: "collision"}.get(i, "")} for i in range(n)]
     write_recording(path, tape.to_bytes(rows))
+
+
+def _estimates(on: bool, n: int, tick: int) -> dict[str, np.ndarray]:
+    """The ``estimates`` keyword of a tick of the tape (none without estimates)."""
+    return {"estimates": np.array([estimate(i, tick) for i in range(n)])} if on else {}

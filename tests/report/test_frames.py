@@ -15,14 +15,20 @@ from matplotlib.figure import Figure
 from PIL import Image
 
 from fftnav.episode.record import EpisodeRow
+from fftnav.episode.recording import read_recording
 from fftnav.report.frames import (
+    ESTIMATE_LABEL,
+    KIND_COLOURS,
     KINDS,
     MESSAGE_COLOUR,
     SAFE_COLOUR,
+    STATUS_KINDS,
+    TRUTH_LABEL,
     ScanView,
     SwarmFrame,
     draw_frame,
     kind_rgb,
+    kinds_of,
     runs_of,
 )
 from fftnav.report.replay import (
@@ -34,19 +40,23 @@ from fftnav.report.replay import (
     write_video,
 )
 from fftnav.report.trajectories import episode_frame, plot_episode
+from fftnav.states import Status
 from fftnav.world import World
-from tests.report.recordings import TICKS, expected_kind, pose
+from tests.report.recordings import TICKS, estimate, expected_kind, make_recording, pose
 
 R0 = 0.15
 WORLD = World("forest", 0, (12.0, 8.0), (), np.zeros((7, 3)), np.array([[11.0, 7.5]] * 7))
 
 
-def _render(frame: SwarmFrame, world: World = WORLD):
-    """The frame as pixels, and a function from world (m) to pixel (row, col)."""
+def _render(frame: SwarmFrame, world: World = WORLD, painted: list | None = None):
+    """The frame as pixels, and a function from world (m) to pixel (row, col); the painter
+    is appended to ``painted``."""
     fig = Figure(figsize=(6, 4), dpi=100)
     FigureCanvasAgg(fig)
     ax = fig.subplots()
-    draw_frame(ax, world, frame, R0)
+    painter = draw_frame(ax, world, frame, R0)
+    if painted is not None:
+        painted.append(painter)
     fig.canvas.draw()
     buffer = io.BytesIO()
     fig.savefig(buffer, format="png")  # same size and layout as the canvas
@@ -203,3 +213,102 @@ def test_every_gif_frame_over_the_ones_before_is_the_png_of_its_time(recording, 
     assert not np.array_equal(decoded[0], decoded[2])
     with pytest.raises(ValueError, match=r"width_px must be an integer in \[160, 4096\], got "):
         write_image(recording, tmp_path / "x.png", width_px=100)
+
+
+def test_every_status_is_drawn_as_a_kind_with_a_colour_of_its_own():
+    """Whatever statuses fftnav.states has: each is drawn (its kind in KINDS, with a colour),
+    a status without a shared kind as a kind of its own named by its label, in a colour no
+    other kind has; lost robots (Status.LOST) as "lost"."""
+    assert set(STATUS_KINDS) == set(Status)
+    drawn = [KINDS[k] for k in kinds_of(np.array([int(s) for s in Status]))]
+    assert drawn == [STATUS_KINDS[s] for s in Status]
+    assert STATUS_KINDS[Status.LOST] == "lost" and "lost" in KINDS
+    assert set(KIND_COLOURS) == set(KINDS)
+    assert len(set(KIND_COLOURS.values())) == len(KINDS)  # a colour of its own, each
+
+
+def _near(pixels: np.ndarray, rgb, tolerance: int = 40) -> int:
+    """How many pixels of ``pixels`` are within ``tolerance`` of ``rgb``."""
+    return int((np.abs(pixels.astype(int) - np.array(rgb)).max(axis=-1) <= tolerance).sum())
+
+
+def test_estimated_poses_are_dashed_hollow_discs_with_headings_and_paths():
+    """A robot at (3, 4) that believes it is at (6, 4), heading +y: a hollow disc there (white
+    inside) with its heading, in the robot's colour, its estimated path dashed, and a legend
+    telling truth from estimate; the true disc as without estimates."""
+    poses = np.array([[3.0, 4.0, 0.0]])
+    est = np.array([[6.0, 4.0, math.pi / 2]])
+    trail = np.array([[6.0, 1.0], [6.0, 4.0]])
+    frame = SwarmFrame(poses=poses, kinds=np.array([KINDS.index("following")]),
+                       estimates=est, estimate_trails=[trail])
+    painted: list = []
+    pixels, at = _render(frame, painted=painted)
+    colour = kind_rgb("following")
+    assert tuple(at(3.0, 4.0)) == colour  # the true disc, filled
+    for dx in (-0.5 * R0, 0.5 * R0):  # the estimate: hollow (beside its path, which ends in it)
+        assert tuple(at(6.0 + dx, 4.0)) == (255, 255, 255)
+    heading = np.array([at(6.0 + dx, 4.0 + 1.5 * R0 + dy) for dx in (-0.02, 0, 0.02)
+                        for dy in (-0.02, 0, 0.02)])
+    assert _near(heading, colour, 60) >= 3  # the heading tick, +y, out of the hollow disc
+    ring = np.array([at(6.0 + R0 * math.cos(a), 4.0 + R0 * math.sin(a))
+                     for a in np.linspace(0, 2 * math.pi, 48, endpoint=False)])
+    assert _near(ring, colour, 60) >= 12  # dashed: on much of the outline, not all of it
+    path = np.array([at(6.0, y) for y in np.linspace(1.5, 3.5, 60)]).astype(int)
+    tinted = path[(255 - path).max(axis=-1) > 15]
+    assert 10 <= len(tinted) < 60  # dashed: drawn, with gaps
+    assert (tinted[:, 0] > tinted[:, 2] + 15).all()  # in the robot's colour (orange)
+    legend = painted[0].ax.get_legend()
+    assert legend.get_visible()
+    assert [t.get_text() for t in legend.get_texts()] == [TRUTH_LABEL, ESTIMATE_LABEL]
+
+
+def test_a_frame_without_estimates_draws_none_of_them():
+    """A frame without estimates has no legend and no estimated pose or path; a painter that
+    drew estimates hides them again for such a frame."""
+    frame = SwarmFrame(poses=np.array([[3.0, 4.0, 0.0]]), kinds=np.array([1]),
+                       trails=[np.array([[1.0, 4.0], [3.0, 4.0]])])
+    painted: list = []
+    _render(frame, painted=painted)
+    painter = painted[0]
+    assert painter.ax.get_legend() is None
+    assert len(painter.estimate_robots.get_offsets()) == 0
+    assert not painter.estimate_trails.get_segments()
+    # a later frame with estimates shows the legend; one without hides it again
+    painter.update(SwarmFrame(poses=frame.poses, kinds=frame.kinds,
+                              estimates=np.array([[5.0, 4.0, 0.0]])))
+    assert painter.ax.get_legend().get_visible()
+    painter.update(frame)
+    assert not painter.ax.get_legend().get_visible()
+    assert len(painter.estimate_robots.get_offsets()) == 0
+
+
+@pytest.fixture(scope="module")
+def estimated(tmp_path_factory):
+    """The hand-made recording with its estimated poses (tests/report/recordings.py)."""
+    path = tmp_path_factory.mktemp("rec") / "estimated.npz"
+    make_recording(path, estimates=True)
+    return read_recording(path)
+
+
+def test_recording_frame_has_the_estimated_poses_and_paths(recording, estimated):
+    assert recording_frame(recording, 20, 1).estimates is None
+    frame = recording_frame(estimated, 42, 1)
+    np.testing.assert_allclose(frame.estimates, [estimate(i, 42) for i in range(4)], atol=1e-5)
+    np.testing.assert_allclose(frame.poses, [pose(i, 42) for i in range(4)], atol=1e-5)
+    assert len(frame.estimate_trails[2]) == 43
+    assert frame.estimate_trails[2][-1] == pytest.approx(estimate(2, 42)[:2], abs=1e-5)
+
+
+def test_png_and_gif_frames_draw_the_estimates(recording, estimated, tmp_path):
+    """The PNG of a recording with estimates is that of the same recording without them but
+    near the estimated poses and paths (and the legend); a GIF of it is written."""
+    with_est = np.asarray(Image.open(write_image(estimated, tmp_path / "e.png", at_s=4.2,
+                                                 robot=1)).convert("RGB")).astype(int)
+    exact = np.asarray(Image.open(write_image(recording, tmp_path / "x.png", at_s=4.2,
+                                              robot=1)).convert("RGB")).astype(int)
+    assert with_est.shape == exact.shape
+    changed = np.abs(with_est - exact).max(axis=-1) > 40
+    assert 0.002 < changed.mean() < 0.05
+    gif = write_video(estimated, tmp_path / "e.gif", robot=1, from_s=2.0, to_s=4.0, speed=10)
+    with Image.open(gif) as frames:
+        assert frames.n_frames == 3

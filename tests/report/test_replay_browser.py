@@ -2,7 +2,9 @@
 install-browser``) driven over the Chrome DevTools Protocol through a pipe (no Python package
 needed). The page must load from file:// with no network request and no console error, draw each
 robot in its state's colour where the recording puts it, at the start and after playing, and
-pick a robot by a click.
+pick a robot by a click; with a recording of estimated poses (odometry), draw each robot's
+estimate beside its true pose under the "show estimates" check box, and tell how far off the
+picked robot's estimate is.
 
 Skipped only when Chromium is missing on a developer's machine; with ``CI`` set, a missing
 Chromium fails.
@@ -27,10 +29,10 @@ import pytest
 from PIL import Image
 
 from fftnav.episode.recording import read_recording
-from fftnav.report.frames import KINDS, kind_rgb
+from fftnav.report.frames import ESTIMATE_LABEL, KINDS, TRUTH_LABEL, kind_rgb
 from fftnav.report.replay import robot_kinds
 from fftnav.report.replay_html import write_html
-from tests.report.recordings import TICKS, expected_kind, make_recording, pose
+from tests.report.recordings import TICKS, estimate, expected_kind, make_recording, pose
 from tests.report.small_results import fftnav, make_small_results
 
 BROWSERS = ("chromium", "chromium-browser", "google-chrome")
@@ -237,6 +239,67 @@ def test_a_click_picks_the_robot_under_the_pointer(page):
     assert page.evaluate("window.fftnavPlayer.picked") == 2
     assert page.evaluate("document.getElementById('robot-title').textContent") == "robot 2"
     page.evaluate("window.fftnavPlayer.setLayer('trails', false)")
+    assert not _errors(page.events)
+
+
+def test_a_page_without_estimates_shows_none(page):
+    assert page.evaluate("window.fftnavPlayer.estimates") is False
+    assert page.evaluate("document.getElementById('estimates-control').hidden") is True
+    assert "estimate" not in page.evaluate("document.getElementById('robot-info').textContent")
+    legend = page.evaluate("document.getElementById('legend').textContent")
+    assert ESTIMATE_LABEL not in legend and TRUTH_LABEL not in legend
+    assert not _errors(page.events)
+
+
+@pytest.fixture(scope="module")
+def estimated_page(tmp_path_factory):
+    """The player of the hand-made recording with estimated poses, robot 1 picked."""
+    browser = _browser()
+    folder = tmp_path_factory.mktemp("estimated")
+    make_recording(folder / "e.npz", estimates=True)
+    html = folder / "e.html"
+    write_html(read_recording(folder / "e.npz"), html, robot=1)
+    tools = _open(browser, html, folder / "profile")
+    try:
+        yield tools
+    finally:
+        tools.close()
+
+
+def _around(tools: DevTools, shot: np.ndarray, x: float, y: float, px_radius: int) -> np.ndarray:
+    """The screenshot's pixels within ``px_radius`` of the world point (x, y)."""
+    px, py = (int(round(v)) for v in tools.evaluate(f"window.fftnavPlayer.toPage({x}, {y})"))
+    return shot[py - px_radius:py + px_radius + 1, px - px_radius:px + px_radius + 1].astype(int)
+
+
+def test_estimates_are_drawn_beside_the_true_poses(estimated_page):
+    """At 4.2 s every estimate is 0.42 m off along +x (tests/report/recordings.py): a dashed
+    hollow disc there in the robot's colour, gone when "show estimates" is unchecked; the true
+    discs unchanged; the picked robot's line tells how far off its estimate is."""
+    page = estimated_page
+    assert page.evaluate("window.fftnavPlayer.estimates") is True
+    assert page.evaluate("document.getElementById('estimates-control').hidden") is False
+    assert page.evaluate("document.getElementById('layer-estimates').checked") is True
+    legend = page.evaluate("document.getElementById('legend').textContent")
+    assert ESTIMATE_LABEL in legend and TRUTH_LABEL in legend
+    page.evaluate("window.fftnavPlayer.seek(4.2)")
+    assert page.evaluate("window.fftnavPlayer.tick") == 42
+    info = page.evaluate("document.getElementById('robot-info').textContent")
+    assert info == "following; did not arrive; estimate off by 0.42 m"
+    on = page.screenshot()
+    page.evaluate("window.fftnavPlayer.setLayer('estimates', false)")
+    off = page.screenshot()
+    page.evaluate("window.fftnavPlayer.setLayer('estimates', true)")
+    radius = int(page.evaluate("Math.max(window.fftnavPlayer.header.r0 * "
+                               "(640 - 24) / window.fftnavPlayer.header.size[0], 3)")) + 3
+    for i in range(4):
+        colour = np.array(kind_rgb(expected_kind(i, 42)))
+        for shot in (on, off):  # the true disc, as without estimates
+            assert tuple(_around(page, shot, *pose(i, 42)[:2], 0)[0, 0]) == tuple(colour), i
+        ex, ey, _ = estimate(i, 42)
+        near = [int((np.abs(_around(page, shot, ex, ey, radius) - colour).max(axis=-1)
+                     <= 40).sum()) for shot in (on, off)]
+        assert near[0] >= near[1] + 8, (i, near)  # drawn there, and gone when unchecked
     assert not _errors(page.events)
 
 

@@ -11,9 +11,10 @@ import zlib
 import numpy as np
 import pytest
 
-from fftnav.report.frames import KINDS
+from fftnav.episode.recording import read_recording
+from fftnav.report.frames import ESTIMATE_LABEL, KINDS, TRUTH_LABEL
 from fftnav.report.replay_html import player_data, write_html
-from tests.report.recordings import MODES, TICKS, expected_kind, pose
+from tests.report.recordings import MODES, TICKS, estimate, expected_kind, make_recording, pose
 
 TYPES = {"Float32Array": "<f4", "Uint8Array": "u1", "Uint16Array": "<u2", "Int32Array": "<i4"}
 
@@ -67,3 +68,19 @@ def test_bad_window_and_robot(recording):
         player_data(recording, from_s=3, to_s=1)
     with pytest.raises(ValueError, match=r"robot must be an integer in \[0, 3\], got robot=7"):
         player_data(recording, robot=7)
+
+
+def test_the_estimated_poses_are_in_the_data_only_when_recorded(recording, tmp_path):
+    header, data = player_data(recording)
+    assert header["estimates"] is False and "estimate" not in header["arrays"]
+    make_recording(tmp_path / "e.npz", estimates=True)
+    header, data = player_data(read_recording(tmp_path / "e.npz"), from_s=1.0, to_s=3.0)
+    assert header["estimates"] is True
+    assert header["estimateLabels"] == {"truth": TRUTH_LABEL, "estimate": ESTIMATE_LABEL}
+    g = header["ticks"]
+    a = _arrays(header, data)
+    est = a["estimate"].reshape(g, 4, 3)
+    for k, tick in enumerate(range(10, 31)):
+        np.testing.assert_allclose(est[k], [estimate(i, tick) for i in range(4)], atol=1e-5)
+        np.testing.assert_allclose(a["pose"].reshape(g, 4, 3)[k],
+                                   [pose(i, tick) for i in range(4)], atol=1e-5)
