@@ -5,7 +5,7 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install install-browser test lint benchmark bench figures collab replays clean
+.PHONY: install install-browser test lint benchmark bench figures collab drift replays clean
 
 install: $(STAMP)
 
@@ -54,6 +54,18 @@ collab: $(STAMP)
 	$(BIN)/fftnav run experiments/collab/fresh_noise_240.toml
 	$(BIN)/python experiments/time_budget.py results/collab/fresh_noise_240
 	$(BIN)/fftnav run experiments/collab.toml
+
+# drift: every built-in method without external positioning (docs/localization.md): the
+# odometry presets on Table I's maps and on fresh walls and traps maps (2,560 episodes, about
+# 80 min with 2 workers), their Holm-adjusted gains, and the drift report beside the exact runs.
+drift: $(STAMP)
+	$(BIN)/fftnav bench drift --csv results/drift/calibration.csv
+	$(BIN)/fftnav run experiments/drift/table1.toml
+	$(BIN)/fftnav figure sweep experiments/drift/table1.toml
+	$(BIN)/fftnav run experiments/drift/fresh.toml
+	$(BIN)/fftnav figure sweep experiments/drift/fresh.toml
+	$(BIN)/fftnav figure drift experiments/drift/table1.toml experiments/drift/fresh.toml \
+		--exact results/baselines results/collab/table1 results/collab/fresh --out results/drift
 
 bench: $(STAMP)
 	$(BIN)/fftnav bench pipeline --csv results/pipeline_latency.csv

@@ -38,8 +38,8 @@ goal is and it is not (lost; it is then parked out of the world;
 contact) and is truncated at the time limit (``episode.time_limit_s`` after its departure).
 ``infos`` give each agent's ``arrived``, ``collided``, ``goal_distance_m`` and true ``pose``
 ``(x_m, y_m, yaw_rad)`` after the step: the benchmark's judgement, not an observation (with
-odometry a policy that read them would know more than its robot). ``render_mode="rgb_array"`` returns a top-down frame
-drawn like ``fftnav replay``'s (:meth:`SwarmNavEnv.render`).
+odometry a policy that read them would know more than its robot). ``render_mode="rgb_array"``
+returns a top-down frame drawn like ``fftnav replay``'s (:meth:`SwarmNavEnv.render`).
 
 ``reset(seed=..., options=...)``: ``seed`` seeds the episode (sensor noise, packet loss);
 ``options`` may set ``world_kind``, ``map_seed``, ``robots``, ``controller`` and any config key

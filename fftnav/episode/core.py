@@ -25,8 +25,9 @@ timed out (``episode.time_limit_s`` after its departure) or lost (with ``localiz
 "odometry"``: it stopped where its estimate said its goal was, and it was not). The rule judges
 the true poses; the controller sees only the poses the robots know
 (:class:`~fftnav.episode.localize.Localizer`: the true ones, or their odometry's estimates), and
-each packet places its sender where its receiver measures it. A robot that leaves is parked (taken out
-of the world) and the controller's ``finish(robot)`` is called, once for every robot.
+each packet places its sender where its receiver measures it. A robot that leaves is parked
+(taken out of the world) and the controller's ``finish(robot)`` is called, once for every
+robot.
 """
 
 from __future__ import annotations

@@ -12,6 +12,7 @@ applied to the trajectories.
 
 from __future__ import annotations
 
+import dataclasses
 import functools
 
 import numpy as np
@@ -152,11 +153,12 @@ def _failure(core: EpisodeCore, i: int, trajectory: np.ndarray, by_tick: np.ndar
     ep = config.episode
     thresholds = metrics.FailureThresholds.for_robot(r0_m=config.robot.r0_m,
                                                      v_max_mps=config.robot.v_max_mps)
-    return metrics.classify_failure(metrics.failure_features(
-        trajectory, core.goals[i], collided=bool(core.robots.collided[i]),
-        lost=bool(core.robots.left[i] == Status.LOST), others=others,
+    features = metrics.failure_features(
+        trajectory, core.goals[i], collided=bool(core.robots.collided[i]), others=others,
         dt_s=1.0 / ep.control_hz, time_limit_s=ep.time_limit_s,
-        success_radius_m=ep.success_radius_m, thresholds=thresholds))
+        success_radius_m=ep.success_radius_m, thresholds=thresholds)
+    lost = bool(core.robots.left[i] == Status.LOST)
+    return metrics.classify_failure(dataclasses.replace(features, lost=lost))
 
 
 def _row(core: EpisodeCore, i: int, trajectory: np.ndarray, *, policy: str,

@@ -110,8 +110,6 @@ class FailureFeatures:
     ----------
     arrived, collided : bool
         Success S_i (:func:`fftnav.metrics.paths.arrived`) and contact with an obstacle.
-    lost : bool
-        It stopped believing it had arrived, short of its goal (odometry).
     window_s : float
         The seconds looked at: ``thresholds.window_s``, or the whole trajectory if it is
         shorter.
@@ -130,11 +128,13 @@ class FailureFeatures:
     thresholds : FailureThresholds
         The thresholds the features were measured with (``window_s`` and ``jam_distance_m``)
         and that the causes test them against.
+    lost : bool
+        The episode's lost flag: the robot stopped where its own estimate of its pose said its
+        goal was, short of it (odometry; ``dataclasses.replace(features, lost=True)``).
     """
 
     arrived: bool
     collided: bool
-    lost: bool
     window_s: float
     extent_m: float
     path_m: float
@@ -142,6 +142,7 @@ class FailureFeatures:
     progress_m: float
     near_share: float
     thresholds: FailureThresholds
+    lost: bool = False
 
 
 #: A cause's test: ``test(features, thresholds) -> bool``.
@@ -384,7 +385,6 @@ def failure_features(
     goal: ArrayLike,
     *,
     collided: bool = False,
-    lost: bool = False,
     others: ArrayLike | None = None,
     dt_s: float = 0.1,
     time_limit_s: float = 120.0,
@@ -403,8 +403,6 @@ def failure_features(
         Its goal (m).
     collided : bool
         It touched an obstacle.
-    lost : bool
-        It stopped where its estimate said its goal was, short of it (odometry).
     others : array_like, shape (T, M, 2), optional
         The other robots' positions at the same ticks, NaN where a robot is not in the world
         (parked after arriving or failing); default none.
@@ -436,9 +434,7 @@ def failure_features(
     with np.errstate(invalid="ignore"):
         gaps = np.hypot(*(near_to[start:] - win[:, None, :]).transpose(2, 0, 1))
     near = (gaps <= limits.jam_distance_m).any(axis=1)  # NaN (absent) is never near
-    if not isinstance(lost, (bool, np.bool_)):
-        raise FftnavError(f"lost must be a bool, got lost={lost!r}")
-    return FailureFeatures(arrived=ok, collided=bool(collided), lost=bool(lost),
+    return FailureFeatures(arrived=ok, collided=bool(collided),
                            window_s=(len(win) - 1) * float(dt_s), extent_m=extent,
                            path_m=path_length_m(win),
                            displacement_m=float(np.hypot(*(win[-1] - win[0]))),

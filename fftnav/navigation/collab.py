@@ -8,7 +8,10 @@ range-limited :class:`~fftnav.episode.comms.Channel`, in at most :data:`MAX_MESS
 (:func:`encode_message`: a count byte, the sender's distance to its goal, then the end points
 in centimetres as int16). A receiver draws them into its own map
 (:meth:`fftnav.navigation.ownmap.OwnMaps.add_segments`): a robot at a wall then knows where its
-neighbours saw the wall go on, and where they saw it end.
+neighbours saw the wall go on, and where they saw it end. With ``[localization] mode =
+"odometry"`` the segments travel in the sender's body frame and the receiver places them through
+its measurement of the sender, refusing a message that crosses what its own lidar sees free
+(:class:`fftnav.navigation.messages.Walls`, docs/localization.md).
 
 A receiver reads its neighbours' segments only once one of its own scans has shown a wall longer
 than the sensing range R (:func:`long_wall`): only there can the wall's far side lie beyond what
@@ -131,7 +134,8 @@ def _simplify(points: np.ndarray, out: list[tuple[np.ndarray, np.ndarray]]) -> N
 
 def scan_segments(pose: np.ndarray, ranges_m: np.ndarray, angles_rad: np.ndarray, *,
                   range_m: float) -> np.ndarray:
-    """Line segments ``(n, 2, 2)`` (world frame, m, longest first) fitted to a scan's readings.
+    """Line segments ``(n, 2, 2)`` (m, longest first, in the frame of ``pose``: the world's,
+    or the robot's estimated frame with odometry) fitted to a scan's readings.
 
     Readings below ``range_m`` (zero: no reading) taken in beam order form chains while
     neighbours lie within CHAIN_GAP_M; each chain is simplified to segments no reading of

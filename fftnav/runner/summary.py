@@ -135,9 +135,10 @@ def summarize(episodes: pd.DataFrame, *, envs: Sequence[str] | None = None,
     Returns
     -------
     DataFrame
-        Columns :func:`summary_columns` of ``conditions``, ordered by env, then policy. Each measure's value is
-        ``measure(table)`` of the group's robots; measures with ``terms`` (AR, APL, SPL) get a
-        95% bootstrap interval over maps of the ratio of their per-map sums.
+        Columns :func:`summary_columns` of ``conditions``, ordered by env, then policy. Each
+        measure's value is ``measure(table)`` of the group's robots; measures with ``terms``
+        (AR, APL, SPL) get a 95% bootstrap interval over maps of the ratio of their per-map
+        sums.
     """
     rows = []
     conditions = tuple(conditions)

@@ -127,3 +127,27 @@ def test_its_own_messages_and_observations_do_not_change_the_episode():
     env.close()
     for mine, theirs in zip(paths, episode.trajectories, strict=True):
         assert np.array_equal(mine, theirs)
+
+
+def test_with_odometry_the_environment_is_its_episode_and_observes_the_estimates():
+    """In odometry mode too the environment driven by a controller is run_episode (the true
+    paths, bit for bit; lost robots end the same way), and an agent's ``goal`` observation is
+    its goal seen from its estimate, not from its true pose."""
+    config = _config().replace({"localization.mode": "odometry", "localization.drift": "high"})
+    episode = run_episode(WORLD, "collab", seed=3, config=config)
+    paths, ended, env = _drive("collab", 3, config)
+    for mine, theirs in zip(paths, episode.trajectories, strict=True):
+        assert np.array_equal(mine, theirs)
+    assert ended == {row.robot: (row.arrived, row.collided) for row in episode.rows}
+    env.reset(seed=3, options={"controller": "collab"})
+    for _ in range(30):
+        commands, outgoing = env.controller.step(env.core.swarm)
+        obs, *_ = env.step({a: commands[env.index(a)] for a in env.agents})
+    core = env.core
+    for agent, o in obs.items():
+        i = env.index(agent)
+        est, true = core.localizer.estimates[i], core.obs.poses[i]
+        assert not np.allclose(est, true)
+        d = core.goals[i] - est[:2]
+        c, s = np.cos(est[2]), np.sin(est[2])
+        assert np.allclose(o["goal"], [c * d[0] + s * d[1], -s * d[0] + c * d[1]], atol=1e-5)

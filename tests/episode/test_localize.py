@@ -103,7 +103,7 @@ def test_noise_free_odometry_keeps_the_estimates_on_the_truth():
     for t in truth:
         moving = ~np.isnan(known[t]).any(axis=1)
         assert np.allclose(known[t][moving], truth[t][moving], atol=1e-9)
-    for t, receiver, sender, pose in Spy.placed:  # senders placed where they stood
+    for t, _, sender, pose in Spy.placed:  # senders placed where they stood
         assert any(np.allclose(pose, truth[k][sender], atol=1e-9) for k in truth if k <= t)
     assert [r.arrived for r in result.rows] == [r.arrived for r in run_episode(
         WORLD, "collab", seed=4, config=_config(mode="exact")).rows]

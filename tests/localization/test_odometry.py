@@ -18,9 +18,10 @@ from fftnav.localization import (
 STATED_PERCENT = {"low": 0.5, "typical": 2.0, "high": 5.0}
 
 
-def _read_back(noise, rng, rot1, trans, rot2, n=40_000):
+def _read_back(noise, rng, motion, n=40_000):
     """The errors of ``n`` noisy readings of one motion, read back from the estimates."""
     before = np.zeros((n, 3))
+    rot1, trans, rot2 = motion
     after = compose(before, np.full(n, rot1), np.full(n, trans), np.full(n, rot2))
     est = sample_motion_model_odometry(before, before, after, noise=noise, dt_s=0.1, rng=rng)
     r1, t, r2 = odometry_motion(before, est, min_trans_m=0.0)
@@ -32,8 +33,8 @@ def _fit_alphas(noise, rng):
     drive (alpha2 from the rotation error, alpha3 from the translation error) and of a turn on
     the spot (alpha1 from the rotation error, alpha4 from the translation error)."""
     trans, turn = 0.1, 0.5
-    e_rot1, e_trans, _ = _read_back(noise, rng, 0.0, trans, 0.0)
-    _, e_spot, e_rot2 = _read_back(noise, rng, 0.0, 0.0, turn)
+    e_rot1, e_trans, _ = _read_back(noise, rng, (0.0, trans, 0.0))
+    _, e_spot, e_rot2 = _read_back(noise, rng, (0.0, 0.0, turn))
     return np.array([np.mean(e_rot2**2) / turn**2, np.mean(e_rot1**2) / trans**2,
                      np.mean(e_trans**2) / trans**2, np.mean(e_spot**2) / turn**2])
 

@@ -3,6 +3,7 @@ cause's thresholds; the thresholds dataclass; the declared order of the causes."
 
 from __future__ import annotations
 
+import dataclasses
 import math
 
 import numpy as np
@@ -166,7 +167,8 @@ def test_every_robot_that_did_not_arrive_gets_a_registered_cause():
         others = path[:, None, :] + rng.choice([0.3, 5.0])
         collided = bool(rng.random() < 0.1)
         lost = bool(rng.random() < 0.1)
-        cause = _classify(path, others=others, goal=(0.0, 20.0), collided=collided, lost=lost)
+        cause = classify_failure(dataclasses.replace(failure_features(
+            path, (0.0, 20.0), others=others, collided=collided), lost=lost))
         home = np.hypot(*(path - (0.0, 20.0)).T).min() <= 0.3 and not collided
         assert cause == "" if home else cause in FAILURE_CAUSES
         assert home or cause == ("collision" if collided else "lost" if lost else cause)
