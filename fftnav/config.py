@@ -429,6 +429,11 @@ class LocalizationConfig(_Section):
     range_noise_m, bearing_noise_deg, heading_noise_deg : float
         Standard deviations of a robot's measurement of a sender's range (m), bearing and
         relative heading (deg) (``odometry`` mode).
+    stop_radius_m : float
+        A robot stops, believing it has arrived, when its estimate is within this distance (m)
+        of its goal (``odometry`` mode). The benchmark judges arrival on the true pose with
+        ``episode.success_radius_m``: a robot drives for the point it believes is its goal and
+        arrives on its way in when its true pose comes within the arrival radius.
     """
 
     name: ClassVar[str] = "localization"
@@ -442,6 +447,7 @@ class LocalizationConfig(_Section):
     range_noise_m: float = number_field(0.05, low=0, high=MAX_MAP_SIDE_M)
     bearing_noise_deg: float = number_field(2.0, low=0, high=180.0)
     heading_noise_deg: float = number_field(3.0, low=0, high=180.0)
+    stop_radius_m: float = number_field(0.1, low=0, low_open=True, high=MAX_MAP_SIDE_M)
 
     def _check_together(self) -> None:
         alphas = (self.alpha1, self.alpha2, self.alpha3, self.alpha4)

@@ -22,7 +22,8 @@ Every robot has a :class:`fftnav.states.Status` at every tick: waiting at its st
 departure tick (``episode.departure``), moving, then arrived (within ``success_radius_m`` of its
 goal), collided (touched an obstacle; a collision outranks an arrival in the same period),
 timed out (``episode.time_limit_s`` after its departure) or lost (with ``localization.mode =
-"odometry"``: it stopped where its estimate said its goal was, and it was not). The rule judges
+"odometry"``: it stopped where its estimate said its goal was, within
+``localization.stop_radius_m``, and its goal was not within ``success_radius_m``). The rule judges
 the true poses; the controller sees only the poses the robots know
 (:class:`~fftnav.episode.localize.Localizer`: the true ones, or their odometry's estimates), and
 each packet places its sender where its receiver measures it. A robot that leaves is parked
@@ -282,8 +283,8 @@ class EpisodeCore:
     def _judge(self, i: int) -> None:
         """The rule after a control period, on the true poses: robot ``i`` collided if it
         touched an obstacle (``collisions_end``), else arrived if it is within
-        ``success_radius_m`` of its goal, else is lost if its estimate says it is there
-        (odometry mode: it stops where it believes its goal is)."""
+        ``success_radius_m`` of its goal, else is lost if it stops believing it is there
+        (odometry mode: its estimate within ``localization.stop_radius_m`` of its goal)."""
         obs, radius = self.obs, self.config.episode.success_radius_m
         hit = bool(obs.obstacle_contact[i])
         home = np.hypot(*(obs.poses[i, :2] - self.goals[i])) <= radius
@@ -292,8 +293,9 @@ class EpisodeCore:
             self._leave(i, Status.COLLIDED)
         elif home and not hit:
             self._leave(i, Status.ARRIVED)
-        elif (self.localizer.odometry and not hit and np.hypot(
-                *(self.localizer.poses(obs.poses)[i, :2] - self.goals[i])) <= radius):
+        elif (self.localizer.odometry and not hit
+              and np.hypot(*(self.localizer.poses(obs.poses)[i, :2] - self.goals[i]))
+              <= self.config.localization.stop_radius_m):
             self._leave(i, Status.LOST)
 
     def _leave(self, i: int, how: Status) -> None:
