@@ -33,6 +33,7 @@ robot.
 
 from __future__ import annotations
 
+import inspect
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -55,9 +56,20 @@ __all__ = ["EpisodeCore", "OnTick", "Robots", "Sensed", "episode_seeds"]
 #: those the robots know), every robot's raw lidar ranges ``(N, M)`` (m; rows of robots not in
 #: ``step.active`` are stale), the commands ``(N, 2)`` (v m/s, omega rad/s), the messages sent,
 #: by robot, and the true poses ``(N, 3)`` (the same as ``step.poses`` with exact
-#: localization). A hook observes the episode for the benchmark (a bag, a log): unlike a
-#: controller, it may see the truth.
-OnTick = Callable[[SwarmStep, np.ndarray, np.ndarray, dict[int, bytes], np.ndarray], None]
+#: localization; a hook of four arguments is called without them). A hook observes the episode
+#: for the benchmark (a bag, a log): unlike a controller, it may see the truth.
+OnTick = Callable[..., None]
+
+
+def _takes_truth(hook: Callable[..., None]) -> bool:
+    """Whether an ``on_tick`` hook takes the true poses (a fifth argument, or ``*args``); a
+    hook of four arguments is called without them."""
+    try:
+        params = inspect.signature(hook).parameters.values()
+    except (TypeError, ValueError):  # a builtin without a signature: the full call
+        return True
+    positional = [p for p in params if p.kind in (p.POSITIONAL_ONLY, p.POSITIONAL_OR_KEYWORD)]
+    return len(positional) >= 5 or any(p.kind is p.VAR_POSITIONAL for p in params)
 
 
 def episode_seeds(seed: int) -> tuple[int, np.random.Generator]:
@@ -109,7 +121,7 @@ class Robots:
         return self.active & (self.departure <= tick)
 
     def leave(self, i: int, how: Status) -> None:
-        """Robot ``i`` leaves the world: ``ARRIVED``, ``COLLIDED`` or ``TIMED_OUT``."""
+        """Robot ``i`` leaves the world: ``ARRIVED``, ``COLLIDED``, ``TIMED_OUT`` or ``LOST``."""
         self.active[i] = False
         self.left[i] = int(how)
 
@@ -180,6 +192,7 @@ class EpisodeCore:
         sim_seed, self.rng = episode_seeds(seed)
         self.world, self.config, self.sim = world, config, sim
         self.tape, self.on_tick, self.collisions_end = tape, on_tick, bool(collisions_end)
+        self._tick_truth = on_tick is not None and _takes_truth(on_tick)
         self.pipe = config.pipeline()
         self.goals = np.asarray(world.goals, dtype=np.float64)
         self.channel = Channel(n, range_m=config.comms.comm_range_m,
@@ -193,9 +206,11 @@ class EpisodeCore:
         #: The simulator's latest observation (true poses) and the current control tick.
         self.obs = sim.reset(seed=sim_seed)
         self.tick = 0
-        #: What the robots know of their poses (exact, or their odometry's estimates).
-        self.localizer = Localizer(config, self.obs.poses, localization_rng(seed))
         self.robots = Robots.start(self.obs, config.episode.departure_ticks(n))
+        #: What the robots know of their poses (exact, or their odometry's estimates).
+        last_tick = config.episode.max_ticks + int(self.robots.departure.max())
+        self.localizer = Localizer(config, self.obs.poses, localization_rng(seed),
+                                   ticks=last_tick)
         #: The swarm as :meth:`observe` saw it at the current tick (None before).
         self.swarm: SwarmStep | None = None
         for i in np.flatnonzero(self.robots.departure > 0):
@@ -265,7 +280,8 @@ class EpisodeCore:
         if self.tape is not None:
             self._record(step, commands, outgoing)
         if self.on_tick is not None:
-            self.on_tick(step, self.obs.scans, commands, outgoing, self.obs.poses)
+            self.on_tick(step, self.obs.scans, commands, outgoing,
+                         *((self.obs.poses,) if self._tick_truth else ()))
         idx = np.flatnonzero(robots.moving(self.tick))
         before = self.obs.poses
         obs = self.obs = self.sim.step(commands)

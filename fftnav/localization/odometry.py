@@ -165,7 +165,8 @@ def compose(poses: np.ndarray, rot1: np.ndarray, trans: np.ndarray, rot2: np.nda
 
 def sample_motion_model_odometry(estimate: np.ndarray, before: np.ndarray, after: np.ndarray,
                                  *, noise: OdometryNoise, dt_s: float,
-                                 rng: np.random.Generator) -> np.ndarray:
+                                 rng: np.random.Generator | None = None,
+                                 normals: np.ndarray | None = None) -> np.ndarray:
     """The estimates ``(N, 3)`` after the robots moved from ``before`` to ``after`` (true
     poses, ``(N, 3)``), read through noisy odometry (Probabilistic Robotics, Table 5.6).
 
@@ -179,9 +180,12 @@ def sample_motion_model_odometry(estimate: np.ndarray, before: np.ndarray, after
         The alphas and the gyro bias.
     dt_s : float
         Time between the two ticks (s; the bias's heading error is ``gyro_bias_radps dt_s``).
-    rng : numpy.random.Generator
-        The source of the noise: three normal draws per robot when any alpha is non-zero,
-        none otherwise.
+    rng : numpy.random.Generator, optional
+        The source of the noise: three standard normal draws per robot when any alpha is
+        non-zero, none otherwise.
+    normals : ndarray, shape (3, N), optional
+        The standard normal draws to use instead of ``rng``'s (rows: rot1, trans, rot2), e.g.
+        drawn ahead from one generator per robot.
 
     Returns
     -------
@@ -207,12 +211,25 @@ def sample_motion_model_odometry(estimate: np.ndarray, before: np.ndarray, after
                           f"got estimate of shape {est.shape}")
     a1, a2, a3, a4 = noise.alphas
     if any(noise.alphas):
-        e = rng.standard_normal((3, len(est)))
+        e = _normals(rng, normals, len(est))
         sd = np.sqrt([a1 * rot1**2 + a2 * trans**2, a3 * trans**2 + a4 * (rot1**2 + rot2**2),
                       a1 * rot2**2 + a2 * trans**2])
         rot1, trans, rot2 = rot1 - e[0] * sd[0], trans - e[1] * sd[1], rot2 - e[2] * sd[2]
     half = 0.5 * noise.gyro_bias_radps * dt
     return compose(est, rot1 + half, trans, rot2 + half)
+
+
+def _normals(rng: np.random.Generator | None, normals: np.ndarray | None, n: int
+             ) -> np.ndarray:
+    if normals is not None:
+        e = np.asarray(normals, dtype=float)
+        if e.shape != (3, n) or not np.isfinite(e).all():
+            raise FftnavError(f"normals must be a finite (3, {n}) array, got normals of shape "
+                              f"{e.shape}")
+        return e
+    if rng is None:
+        raise FftnavError("rng must be a numpy Generator when normals are not given, got None")
+    return rng.standard_normal((3, n))
 
 
 def reference_path(*, length_m: float = 20.0, speed_mps: float = 0.5, control_hz: float = 10.0,

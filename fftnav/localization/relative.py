@@ -28,6 +28,14 @@ def _pose(name: str, pose: np.ndarray) -> np.ndarray:
     return arr
 
 
+def _points(points: np.ndarray) -> np.ndarray:
+    arr = np.asarray(points, dtype=float)
+    if arr.shape[-1:] != (2,) or not np.isfinite(arr).all():
+        raise FftnavError(f"points must be finite (x_m, y_m) in their last axis, got points of "
+                          f"shape {arr.shape}")
+    return arr
+
+
 def measure_relative(observers: np.ndarray, target: np.ndarray, *, range_sigma_m: float,
                      bearing_sigma_rad: float, heading_sigma_rad: float,
                      rng: np.random.Generator | None) -> np.ndarray:
@@ -87,7 +95,7 @@ def to_frame(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
            [-1.,  1.]])
     """
     p = _pose("pose", pose).reshape(3)
-    pts = np.asarray(points, dtype=float)
+    pts = _points(points)
     c, s = np.cos(p[2]), np.sin(p[2])
     x, y = pts[..., 0], pts[..., 1]
     return np.stack([p[0] + c * x - s * y, p[1] + s * x + c * y], axis=-1)
@@ -102,7 +110,7 @@ def from_frame(points: np.ndarray, pose: np.ndarray) -> np.ndarray:
     [[3.0, 4.0]]
     """
     p = _pose("pose", pose).reshape(3)
-    pts = np.asarray(points, dtype=float)
+    pts = _points(points)
     c, s = np.cos(p[2]), np.sin(p[2])
     x, y = pts[..., 0] - p[0], pts[..., 1] - p[1]
     return np.stack([c * x + s * y, -s * x + c * y], axis=-1)

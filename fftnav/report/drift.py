@@ -12,9 +12,10 @@ preset) and, optionally, results of the same maps with exact localization (the p
   where their estimate put their goal counted as arrived: how well they navigated, whatever
   their drift) and the share of robots ``lost``;
 - ``drift_gains.csv``: the paired comparisons (per-map SPL differences over the same maps:
-  mean, 95% bootstrap interval, Wilcoxon p, Holm-adjusted over all rows as one family) of
-  ``collab`` against ``own-only`` and of ``fusion`` against each Bug baseline, per env and
-  drift;
+  mean, 95% bootstrap interval, two-sided Wilcoxon p, Holm-adjusted over all rows as one
+  family; and the non-inferiority test against a loss of :data:`MARGIN` (0.1 SPL points),
+  one-sided, Holm-adjusted over all rows) of ``collab`` against ``own-only`` and of ``fusion``
+  against each Bug baseline and ``own-only``, per env and drift;
 - ``drift.png``: SPL and AR against drift, one line per policy, one column per env;
 - ``drift.md``: the tables and the verdicts (``fftnav.report.sweep.verdict``).
 """
@@ -26,19 +27,26 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from scipy import stats
 
 from fftnav.errors import FftnavError
 from fftnav.files import write_atomic
+from fftnav.metrics import spl_terms
 from fftnav.report import new_figure, save_figure
 from fftnav.report.sweep import verdict
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.summary import bootstrap_ratio_ci, holm, in_order, paired_gain
 
-__all__ = ["COMPARISONS", "DRIFT_ORDER", "MAP_COLUMNS", "drift_episodes", "drift_gains",
-           "drift_maps", "drift_summary", "write_drift_report"]
+__all__ = ["ALPHA", "COMPARISONS", "DRIFT_ORDER", "MAP_COLUMNS", "MARGIN", "drift_episodes",
+           "drift_gains", "drift_maps", "drift_summary", "noninferiority_p",
+           "write_drift_report"]
 
 #: The x axis: exact localization, then the presets by drift.
 DRIFT_ORDER = ("exact", "none", "low", "typical", "high")
+#: The margin of the non-inferiority test (SPL as a fraction: 0.1 points).
+MARGIN = 0.001
+#: Significance level of the verdicts.
+ALPHA = 0.05
 #: The paired comparisons of ``drift_gains.csv``: (policy, reference).
 COMPARISONS = (("collab", "own-only"), ("fusion", "bug-left"), ("fusion", "bug-right"),
                ("fusion", "own-only"))
@@ -77,7 +85,14 @@ def drift_episodes(configs: Sequence[ExperimentConfig], roots: Sequence[Path],
         rows = rows[np.array(mine, dtype=bool) & rows["policy"].isin(set(ran["policy"]))]
         parts.append(rows.assign(drift="exact"))
     table = pd.concat(parts, ignore_index=True)
-    return table.drop_duplicates(subset=["env", "map_seed", "policy", "robot", "drift"])
+    keys = ["env", "map_seed", "policy", "robot", "drift"]
+    twice = table[table.duplicated(subset=keys, keep=False)]
+    if len(twice) and len(twice.drop_duplicates(subset=[*keys, "arrived", "spl",
+                                                         "path_length_m"])) != len(
+            twice.drop_duplicates(subset=keys)):
+        raise FftnavError("--exact folders must agree where they hold the same episodes, got "
+                          "different rows for the same env, map, policy and robot")
+    return table.drop_duplicates(subset=keys)
 
 
 #: Columns of ``drift_maps.csv``: per env, policy, drift and map, the robots and the sums
@@ -92,8 +107,8 @@ def drift_maps(episodes: pd.DataFrame) -> pd.DataFrame:
     their SPL counting those, and how many were lost."""
     lost = (episodes["failure"].fillna("") == "lost").to_numpy()
     believed = episodes["arrived"].astype(bool).to_numpy() | lost
-    terms = np.where(believed, episodes["optimal_length_m"] / np.maximum(
-        episodes["optimal_length_m"], episodes["path_length_m"]), 0.0)
+    terms = spl_terms(believed, episodes["path_length_m"].to_numpy(dtype=float),
+                      episodes["optimal_length_m"].to_numpy(dtype=float))
     frame = episodes.assign(believed=believed, spl_believed=terms, lost=lost,
                             arrived=episodes["arrived"].astype(bool))
     maps = frame.groupby(["env", "policy", "drift", "map_seed"], sort=False).agg(
@@ -144,13 +159,17 @@ def drift_gains(maps: pd.DataFrame) -> pd.DataFrame:
             if policy not in group or ref not in group:
                 continue
             pair = group[[policy, ref]].dropna()
-            gain, low, high, p = paired_gain((pair[policy] - pair[ref]).to_numpy())
+            diff = (pair[policy] - pair[ref]).to_numpy()
+            gain, low, high, p = paired_gain(diff)
             rows.append({"env": env, "drift": drift, "policy": policy, "reference": ref,
                          "maps": len(pair), "gain": gain, "gain_ci_low": low,
-                         "gain_ci_high": high, "p_value": p})
+                         "gain_ci_high": high, "p_value": p,
+                         "p_noninferior": noninferiority_p(diff)})
     table = pd.DataFrame(rows)
     if len(table):
         table["p_holm"] = holm(table["p_value"].to_numpy(dtype=float))
+        table["p_noninferior_holm"] = holm(table["p_noninferior"].to_numpy(dtype=float))
+        table["noninferior"] = table["p_noninferior_holm"] < ALPHA
         table["verdict"] = [verdict(g, lo, hi, p) for g, lo, hi, p in zip(
             table["gain"], table["gain_ci_low"], table["gain_ci_high"], table["p_holm"],
             strict=True)]
@@ -159,6 +178,22 @@ def drift_gains(maps: pd.DataFrame) -> pd.DataFrame:
                                   key=lambda c: c.map(order) if c.name == "drift" else c,
                                   kind="stable", ignore_index=True)
     return table
+
+
+def noninferiority_p(diff: np.ndarray, *, margin: float = MARGIN) -> float:
+    """One-sided Wilcoxon signed-rank p of the per-map differences ``diff`` against "the
+    policy is worse than its reference by ``margin`` or more" (H1: the differences plus
+    ``margin`` lie above 0); NaN when every shifted difference is 0.
+
+    >>> noninferiority_p(np.zeros(20)) < 1e-5  # identical on 20 maps: within the margin
+    True
+    >>> noninferiority_p(np.full(20, -0.01)) > 0.5  # a point worse on every map
+    True
+    """
+    shifted = np.asarray(diff, dtype=float) + margin
+    if not np.any(shifted != 0):
+        return float("nan")
+    return float(stats.wilcoxon(shifted, alternative="greater").pvalue)
 
 
 def _figure(summary: pd.DataFrame, policies: Sequence[str], path: Path) -> Path:
@@ -204,30 +239,38 @@ def _policy_table(summary: pd.DataFrame, measure: str, policies: Sequence[str]) 
 
 
 def _gain_lines(gains: pd.DataFrame) -> list[str]:
-    lines = ["| policy | vs | env | drift | maps | gain (SPL points) | p | p (Holm) | verdict |",
-             "|---|---|---|---|---|---|---|---|---|"]
+    lines = ["| policy | vs | env | drift | maps | gain (SPL points) | p | p (Holm) | verdict "
+             "| no worse than -0.1 (Holm p) |", "|---|---|---|---|---|---|---|---|---|---|"]
     for r in gains.itertuples(index=False):
-        p = "" if pd.isna(r.p_value) else f"{r.p_value:.2g}"
-        ph = "" if pd.isna(r.p_holm) else f"{r.p_holm:.2g}"
+        p, ph, pn = (("" if pd.isna(v) else f"{v:.2g}")
+                     for v in (r.p_value, r.p_holm, r.p_noninferior_holm))
         lines.append(f"| {r.policy} | {r.reference} | {r.env} | {r.drift} | {r.maps} | "
                      f"{100 * r.gain:+.1f} [{100 * r.gain_ci_low:+.1f}, "
-                     f"{100 * r.gain_ci_high:+.1f}] | {p} | {ph} | {r.verdict} |")
+                     f"{100 * r.gain_ci_high:+.1f}] | {p} | {ph} | {r.verdict} | "
+                     f"{'yes' if r.noninferior else 'not shown'} ({pn}) |")
     return lines
+
+
+def _any_cell_run(configs: Sequence[ExperimentConfig], roots: Sequence[Path]) -> bool:
+    """Whether the episodes of any cell of ``configs`` are in ``roots``."""
+    return any((Path(root) / name / "episodes.csv").is_file() if config.cells
+               else (Path(root) / "episodes.csv").is_file()
+               for config, root in zip(configs, roots, strict=True)
+               for name, _ in (config.cells or (("base", config),)))
 
 
 def write_drift_report(configs: Sequence[ExperimentConfig], roots: Sequence[Path], out: Path,
                        *, exact: Sequence[Path] = (), sources: Sequence[str] = ()) -> Path:
     """Write the drift report (module docstring) of ``configs`` run into ``roots`` into
     ``out`` (``sources``: the configs' files, as the report names them); returns the path of
-    ``drift.md``. Where a cell's ``episodes.csv`` is missing (git keeps the drift cells'
-    summaries only) and ``out`` holds ``drift_maps.csv``, the report is rebuilt from it."""
+    ``drift.md``. Where no cell's ``episodes.csv`` is there (git keeps the drift cells'
+    summaries only) and ``out`` holds ``drift_maps.csv``, the report is rebuilt from it; where
+    some are, every cell's must be."""
     out = Path(out)
-    try:
+    if _any_cell_run(configs, roots) or not (out / "drift_maps.csv").is_file():
         maps = drift_maps(drift_episodes(configs, roots, exact))
-    except FftnavError:
-        if not (out / "drift_maps.csv").is_file():
-            raise
-        maps = pd.read_csv(out / "drift_maps.csv")  # the cells' episodes are not kept in git
+    else:  # no cell's episodes here (git keeps their summaries): the committed per-map table
+        maps = pd.read_csv(out / "drift_maps.csv")
     policies = list(dict.fromkeys(p for c in configs for p in c.policy_names))
     summary = drift_summary(maps, policies=policies)
     gains = drift_gains(maps)
@@ -266,7 +309,9 @@ def write_drift_report(configs: Sequence[ExperimentConfig], roots: Sequence[Path
         "Per-map SPL differences on the same maps: mean and 95 % bootstrap interval (SPL "
         "points), two-sided Wilcoxon signed-rank p, Holm-adjusted over all rows of this table "
         "as one family. *pays*: interval above 0 and Holm p < 0.05; *costs*: below 0 and Holm "
-        "p < 0.05.",
+        "p < 0.05. *No worse than -0.1*: the one-sided Wilcoxon test of the differences plus "
+        "0.1 points against 0 (non-inferiority with a margin of 0.1 SPL points), Holm-adjusted "
+        "over all rows, p < 0.05.",
         "",
         *_gain_lines(gains),
         "",

@@ -33,15 +33,16 @@ def _config(**localization):
 
 
 class Spy(Controller):
-    """collab's Bug controller, keeping every pose it is given and every packet's sender
-    pose, by tick."""
+    """The controller of :attr:`policy` (a built-in), keeping every pose it is given (of the
+    robots driving) and every packet's sender pose, by tick."""
 
+    policy = "collab"
     given: list[tuple[int, np.ndarray]] = []
     placed: list[tuple[int, int, int, np.ndarray]] = []
 
     def __init__(self, setup):
         super().__init__(setup)
-        self.inner = resolve("collab").make(setup)
+        self.inner = resolve(Spy.policy).make(setup)
 
     def step(self, swarm):
         Spy.given.append((swarm.tick, swarm.poses[swarm.active].copy()))
@@ -60,8 +61,8 @@ class Spy(Controller):
         self.inner.finish(robot)
 
 
-def _spy(config):
-    Spy.given, Spy.placed = [], []
+def _spy(config, policy="collab"):
+    Spy.given, Spy.placed, Spy.policy = [], [], policy
     truth: dict[int, np.ndarray] = {}
     known: dict[int, np.ndarray] = {}
 
@@ -73,19 +74,33 @@ def _spy(config):
     return result, truth, known
 
 
-def test_with_odometry_no_controller_ever_sees_a_true_pose():
-    _, truth, known = _spy(_config(mode="odometry", drift="typical"))
-    seen = [(t, poses) for t, poses in Spy.given if t >= 1]
-    assert len(seen) > 100 and len(Spy.placed) > 20  # it drove and heard its neighbours
-    for t, poses in seen:
-        # no pose it was given equals any robot's true pose at that tick ...
-        gap = np.abs(poses[:, None, :] - truth[t][None, :, :]).max(axis=2)
-        assert gap.min() > 1e-9, (t, poses, truth[t])
-        # ... and the poses it was given are the estimates the episode kept
-        assert np.isin(poses, known[t]).all()
+BUILT_INS = ["bug-left", "bug-right", "fusion", "own-only", "collab", "vfh", "ftg", "fft-go"]
+
+
+@pytest.mark.parametrize("policy", BUILT_INS)
+def test_with_odometry_no_controller_ever_sees_a_true_pose(policy):
+    """No component (x, y or yaw) of a pose a controller is given equals that component of
+    any robot's true pose at that tick, once the robots have moved; the poses it is given are
+    the estimates the episode keeps; no packet places its sender at a true pose."""
+    _, truth, known = _spy(_config(mode="odometry", drift="typical"), policy)
+    start = truth[0]
+    checked = 0
+    for t, poses in Spy.given:
+        moved = (truth[t] != start).all(axis=1)  # robots whose every component changed
+        if t < 1 or not moved.any():
+            continue
+        for row in poses:
+            if not np.isin(row, known[t]).all():
+                raise AssertionError(f"tick {t}: {row} is not an estimate")
+            same = row[None, :] == truth[t][moved]
+            assert not same.any(), (t, row, truth[t][moved])
+            checked += 1
+    assert checked > 100
+    if policy in ("fusion", "collab"):
+        assert len(Spy.placed) > 5  # they heard their neighbours
     for t, receiver, sender, pose in Spy.placed:
-        sent = [truth[k][sender] for k in truth if k <= t]
-        assert min(np.abs(pose - s).max() for s in sent) > 1e-9, (t, receiver, sender)
+        for k in (k for k in truth if k <= t):
+            assert not (pose == truth[k][sender]).any(), (t, receiver, sender)
 
 
 def test_with_exact_poses_the_same_spy_sees_the_truth():
@@ -100,9 +115,8 @@ def test_with_exact_poses_the_same_spy_sees_the_truth():
 def test_noise_free_odometry_keeps_the_estimates_on_the_truth():
     result, truth, known = _spy(_config(mode="odometry", drift="none", range_noise_m=0.0,
                                         bearing_noise_deg=0.0, heading_noise_deg=0.0))
-    for t in truth:
-        moving = ~np.isnan(known[t]).any(axis=1)
-        assert np.allclose(known[t][moving], truth[t][moving], atol=1e-9)
+    for t, poses in Spy.given:  # the robots driving: their estimates are their true poses
+        assert all(np.abs(truth[t] - row).max(axis=1).min() < 1e-9 for row in poses)
     for t, _, sender, pose in Spy.placed:  # senders placed where they stood
         assert any(np.allclose(pose, truth[k][sender], atol=1e-9) for k in truth if k <= t)
     assert [r.arrived for r in result.rows] == [r.arrived for r in run_episode(
@@ -125,20 +139,36 @@ def test_a_robot_that_stops_at_the_goal_its_estimate_believes_in_is_lost():
     assert exact.arrived and exact.failure == ""
 
 
-def test_the_localizer_draws_from_its_own_generator():
+def test_each_robots_odometry_noise_is_its_own_whatever_the_others_do():
+    """Robot 0's estimate after two ticks is the same whether robot 1 moved, stood still or
+    was measured in between: its noise is drawn ahead from a generator of its own."""
     cfg = _config(mode="odometry", drift="high")
     start = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
-    moved = start + [0.05, 0.0, 0.0]
-    a = Localizer(cfg, start, localization_rng(3))
-    b = Localizer(cfg, start, localization_rng(3))
-    for loc in (a, b):
-        loc.moved(start, moved, np.array([0, 1]))
-    assert (a.poses(moved) == b.poses(moved)).all() and (a.poses(moved) != moved).any()
-    placed = a.locate(0, np.array([1]), moved)
-    assert placed.shape == (1, 3) and not np.allclose(placed[0], moved[0])
-    exact = Localizer(_config(mode="exact"), start, localization_rng(3))
-    assert exact.poses(moved) is moved
-    assert (exact.locate(0, np.array([1]), moved) == moved[0]).all()
+    step = start + [0.05, 0.0, 0.0]
+    finals = []
+    for moving, measure in [([0, 1], False), ([0], True), ([0], False)]:
+        loc = Localizer(cfg, start, localization_rng(3), ticks=5)
+        given = loc.poses(start)
+        loc.moved(start, step, np.array(moving))
+        if measure:
+            loc.locate(1, np.array([0]), step)
+        loc.moved(step, step + [0.05, 0.0, 0.0], np.array(moving))
+        finals.append(loc.poses(step)[0].copy())
+        assert (given == start).all()  # the poses handed out before did not change
+    assert (finals[0] == finals[1]).all() and (finals[1] == finals[2]).all()
+    assert not np.allclose(finals[0], [0.1, 0.0, 0.0])
+
+
+def test_the_localizer_places_senders_by_measurement():
+    cfg = _config(mode="odometry", drift="high")
+    start = np.array([[0.0, 0.0, 0.0], [1.0, 0.0, 0.0]])
+    loc = Localizer(cfg, start, localization_rng(3), ticks=5)
+    placed = loc.locate(0, np.array([1]), start)
+    assert placed.shape == (1, 3) and not np.allclose(placed[0], start[0])
+    assert np.allclose(placed[0], start[0], atol=0.5)
+    exact = Localizer(_config(mode="exact"), start, localization_rng(3), ticks=5)
+    assert exact.poses(start) is start
+    assert (exact.locate(0, np.array([1]), start) == start[0]).all()
 
 
 @pytest.mark.parametrize(("key", "value", "message"), [
@@ -159,3 +189,11 @@ def test_custom_alphas_and_the_bias_make_the_noise():
     assert noise.alphas == (0.0, 0.0, 0.2, 0.0)
     assert noise.gyro_bias_radps == pytest.approx(math.radians(1.0))
     assert Status.LOST.gone
+
+
+def test_a_hook_of_four_arguments_is_called_without_the_truth():
+    seen = []
+    world = World("open", 0, (12.0, 14.0), (), np.array([[6.0, 1.0, UP]]), np.array([[6.0, 4.0]]))
+    run_episode(world, "own-only", seed=0, config=_config(mode="odometry"),
+                on_tick=lambda step, scans, commands, outgoing: seen.append(step.tick))
+    assert seen[:3] == [0, 1, 2]

@@ -90,3 +90,17 @@ def test_bad_input_names_the_parameter():
         sample_motion_model_odometry(np.zeros((2, 3)), np.zeros((1, 3)), np.zeros((1, 3)),
                                      noise=OdometryNoise(), dt_s=0.1,
                                      rng=np.random.default_rng(0))
+
+
+@pytest.mark.parametrize("alphas", [(0.05, 0.02, 0.04, 0.01), (0.2, 0.005, 0.01, 0.05)])
+def test_a_turn_drive_turn_has_each_readings_variance(alphas):
+    """A motion with both turns and a drive: each reading's error variance is its term of
+    Table 5.6 (rot1 and rot2 kept apart), within 10 %."""
+    a1, a2, a3, a4 = alphas
+    rot1, trans, rot2 = 0.4, 0.1, -0.3
+    e_rot1, e_trans, e_rot2 = _read_back(OdometryNoise(*alphas), np.random.default_rng(5),
+                                         (rot1, trans, rot2))
+    assert np.mean(e_rot1**2) == pytest.approx(a1 * rot1**2 + a2 * trans**2, rel=0.1)
+    assert np.mean(e_trans**2) == pytest.approx(a3 * trans**2 + a4 * (rot1**2 + rot2**2),
+                                                rel=0.1)
+    assert np.mean(e_rot2**2) == pytest.approx(a1 * rot2**2 + a2 * trans**2, rel=0.1)
