@@ -32,8 +32,9 @@ else, NaN or inf included, is a ``ValueError`` naming the agent. Finite values o
 Rewards (:class:`Rewards`, configurable; judged on the true poses, like the benchmark, with
 odometry too): ``progress`` times the decrease of the distance to the goal over the step (m),
 plus ``arrival`` once on arrival (within ``success_radius_m``), plus ``collision`` (negative)
-once on touching an obstacle, plus ``step`` every step. An agent terminates on arrival, collision or, with odometry, when it stops where its estimate says its
-goal is and it is not (lost; it is then parked out of the world;
+once on touching an obstacle, plus ``step`` every step. An agent terminates on arrival,
+collision or, with odometry, when it stops where its estimate says its goal is and it is not
+(lost; it is then parked out of the world;
 ``terminate_on_collision=False`` keeps it driving, with the collision reward on every step in
 contact) and is truncated at the time limit (``episode.time_limit_s`` after its departure).
 ``infos`` give each agent's ``arrived``, ``collided``, ``goal_distance_m`` and true ``pose``
