@@ -199,7 +199,7 @@ def noninferiority_p(diff: np.ndarray, *, margin: float = MARGIN) -> float:
 def _figure(summary: pd.DataFrame, policies: Sequence[str], path: Path) -> Path:
     envs = in_order(summary["env"], None)
     drifts = [d for d in DRIFT_ORDER if d in set(summary["drift"])]
-    fig = new_figure(figsize=(3.3 * len(envs), 6.0), layout="constrained")
+    fig = new_figure(figsize=(max(3.3 * len(envs), 7.0), 6.4), layout="constrained")
     axes = fig.subplots(2, len(envs), squeeze=False, sharex=True, sharey="row")
     styles = ["-o", "-s", "-^", "-v", "-D", "--o", "--s", "--^", "--v", "--D"]
     for col, env in enumerate(envs):
@@ -215,7 +215,9 @@ def _figure(summary: pd.DataFrame, policies: Sequence[str], path: Path) -> Path:
         axes[1, col].set_xlabel("localization (drift preset)")
     axes[0, 0].set_ylabel("SPL (%)")
     axes[1, 0].set_ylabel("AR (%)")
-    axes[0, -1].legend(fontsize=7, loc="lower left")
+    handles, labels = axes[0, 0].get_legend_handles_labels()
+    fig.legend(handles, labels, loc="outside lower center", ncol=min(len(labels), 8),
+               fontsize=7)
     save_figure(fig, path, dpi=100)
     return path
 
@@ -267,6 +269,9 @@ def write_drift_report(configs: Sequence[ExperimentConfig], roots: Sequence[Path
     summaries only) and ``out`` holds ``drift_maps.csv``, the report is rebuilt from it; where
     some are, every cell's must be."""
     out = Path(out)
+    if out.exists() and not out.is_dir():
+        raise FftnavError(f"--out must be a folder, got {str(out)!r}, a file")
+    out.mkdir(parents=True, exist_ok=True)
     if _any_cell_run(configs, roots) or not (out / "drift_maps.csv").is_file():
         maps = drift_maps(drift_episodes(configs, roots, exact))
     else:  # no cell's episodes here (git keeps their summaries): the committed per-map table
