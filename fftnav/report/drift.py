@@ -27,7 +27,6 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
-from scipy import stats
 
 from fftnav.errors import FftnavError
 from fftnav.files import write_atomic
@@ -35,11 +34,16 @@ from fftnav.metrics import spl_terms
 from fftnav.report import new_figure, save_figure
 from fftnav.report.sweep import verdict
 from fftnav.runner.config import ExperimentConfig
-from fftnav.runner.summary import bootstrap_ratio_ci, holm, in_order, paired_gain
+from fftnav.runner.summary import (
+    bootstrap_ratio_ci,
+    holm,
+    in_order,
+    noninferiority_p,
+    paired_gain,
+)
 
 __all__ = ["ALPHA", "COMPARISONS", "DRIFT_ORDER", "MAP_COLUMNS", "MARGIN", "drift_episodes",
-           "drift_gains", "drift_maps", "drift_summary", "noninferiority_p",
-           "write_drift_report"]
+           "drift_gains", "drift_maps", "drift_summary", "write_drift_report"]
 
 #: The x axis: exact localization, then the presets by drift.
 DRIFT_ORDER = ("exact", "none", "low", "typical", "high")
@@ -164,7 +168,7 @@ def drift_gains(maps: pd.DataFrame) -> pd.DataFrame:
             rows.append({"env": env, "drift": drift, "policy": policy, "reference": ref,
                          "maps": len(pair), "gain": gain, "gain_ci_low": low,
                          "gain_ci_high": high, "p_value": p,
-                         "p_noninferior": noninferiority_p(diff)})
+                         "p_noninferior": noninferiority_p(diff, margin=MARGIN)})
     table = pd.DataFrame(rows)
     if len(table):
         table["p_holm"] = holm(table["p_value"].to_numpy(dtype=float))
@@ -178,22 +182,6 @@ def drift_gains(maps: pd.DataFrame) -> pd.DataFrame:
                                   key=lambda c: c.map(order) if c.name == "drift" else c,
                                   kind="stable", ignore_index=True)
     return table
-
-
-def noninferiority_p(diff: np.ndarray, *, margin: float = MARGIN) -> float:
-    """One-sided Wilcoxon signed-rank p of the per-map differences ``diff`` against "the
-    policy is worse than its reference by ``margin`` or more" (H1: the differences plus
-    ``margin`` lie above 0); NaN when every shifted difference is 0.
-
-    >>> noninferiority_p(np.zeros(20)) < 1e-5  # identical on 20 maps: within the margin
-    True
-    >>> noninferiority_p(np.full(20, -0.01)) > 0.5  # a point worse on every map
-    True
-    """
-    shifted = np.asarray(diff, dtype=float) + margin
-    if not np.any(shifted != 0):
-        return float("nan")
-    return float(stats.wilcoxon(shifted, alternative="greater").pvalue)
 
 
 def _figure(summary: pd.DataFrame, policies: Sequence[str], path: Path) -> Path:
