@@ -259,11 +259,11 @@ def write_drift_report(configs: Sequence[ExperimentConfig], roots: Sequence[Path
     out = Path(out)
     if out.exists() and not out.is_dir():
         raise FftnavError(f"--out must be a folder, got {str(out)!r}, a file")
-    out.mkdir(parents=True, exist_ok=True)
     if _any_cell_run(configs, roots) or not (out / "drift_maps.csv").is_file():
         maps = drift_maps(drift_episodes(configs, roots, exact))
     else:  # no cell's episodes here (git keeps their summaries): the committed per-map table
         maps = pd.read_csv(out / "drift_maps.csv")
+    out.mkdir(parents=True, exist_ok=True)
     policies = list(dict.fromkeys(p for c in configs for p in c.policy_names))
     summary = drift_summary(maps, policies=policies)
     gains = drift_gains(maps)
