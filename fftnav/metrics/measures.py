@@ -22,7 +22,8 @@ from fftnav.errors import FftnavError
 from fftnav.metrics.paths import _success, arrival_rate, average_path_length_m, spl, spl_terms
 from fftnav.registry import Registry, first_line
 
-__all__ = ["MEASURES", "Measure", "NEIGHBOUR_REASONS", "Table", "evaluate", "register_measure"]
+__all__ = ["MEASURES", "Measure", "NEIGHBOUR_REASONS", "Table", "believed", "believed_spl_terms",
+           "evaluate", "register_measure"]
 
 #: An episode's per-robot table: a mapping (or ``pandas.DataFrame``) from column to values.
 Table = Mapping[str, Any]
@@ -226,7 +227,7 @@ for _reason in NEIGHBOUR_REASONS:
     register_measure(f"share_neighbours_{_reason}")(_neighbour_share(_reason))
 
 
-def _believed(table: Table) -> np.ndarray:
+def believed(table: Table) -> np.ndarray:
     """Per robot: it arrived, or it stopped where its estimate said its goal was (``failure``
     ``lost``)."""
     failure = np.asarray(table["failure"], dtype=object) if "failure" in table else None
@@ -234,26 +235,27 @@ def _believed(table: Table) -> np.ndarray:
     return _column(table, "arrived").astype(bool) | lost
 
 
-def _believed_spl_terms(table: Table) -> np.ndarray:
-    return spl_terms(_believed(table), _column(table, "path_length_m").astype(float),
+def believed_spl_terms(table: Table) -> np.ndarray:
+    """Per robot, its SPL term counting a robot that stopped at its believed goal as arrived."""
+    return spl_terms(believed(table), _column(table, "path_length_m").astype(float),
                      _column(table, "optimal_length_m").astype(float))
 
 
-@register_measure("ar_believed", terms=lambda t: (_believed(t).astype(float), _ones(t)),
+@register_measure("ar_believed", terms=lambda t: (believed(t).astype(float), _ones(t)),
                   requires="odometry")
 def _ar_believed(table: Table) -> float:
     """The fraction of robots that reached their goal as they believed it (arrived, or stopped
     where their own estimate put the goal: ``lost``): how well they navigated, whatever their
     drift (odometry only)."""
-    return float(np.mean(_believed(table))) if len(_ones(table)) else float("nan")
+    return float(np.mean(believed(table))) if len(_ones(table)) else float("nan")
 
 
-@register_measure("spl_believed", terms=lambda t: (_believed_spl_terms(t), _ones(t)),
+@register_measure("spl_believed", terms=lambda t: (believed_spl_terms(t), _ones(t)),
                   requires="odometry")
 def _spl_believed(table: Table) -> float:
     """SPL with the robots that stopped at their believed goal counted as successes
     (``ar_believed``; odometry only)."""
-    terms = _believed_spl_terms(table)
+    terms = believed_spl_terms(table)
     return float(np.mean(terms)) if len(terms) else float("nan")
 
 

@@ -30,7 +30,7 @@ import pandas as pd
 
 from fftnav.errors import FftnavError
 from fftnav.files import write_atomic
-from fftnav.metrics import spl_terms
+from fftnav.metrics.measures import believed, believed_spl_terms
 from fftnav.report import new_figure, save_figure
 from fftnav.report.sweep import verdict
 from fftnav.runner.config import ExperimentConfig
@@ -56,6 +56,14 @@ COMPARISONS = (("collab", "own-only"), ("fusion", "bug-left"), ("fusion", "bug-r
                ("fusion", "own-only"))
 
 
+def _cell_episodes(config: ExperimentConfig, root: Path) -> list[tuple[str, ExperimentConfig,
+                                                                       Path]]:
+    """Each cell of ``config`` run into ``root``: its name, config and ``episodes.csv``."""
+    if not config.cells:
+        return [("base", config, Path(root) / "episodes.csv")]
+    return [(name, cell, Path(root) / name / "episodes.csv") for name, cell in config.cells]
+
+
 def _drift_of(config: ExperimentConfig) -> str:
     loc = config.swarm.localization
     return loc.drift if loc.odometry else "exact"
@@ -68,9 +76,7 @@ def drift_episodes(configs: Sequence[ExperimentConfig], roots: Sequence[Path],
     folders, kept to the (env, map) pairs and policies the drift cells ran."""
     parts = []
     for config, root in zip(configs, roots, strict=True):
-        for name, cell in config.cells or (("base", config),):
-            path = Path(root) / name / "episodes.csv" if config.cells else Path(root) / (
-                "episodes.csv")
+        for name, cell, path in _cell_episodes(config, root):
             if not path.is_file():
                 raise FftnavError(f"results must hold the episodes.csv of experiment "
                                   f"{config.name!r}, cell {name!r}: got no {path} (run the "
@@ -110,10 +116,8 @@ def drift_maps(episodes: pd.DataFrame) -> pd.DataFrame:
     sum of their SPL, how many reached their believed goal (arrived or ``lost``), the sum of
     their SPL counting those, and how many were lost."""
     lost = (episodes["failure"].fillna("") == "lost").to_numpy()
-    believed = episodes["arrived"].astype(bool).to_numpy() | lost
-    terms = spl_terms(believed, episodes["path_length_m"].to_numpy(dtype=float),
-                      episodes["optimal_length_m"].to_numpy(dtype=float))
-    frame = episodes.assign(believed=believed, spl_believed=terms, lost=lost,
+    frame = episodes.assign(believed=believed(episodes),
+                            spl_believed=believed_spl_terms(episodes), lost=lost,
                             arrived=episodes["arrived"].astype(bool))
     maps = frame.groupby(["env", "policy", "drift", "map_seed"], sort=False).agg(
         robots=("robot", "count"), arrived=("arrived", "sum"), spl=("spl", "sum"),
@@ -243,10 +247,8 @@ def _gain_lines(gains: pd.DataFrame) -> list[str]:
 
 def _any_cell_run(configs: Sequence[ExperimentConfig], roots: Sequence[Path]) -> bool:
     """Whether the episodes of any cell of ``configs`` are in ``roots``."""
-    return any((Path(root) / name / "episodes.csv").is_file() if config.cells
-               else (Path(root) / "episodes.csv").is_file()
-               for config, root in zip(configs, roots, strict=True)
-               for name, _ in (config.cells or (("base", config),)))
+    return any(path.is_file() for config, root in zip(configs, roots, strict=True)
+               for _, _, path in _cell_episodes(config, root))
 
 
 def write_drift_report(configs: Sequence[ExperimentConfig], roots: Sequence[Path], out: Path,
