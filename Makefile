@@ -5,7 +5,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install install-browser test lint benchmark bench figures collab drift replays clean
+.PHONY: install install-browser test lint benchmark bench figures collab drift replays \
+	leaderboard references evaluate-time clean
 
 install: $(STAMP)
 
@@ -85,6 +86,21 @@ figures: $(STAMP)
 # episodes.csv first (`fftnav replay RESULTS_DIR --task TASK`).
 replays: $(STAMP)
 	$(BIN)/python experiments/replay_figures.py
+
+# leaderboard: every built-in on every versioned suite (fftnav suites), from the reference rows
+# the package ships, and the methods added with `fftnav leaderboard add`: results/leaderboard/.
+leaderboard: $(STAMP)
+	$(BIN)/fftnav leaderboard build --out results/leaderboard
+
+# references (maintainers): rerun every built-in on every suite (about an hour on 2 cores,
+# resumable) and write the package's reference rows, fftnav/suites/references/.
+references: $(STAMP)
+	$(BIN)/fftnav suites --references --runs build/suite-runs
+
+# evaluate-time: the README's controller through `fftnav evaluate --suite paper-v2` and
+# `make benchmark`'s run, side by side: results/evaluate_time.csv.
+evaluate-time: $(STAMP)
+	$(BIN)/python experiments/evaluate_time.py
 
 clean:
 	rm -rf $(VENV) build *.egg-info .pytest_cache .ruff_cache

@@ -175,3 +175,33 @@ def test_code_references_resolve(page):
             break
     for file in files:
         assert (ROOT / file).exists(), f"{page.name}: `{file}` does not exist"
+
+
+def test_the_readme_leaderboard_is_the_committed_leaderboard():
+    """The README's leaderboard lists every built-in on every suite with the committed
+    results/leaderboard/leaderboard.csv's figures (SPL and AR in percent, as written), in the
+    order of the pooled suite's ranking."""
+    section = re.search(r"\n## Leaderboard[^\n]*\n(.*?)\n## ", README.read_text(), re.S)[1]
+    lines = [line.strip().strip("|").split("|") for line in section.splitlines()
+             if line.startswith("|")]
+    header = [cell.strip() for cell in lines[0]]
+    rows = [dict(zip(header, (cell.strip() for cell in row), strict=True)) for row in lines[2:]]
+    board = pd.read_csv(ROOT / "results" / "leaderboard" / "leaderboard.csv")
+    from fftnav.suites import builtin_methods, ordered_suites
+
+    suites = [s.name for s in ordered_suites()]
+    assert set(board["suite"]) == set(suites)
+    pooled = [s for s in suites if "all" in s][0]
+    order = list(board[board["suite"] == pooled].sort_values("rank")["method"])
+    assert [re.search(r"`([\w-]+)`", r["method"])[1] for r in rows] == order
+    assert set(order) == set(builtin_methods())
+    by = board.set_index(["suite", "method"])
+    for row in rows:
+        method = re.search(r"`([\w-]+)`", row["method"])[1]
+        assert int(row["rank"]) == by.loc[(pooled, method), "rank"]
+        for suite in suites:
+            cell = row[f"{suite} SPL %"]
+            record = by.loc[(suite, method)]
+            values = [100 * record[c] for c in ("spl", "spl_ci_low", "spl_ci_high")]
+            assert all(map(same, quoted(cell), values[:len(quoted(cell))])), (method, suite)
+        assert same(row[f"{pooled} AR %"], 100 * by.loc[(pooled, method), "ar"])

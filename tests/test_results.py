@@ -49,9 +49,9 @@ def test_regenerable_files_are_ignored_at_any_depth():
     deeper (a sweep's cells), are ignored by git and none is tracked."""
     names = [f"results/{folder}/{kind}/x.{ext}" for folder in ("t", "collab/c", "a/b/c")
              for kind, ext in (("episodes", "csv"), ("reference", "npy"), ("records", "npz"),
-                               ("trajectories", "npz"))]
+                               ("trajectories", "npz"), ("timing", "json"))]
     ignored = subprocess.run(["git", "-C", str(ROOT), "check-ignore", "--no-index", *names],
                              capture_output=True, text=True).stdout.split()
     assert ignored == names
-    kinds = ("/episodes/", "/reference/", "/records/", "/trajectories/")
+    kinds = ("/episodes/", "/reference/", "/records/", "/trajectories/", "/timing/")
     assert [p for p in _tracked_results() if any(k in p for k in kinds)] == []

@@ -99,3 +99,37 @@ def test_installed_wheel_generates_runs_an_episode_and_an_experiment(installed):
     import fftnav
 
     assert f'"fftnav_version": "{fftnav.__version__}"' in info
+
+
+def test_the_wheel_ships_the_suites_and_evaluates_a_plugin(installed, tmp_path):
+    """The suites' definitions, pins and reference rows ship (``fftnav suites`` reads and
+    checks them from the installed package), and ``fftnav evaluate`` ranks a plugin written
+    outside the repository beside the references of a suite (the tiny test suite, through
+    ``$FFTNAV_SUITES_HOME``: a shipped suite's 40 or more episodes would take minutes)."""
+    import os
+    import re
+
+    from tests.suites.conftest import make_home
+
+    bin_dir, work = installed
+    wheel = next((bin_dir.parents[1] / "dist").glob("fftnav-*.whl"))
+    names = zipfile.ZipFile(wheel).namelist()
+    for suite in ("paper-v2", "walls-v1", "traps-v1"):
+        assert f"fftnav/suites/defs/{suite}.toml" in names
+        assert f"fftnav/suites/pins/{suite}.json" in names
+        assert f"fftnav/suites/references/{suite}/SHA256SUMS" in names
+        assert f"fftnav/suites/references/{suite}/fusion.csv" in names
+    listed = _run(bin_dir / "fftnav", "suites", cwd=work).stdout
+    assert re.search(r"paper-v2 .*\n.*\n.*\n    references: 10 built-ins x 40 maps", listed)
+    home = tmp_path / "home"
+    make_home(home)
+    section = re.search(r"## Benchmark your own method\n(.*?)\n## ",
+                        (ROOT / "README.md").read_text(), re.S).group(1)
+    (work / "my_controller.py").write_text(re.search(r"```python\n(.*?)```", section, re.S)[1])
+    run = subprocess.run([str(bin_dir / "fftnav"), "evaluate", "my_controller.py:SafeGreedy",
+                          "--suite", "tiny", "--out", "ev", "--workers", "1", "--quiet"],
+                         cwd=work, capture_output=True, text=True, timeout=600,
+                         env={**os.environ, "FFTNAV_SUITES_HOME": str(home)})
+    assert run.returncode == 0, run.stderr
+    assert re.search(r"^>\s+\d+\s+safe-greedy\s", run.stdout, re.M), run.stdout
+    assert (work / "ev" / "report.md").exists()

@@ -24,7 +24,8 @@ from collections.abc import Sequence
 from typing import Any
 
 #: Subcommand modules, in the order ``fftnav --help`` lists them.
-_MODULES = ("scan", "scan3d", "fly3d", "world", "episode", "replay", "run", "figure", "bench")
+_MODULES = ("scan", "scan3d", "fly3d", "world", "episode", "replay", "run", "suites", "evaluate",
+            "leaderboard", "figure", "bench")
 
 EXIT_USAGE = 2
 #: Exit statuses of a command stopped by Ctrl-C (128 + SIGINT) and by SIGTERM (128 + SIGTERM).
@@ -39,6 +40,13 @@ class Terminated(BaseException):
 
 class CliError(Exception):
     """A user error detected by the CLI layer itself (exit status 2)."""
+
+
+def workers_count(text: str) -> int:
+    """argparse type of ``--workers``: an integer >= 1."""
+    if not text.isdigit() or int(text) < 1:
+        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
+    return int(text)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -15,6 +15,8 @@ from fftnav.files import check_target, write_atomic
 from fftnav.navigation.resolve import registered_names, resolve
 
 if TYPE_CHECKING:
+    import numpy as np
+
     from fftnav.episode.record import EpisodeRow
 
 
@@ -29,31 +31,67 @@ def _overrides(pairs: list[str]) -> dict[str, str]:
     return out
 
 
-def outcome_line(rows: Sequence[EpisodeRow]) -> str:
+#: Failed robots an outcome line names one by one (:func:`outcome_line`); the others are
+#: counted by cause.
+NAMED_FAILURES = 20
+
+
+def outcome_line(rows: Sequence[EpisodeRow], *,
+                 failed_at_s: Sequence[float] | None = None) -> str:
     """How an episode went, in one line: robots arrived, mean SPL, collided, lost (stopped at a
-    goal only their odometry believed in, when there are any), timed out (the others), and the
-    failures by cause (``failure`` column).
+    goal only their odometry believed in, when there are any), timed out (the others), then
+    each robot that did not arrive with its cause (``failure`` column) and, for one that
+    collided or was lost, the time it did so (``failed_at_s``, s, indexed by robot: the start of
+    the control period in which it touched or stopped, :func:`last_period_s`). The first
+    :data:`NAMED_FAILURES` are named, the others counted by cause.
 
     >>> from fftnav.episode.record import EpisodeRow
-    >>> def row(arrived, collided, spl, failure=""):
-    ...     return EpisodeRow(0, "p", arrived, collided, 1, 1, 1, spl, 1, *[0] * 7,
+    >>> def row(robot, arrived, collided, spl, failure=""):
+    ...     return EpisodeRow(robot, "p", arrived, collided, 1, 1, 1, spl, 1, *[0] * 7,
     ...                       failure=failure)
-    >>> outcome_line([row(True, False, 0.9), row(False, True, 0, "collision"),
-    ...               row(False, False, 0, "stuck")])
-    '1/3 arrived, SPL 0.30, 1 collided, 1 timed out; failures: collision 1, stuck 1'
-    >>> outcome_line([row(True, False, 0.9), row(False, False, 0, "lost")])
-    '1/2 arrived, SPL 0.45, 0 collided, 1 lost, 0 timed out; failures: lost 1'
+    >>> outcome_line([row(0, True, False, 0.9), row(1, False, True, 0, "collision"),
+    ...               row(2, False, False, 0, "stuck")], failed_at_s=[20.0, 41.23, 119.9])
+    '1/3 arrived, SPL 0.30, 1 collided, 1 timed out; failed: 1 (collision at 41.2 s), 2 (stuck)'
+    >>> outcome_line([row(0, True, False, 0.9), row(1, False, False, 0, "lost")])
+    '1/2 arrived, SPL 0.45, 0 collided, 1 lost, 0 timed out; failed: 1 (lost)'
     """
     arrived = sum(bool(r.arrived) for r in rows)
     collided = sum(bool(r.collided) for r in rows)
     spl = sum(r.spl for r in rows) / len(rows) if rows else float("nan")
-    causes = Counter(r.failure for r in rows if r.failure)
-    why = ("; failures: " + ", ".join(f"{c} {n}" for c, n in sorted(causes.items()))
-           if causes else "")
-    lost = causes.get("lost", 0)
+    lost = sum(r.failure == "lost" for r in rows)
+    failed = [r for r in rows if not r.arrived]
+    named = [f"{r.robot} ({r.failure or 'no cause'}{_left_at(r, failed_at_s)})"
+             for r in failed[:NAMED_FAILURES]]
+    rest = Counter(r.failure or "no cause" for r in failed[NAMED_FAILURES:])
+    more = (f" and {sum(rest.values())} more ("
+            + ", ".join(f"{c} {n}" for c, n in sorted(rest.items())) + ")") if rest else ""
+    why = f"; failed: {', '.join(named)}{more}" if failed else ""
     return (f"{arrived}/{len(rows)} arrived, SPL {spl:.2f}, {collided} collided, "
             f"{f'{lost} lost, ' if lost else ''}{len(rows) - arrived - collided - lost} "
             f"timed out{why}")
+
+
+def _left_at(row: EpisodeRow, failed_at_s: Sequence[float] | None) -> str:
+    """`` at T s`` for a robot that collided or was lost, when its failure time is known."""
+    if failed_at_s is None or not (row.collided or row.failure == "lost"):
+        return ""
+    return f" at {failed_at_s[row.robot]:.1f} s"
+
+
+def last_period_s(trajectories: Sequence[np.ndarray], departure_ticks: Sequence[int],
+                  control_hz: float) -> list[float]:
+    """When the last control period each robot drove began (s): its trajectory's sample k is
+    tick ``departure + k`` (:func:`fftnav.episode.loop.positions_by_tick`) and its last sample
+    the pose after that period, in which it arrived, touched an obstacle, stopped (lost) or
+    used up its time. For a robot that collided or was lost this is its failure tick, the one
+    the replays show it fail at (:func:`fftnav.report.replay.failure_ticks`).
+
+    >>> import numpy as np
+    >>> last_period_s([np.zeros((5, 3)), np.zeros((2, 3))], [0, 30], 10.0)
+    [0.3, 3.0]
+    """
+    return [max(int(d) + len(t) - 2, 0) / control_hz
+            for t, d in zip(trajectories, departure_ticks, strict=True)]
 
 
 def cmd_episode(args: argparse.Namespace) -> int:
@@ -95,7 +133,10 @@ def cmd_episode(args: argparse.Namespace) -> int:
         from fftnav.report.trajectories import plot_episode
 
         plot_episode(world, result.trajectories, result.rows, args.plot, r0_m=config.robot.r0_m)
-    sys.stderr.write(outcome_line(result.rows) + "\n")
+    failed_at = last_period_s(result.trajectories,
+                              config.episode.departure_ticks(len(world.starts)),
+                              config.episode.control_hz)
+    sys.stderr.write(outcome_line(result.rows, failed_at_s=failed_at) + "\n")
     return 0
 
 

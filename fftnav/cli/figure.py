@@ -6,7 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from fftnav.cli.run import _workers
+from fftnav.cli import workers_count
 from fftnav.errors import FftnavError
 
 
@@ -102,7 +102,7 @@ def register(sub: argparse._SubParsersAction) -> None:
                         "(no episode run, its CSVs and run_info.json untouched)")
     r.add_argument("config", help="experiment TOML of the results folder")
     r.add_argument("--out", metavar="DIR", help="results folder (default: experiment.out)")
-    r.add_argument("--workers", type=_workers, default=1, metavar="N",
+    r.add_argument("--workers", type=workers_count, default=1, metavar="N",
                    help="processes computing maps.csv (default 1)")
     r.set_defaults(func=cmd_figure_report)
     x = figs.add_parser("failures", help="paths of the robots of one episode that failed")

@@ -1,8 +1,9 @@
 """``fftnav replay``: watch an episode as an HTML player, a GIF, an MP4 or one PNG frame
-(docs/analysis.md): a recording (``fftnav episode --record``, an experiment's ``records/``), or
-an episode of a results folder made on demand (``fftnav replay RESULTS_DIR --task TASK``:
-rerun from the folder's config and seeds, recorded, its rows checked against the folder's
-``episodes.csv``)."""
+(docs/analysis.md), several side by side on one clock: a recording (``fftnav episode
+--record``, an experiment's ``records/``), or an episode of a results folder made on demand
+(``fftnav replay RESULTS_DIR --task TASK``: rerun from the folder's config and seeds, recorded,
+its rows checked against the folder's ``episodes.csv``), or a reference episode of a suite
+(``fftnav replay --suite SUITE --task TASK``, its rows checked against the shipped ones)."""
 
 from __future__ import annotations
 
@@ -19,7 +20,7 @@ FORMATS = (".html", ".gif", ".mp4", ".png")
 
 #: The library's parameter names in messages -> the flags a user typed.
 FLAGS = {"from_s": "--from", "to_s": "--to", "at_s": "--at", "robot": "--robot",
-         "speed": "--speed", "task": "--task", "results_dir": "RESULTS_DIR"}
+         "speed": "--speed", "task": "--task", "results_dir": "RESULTS_DIR", "suite": "--suite"}
 
 
 def cmd_replay(args: argparse.Namespace) -> int:
@@ -49,13 +50,16 @@ def _check_options(args: argparse.Namespace, suffix: str) -> None:
         raise CliError("--at picks the frame of a .png; use --from and --to for a window")
     if suffix == ".png" and (args.start is not None or args.stop is not None):
         raise CliError("a .png is one frame: pick it with --at S")
-    if args.task and len(args.recording) != 1:
+    if args.suite and not args.task:
+        raise CliError("--suite needs --task: the reference episode to rerun")
+    if args.suite and args.recording:
+        raise CliError(f"--suite reruns the suite's reference episodes: give no PATH, got "
+                       f"{' '.join(args.recording)}")
+    if not args.suite and not args.recording:
+        raise CliError("give a recording, a results folder with --task, or --suite with --task")
+    if args.task and not args.suite and len(args.recording) != 1:
         raise CliError(f"--task names episodes of one results folder, got "
                        f"{len(args.recording)} paths: {' '.join(args.recording)}")
-    sources = len(args.task or args.recording)
-    if suffix == ".html" and sources > 1:
-        raise CliError(f"an .html player shows one recording, got {sources}; "
-                       "side by side: --out X.gif, X.mp4 or X.png")
 
 
 def _recordings(args: argparse.Namespace) -> tuple[list, str]:
@@ -65,6 +69,14 @@ def _recordings(args: argparse.Namespace) -> tuple[list, str]:
         from fftnav.episode.recording import read_recording
 
         return [read_recording(path) for path in args.recording], ""
+    if args.suite:
+        from fftnav.suites import find_suite
+        from fftnav.suites import rerun_task as rerun_reference
+
+        suite = find_suite(args.suite)
+        recs = [rerun_reference(suite, task).recording() for task in args.task]
+        return recs, (f" (rerun of {', '.join(args.task)}: the shipped reference rows of "
+                      f"{suite.name})")
     from fftnav.runner.rerun import rerun_task
 
     folder = args.recording[0]
@@ -88,7 +100,7 @@ def _replay(args: argparse.Namespace) -> int:
             from fftnav.report.replay_html import write_html
 
             write_html(rec, tmp, robot=args.robot, from_s=args.start, to_s=args.stop,
-                       speed=args.speed)
+                       speed=args.speed, beside=beside)
         else:
             replay.write_video(rec, tmp, robot=args.robot, from_s=args.start, to_s=args.stop,
                                speed=args.speed, beside=beside)
@@ -100,19 +112,25 @@ def _replay(args: argparse.Namespace) -> int:
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("replay", help="watch an episode (a recording, or one of a results "
                        "folder made on demand): HTML player, GIF, MP4 or PNG")
-    p.add_argument("recording", metavar="PATH", nargs="+",
+    p.add_argument("recording", metavar="PATH", nargs="*",
                    help="a recording (fftnav episode --record, an experiment's records/); "
-                   "more than one: drawn side by side at the same times (GIF, MP4, PNG), the "
-                   "window and the robot those of the first. With --task: one results folder "
-                   "(RESULTS_DIR, written by fftnav run)")
+                   "more than one: drawn side by side at the same times (one HTML page of "
+                   "synchronized panes, or GIF, MP4, PNG frames), the window and the robot "
+                   "those of the first. With --task: one results folder (RESULTS_DIR, written "
+                   "by fftnav run)")
     p.add_argument("--task", action="append", metavar="ENV-MAP_SEED-POLICY",
                    help="an episode of RESULTS_DIR (e.g. rocky-1014-bug-left; report.md lists "
                    "the failures): rerun from the folder's config and seeds, recorded, and "
                    "refused unless its rows are the folder's episodes.csv rows; repeated: "
                    "side by side")
+    p.add_argument("--suite", metavar="NAME",
+                   help="with --task: rerun a reference episode of a suite (e.g. --suite "
+                   "walls-v1 --task walls-61-vfh; fftnav suites), refused unless its rows are "
+                   "the shipped reference rows")
     p.add_argument("--out", required=True, metavar="X.html|X.gif|X.mp4|X.png",
-                   help="what to write, by its suffix: a self-contained HTML player, a GIF, an "
-                   "MP4 (needs the extra 'video': imageio-ffmpeg) or one PNG frame")
+                   help="what to write, by its suffix: a self-contained HTML player (open it "
+                   "at X.html#robot=R&t=S: robot R picked, paused at S s), a GIF, an MP4 "
+                   "(needs the extra 'video': imageio-ffmpeg) or one PNG frame")
     p.add_argument("--robot", type=int, metavar="I",
                    help="the robot whose scan and safe sectors are drawn (and whose state the "
                    "HTML player plots); default: the first that did not arrive, else 0")

@@ -70,17 +70,13 @@ def _run_sweep(args: argparse.Namespace, config: Any) -> int:
     return status
 
 
-def _workers(text: str) -> int:
-    if not text.isdigit() or int(text) < 1:
-        raise argparse.ArgumentTypeError(f"must be an integer >= 1, got {text!r}")
-    return int(text)
-
-
 def register(sub: argparse._SubParsersAction) -> None:
+    from fftnav.cli import workers_count
+
     p = sub.add_parser("run", help="run an experiment config (resumable) and write its report")
     p.add_argument("config", metavar="CONFIG", help="experiment TOML, e.g. experiments/smoke.toml")
     p.add_argument("--out", metavar="DIR", help="output folder (default: experiment.out)")
-    p.add_argument("--workers", type=_workers, metavar="N",
+    p.add_argument("--workers", type=workers_count, metavar="N",
                    help="worker processes (default: all cores; 1 runs in-process)")
     p.add_argument("--executor", choices=("local", "dask"), default="local",
                    help="local process pool (default) or a Dask cluster")

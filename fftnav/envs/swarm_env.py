@@ -40,7 +40,8 @@ contact) and is truncated at the time limit (``episode.time_limit_s`` after its 
 ``infos`` give each agent's ``arrived``, ``collided``, ``goal_distance_m`` and true ``pose``
 ``(x_m, y_m, yaw_rad)`` after the step: the benchmark's judgement, not an observation (with
 odometry a policy that read them would know more than its robot). ``render_mode="rgb_array"``
-returns a top-down frame drawn like ``fftnav replay``'s (:meth:`SwarmNavEnv.render`).
+returns a top-down frame drawn like ``fftnav replay``'s, with the clock, a legend and the scan
+of the robot ``render_robot`` (:meth:`SwarmNavEnv.render`).
 
 ``reset(seed=..., options=...)``: ``seed`` seeds the episode (sensor noise, packet loss);
 ``options`` may set ``world_kind``, ``map_seed``, ``robots``, ``controller`` and any config key
@@ -160,6 +161,12 @@ class SwarmNavEnv(ParallelEnv):
         End an agent when it touches an obstacle (default, as in the benchmark); with False it
         keeps driving and gets the collision reward on every step in contact.
     render_mode : {None, "rgb_array"}
+
+    Attributes
+    ----------
+    render_robot : int or None
+        The robot whose scan, safe sectors and state :meth:`render` draws, ringed (robot 0 at
+        first; None: none); set it to pick another.
     """
 
     metadata = {"render_modes": ["rgb_array"], "name": "fftnav_swarm_v1",
@@ -171,6 +178,7 @@ class SwarmNavEnv(ParallelEnv):
                  terminate_on_collision: bool = True,
                  render_mode: str | None = None) -> None:
         self.render_mode = check_choice("render_mode", render_mode, (None, "rgb_array"))
+        self.render_robot = 0
         self.rewards = rewards or Rewards()
         self.observations = observations or Observations()
         self.terminate_on_collision = bool(terminate_on_collision)
@@ -190,8 +198,23 @@ class SwarmNavEnv(ParallelEnv):
         self._core: EpisodeCore | None = None
         self._method: Resolved | None = None
         self._own_messages: dict[int, bytes] = {}
+        self._renderer: Any = None
+        self._renderer_key: tuple[Any, ...] | None = None
+        #: The failure causes of the robots that failed in this episode (render), by robot.
+        self._causes: dict[int, str] = {}
         self._set_agents()
         self.agents: list[str] = []
+
+    @property
+    def render_robot(self) -> int | None:
+        """The robot whose scan, safe sectors and state :meth:`render` draws (None: none); a
+        robot the world does not have draws none."""
+        return self._render_robot
+
+    @render_robot.setter
+    def render_robot(self, robot: int | None) -> None:
+        self._render_robot = None if robot is None else check_integer("render_robot", robot,
+                                                                       low=0)
 
     # -- spaces ------------------------------------------------------------------------------
 
@@ -275,6 +298,7 @@ class SwarmNavEnv(ParallelEnv):
             self.world, self.config, self._sim, seed=seed,
             controller=None if method is None else method.make,
             collisions_end=self.terminate_on_collision)
+        self._causes = {}
         core.begin_tick()
         core.observe(pipeline=self._pipeline())
         self._dist = self._goal_distance()
@@ -463,26 +487,94 @@ class SwarmNavEnv(ParallelEnv):
     # -- rendering ---------------------------------------------------------------------------
 
     def render(self) -> np.ndarray | None:
-        """A top-down RGB frame ``(H, W, 3)`` uint8 at 5 cm per pixel, the first row the top of
-        the world (``render_mode="rgb_array"``), else None. It is drawn like a replay's frames
-        (:class:`fftnav.report.frames.RasterRenderer`): every robot in the colour of its status
-        (waiting, moving, arrived, failed) with its heading and trail, a line to its goal while
-        it drives, a cross where it failed (collided, or truncated before its goal)."""
+        """A top-down RGB frame ``(H, W, 3)`` uint8 (``render_mode="rgb_array"``), else None.
+
+        Drawn like a replay's frames (:class:`fftnav.report.frames.RasterRenderer`): the map at
+        5 cm per pixel in the first rows (the first row the top of the world, the world's border
+        on its edge pixels), every robot in the colour of its status and, with a scripted
+        controller, of its planner's state (waiting, moving, following, ..., arrived, failed),
+        with its heading and trail, a line to its goal while it drives, a red cross where it
+        failed with its failure cause (the ``failure`` of ``episodes.csv``:
+        :func:`fftnav.metrics.classify_failure`), and the scan returns and safe sectors (to
+        l_th) of the robot ``render_robot``, ringed, while it moves. Below the map, the key:
+        the clock over the episode's time limit, that robot's state in words, a scale bar and
+        the legend. The frame's size is fixed for a world, robot radius and l_th."""
         if self.render_mode != "rgb_array" or self._sim is None or self._core is None:
             return None
         # report is the layer above envs: imported here, when a frame is asked for
-        from fftnav.report.frames import RasterRenderer, SwarmFrame, kinds_of
+        from fftnav.report.frames import RasterRenderer, SwarmFrame, describe_robot, kinds_of
 
-        renderer = getattr(self, "_renderer", None)
-        if (renderer is None or renderer.world is not self.world
-                or renderer.r0_m != self.config.robot.r0_m):
-            renderer = self._renderer = RasterRenderer(self.world, r0_m=self.config.robot.r0_m,
-                                                       resolution_m=0.05)
-        trajectories = self._core.trajectories()
-        poses = np.array([t[-1] for t in trajectories])
-        kinds = kinds_of(np.array([int(status) for status in self.statuses()]))
-        return renderer(SwarmFrame(poses=poses, kinds=kinds,
-                                   trails=[t[:, :2] for t in trajectories]))
+        core, cfg = self._core, self.config
+        safe_m = min(cfg.geometry.l_th_m, cfg.sensor.range_m)
+        key = (self.world.to_json(), cfg.robot.r0_m, safe_m)
+        if self._renderer is None or key != self._renderer_key:
+            self._renderer = RasterRenderer(self.world, r0_m=cfg.robot.r0_m, resolution_m=0.05,
+                                            safe_m=safe_m)
+            self._renderer_key = key
+        trajectories = core.trajectories()
+        status = core.status()
+        states = self._render_states(status)
+        causes = self._failure_causes(status, trajectories)
+        picked = self.render_robot if (self.render_robot is not None
+                                       and self.render_robot < len(status)) else None
+        scan, label = None, ""
+        if picked is not None:
+            scan = self._render_scan(picked, safe_m)
+            label = describe_robot(picked, int(status[picked]), **states.get(picked, {}),
+                                   cause=causes.get(picked, ""))
+        mode = np.array([states.get(i, {}).get("mode", np.nan) for i in range(len(status))])
+        n = len(status)
+        return self._renderer(SwarmFrame(
+            poses=np.array([t[-1] for t in trajectories]), kinds=kinds_of(status, mode),
+            trails=[t[:, :2] for t in trajectories], time_s=float(core.obs.time_s),
+            picked=picked, scan=scan, causes=[causes.get(i, "") for i in range(n)],
+            end_s=cfg.episode.time_limit_s + cfg.episode.last_departure_s(n),
+            picked_label=label))
+
+    def _render_states(self, status: np.ndarray) -> dict[int, dict[str, float]]:
+        """The planner's ``mode`` and ``side`` of each moving robot, by robot (a scripted
+        controller's; none for the agents')."""
+        core = self._core
+        assert core is not None
+        if self._method is None:
+            return {}
+        states = {}
+        for i in np.flatnonzero(status == int(Status.MOVING)).tolist():
+            values = core.controller.state(i)
+            states[i] = {k: float(values[k]) for k in ("mode", "side") if k in values}
+        return states
+
+    def _render_scan(self, robot: int, safe_m: float) -> Any:
+        """Robot ``robot``'s scan of the current tick (a :class:`fftnav.report.frames.ScanView`;
+        its safe sectors when the pipeline runs), or None when it does not move."""
+        from fftnav.report.frames import ScanView
+
+        core = self._core
+        assert core is not None
+        swarm = core.swarm
+        if swarm is None or swarm.tick != core.tick or robot not in swarm.active:
+            return None
+        safe = (np.zeros(len(swarm.angles_rad), bool) if swarm.safe is None
+                else swarm.safe[robot])
+        return ScanView(np.asarray(swarm.angles_rad), swarm.ranges_m[robot], safe,
+                        self.config.sensor.range_m, safe_m)
+
+    def _failure_causes(self, status: np.ndarray,
+                        trajectories: list[np.ndarray]) -> dict[int, str]:
+        """The failure cause of every robot that left without arriving, by robot, as
+        :func:`fftnav.episode.loop.run_episode` gives it in the ``failure`` column (computed
+        once for each, when it has left)."""
+        from fftnav.episode.loop import failure_cause, positions_by_tick
+
+        core = self._core
+        assert core is not None
+        failed = [i for i, s in enumerate(status.tolist())
+                  if Status(s).gone and s != Status.ARRIVED and i not in self._causes]
+        if failed:
+            by_tick = positions_by_tick(trajectories, core.robots.departure)
+            for i in failed:
+                self._causes[i] = failure_cause(core, i, trajectories[i], by_tick)
+        return self._causes
 
     def close(self) -> None:
         if self._sim is not None:

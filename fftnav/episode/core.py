@@ -34,6 +34,7 @@ robot.
 from __future__ import annotations
 
 import inspect
+import time
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 
@@ -213,6 +214,11 @@ class EpisodeCore:
                                    ticks=last_tick)
         #: The swarm as :meth:`observe` saw it at the current tick (None before).
         self.swarm: SwarmStep | None = None
+        #: Seconds of the method's own compute (the FFT pipeline, when the controller uses it,
+        #: and the controller's ``step``), and robot-ticks observed: what
+        #: :attr:`EpisodeResult.compute_ms` divides (wall clock, so it varies run to run).
+        self.compute_s = 0.0
+        self.robot_ticks = 0
         for i in np.flatnonzero(self.robots.departure > 0):
             self.controller.hold(int(i))
 
@@ -236,6 +242,7 @@ class EpisodeCore:
         packets due delivered."""
         robots, tick, obs = self.robots, self.tick, self.obs
         idx = np.flatnonzero(robots.moving(tick))
+        self.robot_ticks += len(idx)
         sensed = self.sense(idx, pipeline=(self.controller.uses_pipeline if pipeline is None
                                            else pipeline))
         self.channel.deliver(tick)
@@ -256,7 +263,9 @@ class EpisodeCore:
         ranges[idx] = self.pipe.normalise(scans[idx]) * self.config.sensor.range_m
         if not pipeline:
             return Sensed(ranges)
+        begin = time.perf_counter()
         res = self.pipe.process(scans[idx], with_p_s=False)
+        self.compute_s += time.perf_counter() - begin
         safe = np.zeros((n, beams), dtype=bool)
         y1 = np.zeros((n, beams))
         safe[idx], y1[idx] = res.safe_mask, res.y1
@@ -331,7 +340,10 @@ class EpisodeCore:
     def run(self) -> None:
         """Run the episode to its end with its controller's commands and messages."""
         while self.begin_tick():
-            commands, outgoing = self.controller.step(self.observe())
+            step = self.observe()
+            begin = time.perf_counter()
+            commands, outgoing = self.controller.step(step)
+            self.compute_s += time.perf_counter() - begin
             self.advance(commands, outgoing)
         self.end()
 

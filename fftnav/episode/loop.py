@@ -29,7 +29,7 @@ from fftnav.states import Status
 from fftnav.validate import check_integer
 from fftnav.world.model import World
 
-__all__ = ["OnTick", "positions_by_tick", "run_episode"]
+__all__ = ["OnTick", "failure_cause", "positions_by_tick", "run_episode"]
 
 
 @functools.lru_cache(maxsize=8)
@@ -120,7 +120,8 @@ def run_episode(
     rows = [_row(core, i, trajectories[i], policy=method.name,
                  lengths_m=(float(optimal[i]), float(geodesic[i])), by_tick=by_tick)
             for i in range(len(trajectories))]
-    return EpisodeResult(rows=rows, trajectories=trajectories, tape=tape)
+    return EpisodeResult(rows=rows, trajectories=trajectories, tape=tape,
+                         compute_s=core.compute_s, robot_ticks=core.robot_ticks)
 
 
 def positions_by_tick(trajectories: list[np.ndarray], departure: np.ndarray) -> np.ndarray:
@@ -145,7 +146,8 @@ def positions_by_tick(trajectories: list[np.ndarray], departure: np.ndarray) -> 
     return out
 
 
-def _failure(core: EpisodeCore, i: int, trajectory: np.ndarray, by_tick: np.ndarray) -> str:
+def failure_cause(core: EpisodeCore, i: int, trajectory: np.ndarray,
+                  by_tick: np.ndarray) -> str:
     """Robot ``i``'s cause of failure (empty if it arrived), the other robots aligned by tick."""
     departure = int(core.robots.departure[i])
     others = np.delete(by_tick[departure:departure + len(trajectory)], i, axis=1)
@@ -189,5 +191,5 @@ def _row(core: EpisodeCore, i: int, trajectory: np.ndarray, *, policy: str,
         messages_sent=int(core.channel.messages_sent[i]),
         **core.controller.counters(i),
         robot_contacts=int(core.robots.robot_contacts[i]),
-        failure=_failure(core, i, trajectory, by_tick),
+        failure=failure_cause(core, i, trajectory, by_tick),
     )

@@ -123,6 +123,16 @@ class EpisodeResult:
     trajectories: list[np.ndarray]
     #: The episode's recording while it is made (``run_episode(record=True)``), else None.
     tape: Tape | None = None
+    #: Wall-clock seconds of the method's compute over the episode (the FFT pipeline when the
+    #: controller uses it, and the controller's ``step``) and the robot-ticks it served.
+    compute_s: float = 0.0
+    robot_ticks: int = 0
+
+    @property
+    def compute_ms(self) -> float:
+        """The method's compute per robot per control tick (ms; NaN without a tick): a wall
+        clock, so it depends on the machine and its load, unlike every row."""
+        return 1000.0 * self.compute_s / self.robot_ticks if self.robot_ticks else float("nan")
 
     def recording(self) -> bytes:
         """The recording file's bytes (:mod:`fftnav.episode.recording`); needs

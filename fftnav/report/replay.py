@@ -5,8 +5,12 @@ by :mod:`fftnav.report.frames`; the HTML player is :mod:`fftnav.report.replay_ht
 A robot's drawn kind at a tick (:func:`robot_kinds`) comes from the recording's ``status``
 column (:class:`fftnav.states.Status`) and, while it moves, its controller's ``state/mode``
 (:class:`fftnav.states.State`; controllers without a ``mode`` draw as moving), by
-:func:`fftnav.report.frames.kinds_of`. A recording with the robots' estimated poses (odometry
-localization, its ``estimates``) draws them too, beside the true ones.
+:func:`fftnav.report.frames.kinds_of`; a robot that failed is drawn failed from the tick of its
+failure on (:func:`failure_ticks`, the definition the HTML player is given too). A recording
+with the robots' estimated poses (odometry localization, its ``estimates``) draws them too,
+beside the true ones. Every frame has its key below the map: the clock over the episode's time
+limit (:func:`limit_s`), the picked robot's state in words, a scale bar and the legend
+(:func:`fftnav.report.frames.keyed_figure`).
 """
 
 from __future__ import annotations
@@ -21,7 +25,6 @@ from matplotlib.colors import to_rgb
 
 from fftnav.episode.recording import Recording
 from fftnav.errors import FftnavError, import_extra
-from fftnav.report import new_figure
 from fftnav.report.frames import (
     KIND_COLOURS,
     KINDS,
@@ -33,13 +36,17 @@ from fftnav.report.frames import (
     FramePainter,
     ScanView,
     SwarmFrame,
+    describe_robot,
+    keyed_figure,
     kind_rgb,
     kinds_of,
 )
+from fftnav.states import Status
 from fftnav.validate import check_integer, check_number
 
-__all__ = ["FPS", "default_robot", "end_s", "frame_ticks", "recording_frame",
-           "robot_kinds", "window", "write_image", "write_video"]
+__all__ = ["FPS", "default_robot", "drawn_status", "end_s", "failure_ticks", "frame_ticks",
+           "limit_s", "recording_frame", "robot_kinds", "safe_radius_m", "window",
+           "write_image", "write_video"]
 
 #: The narrowest frame (pixels).
 MIN_WIDTH_PX = 160
@@ -54,16 +61,88 @@ MIN_SPEED = 0.1
 WIDTH_PX = 640
 
 
-def robot_kinds(rec: Recording) -> np.ndarray:
+#: The statuses the episode gives at the start of the tick a robot's time is up (its failure
+#: tick is the first with that status); every other way of leaving without arriving is judged
+#: after a tick's control period (a touch during it, a stop in it), and shows from the next tick.
+_AT_THE_START = frozenset({Status.TIMED_OUT})
+
+
+def failure_ticks(rec: Recording) -> dict[int, int]:
+    """The tick of each failed robot's failure, by robot: the robots whose last status is a
+    way of leaving without arriving (:class:`fftnav.states.Status`: collided, timed out,
+    lost); the others have none.
+
+    The ``status`` column holds each robot's status at the start of each tick, and the episode
+    judges collisions and lost robots after a tick's control period
+    (:class:`fftnav.episode.core.EpisodeCore`), so a robot that touched an obstacle during tick
+    g (its ``contact_obstacle`` at g) or stopped during it where its estimate put its goal
+    shows ``COLLIDED`` or ``LOST`` from tick g + 1 on: its failure tick is g, the tick before
+    its first such status. A robot out of time is ``TIMED_OUT`` from the tick its time limit
+    is reached (the end tick for those still driving at the end): its failure tick is that
+    tick.
+
+    Returns
+    -------
+    dict of int to int
+        Robot -> tick (an index of the recording's ticks), in robot order.
+
+    Examples
+    --------
+    A robot that collides during tick 1, one that times out at the end (tick 2), one that
+    arrives:
+
+    >>> from types import SimpleNamespace
+    >>> status = np.array([[1, 1, 1], [1, 1, 1], [3, 4, 2]], np.uint8)
+    >>> failure_ticks(SimpleNamespace(status=status))
+    {0: 1, 1: 2}
+    """
+    status = np.asarray(rec.status)
+    ticks = {}
+    for robot in range(status.shape[1]):
+        final = int(status[-1, robot])
+        if final not in set(Status) or not Status(final).gone or final == Status.ARRIVED:
+            continue
+        how = Status(final)
+        first = int(np.argmax(status[:, robot] == final))
+        ticks[robot] = first if how in _AT_THE_START else max(first - 1, 0)
+    return ticks
+
+
+def drawn_status(rec: Recording) -> np.ndarray:
+    """Every robot's status as drawn, ``(G, N)`` :class:`~fftnav.states.Status` codes: the
+    recording's, each failed robot's last status from its failure tick on
+    (:func:`failure_ticks`)."""
+    status = np.array(rec.status, copy=True)
+    for robot, tick in failure_ticks(rec).items():
+        status[tick:, robot] = status[-1, robot]
+    return status
+
+
+def robot_kinds(rec: Recording, status: np.ndarray | None = None) -> np.ndarray:
     """Every robot's drawn kind at every tick, ``(G, N)`` codes of
     :data:`fftnav.report.frames.KINDS`: :func:`~fftnav.report.frames.kinds_of` of the
-    recording's statuses and modes, each robot keeping its last mode where it has none (the
-    end tick)."""
+    statuses as drawn (``status``, default :func:`drawn_status`: a failed robot is drawn failed
+    from its failure tick on) and the recorded modes, each robot keeping its last mode where it
+    has none (the end tick)."""
     mode = rec.state.get("mode")
     if mode is not None:
         last = np.where(np.isnan(mode), 0, np.arange(len(mode))[:, None])
         mode = mode[np.maximum.accumulate(last, axis=0), np.arange(mode.shape[1])]
-    return kinds_of(rec.status, mode)
+    return kinds_of(drawn_status(rec) if status is None else status, mode)
+
+
+def limit_s(rec: Recording) -> float:
+    """The episode's time limit (s), the clock's end: ``episode.time_limit_s`` after the last
+    robot's departure."""
+    episode = rec.config.episode
+    return episode.time_limit_s + episode.last_departure_s(rec.n_robots)
+
+
+def safe_radius_m(rec: Recording) -> float:
+    """The radius the safe sectors are drawn to (m): the FFT pipeline's safe-distance
+    threshold l_th of the recorded robot (``config.geometry.l_th_m``; a beam is safe when every
+    beam of its centred window reads at least l_th), at most the sensor range."""
+    return min(rec.config.geometry.l_th_m, rec.config.sensor.range_m)
 
 
 def end_s(rec: Recording) -> float:
@@ -86,25 +165,35 @@ def check_robot(rec: Recording, robot: int | None) -> int:
 
 
 def recording_frame(rec: Recording, tick: int, picked: int | None,
-                    kinds: np.ndarray | None = None) -> SwarmFrame:
+                    kinds: np.ndarray | None = None,
+                    status: np.ndarray | None = None) -> SwarmFrame:
     """The frame of ``tick``: poses, states, trails since the start, the messages delivered in
-    the tick, the picked robot's scan and the failure causes; and, when the recording has
-    estimated poses, those of the tick and the estimated paths since the start."""
-    kinds = robot_kinds(rec) if kinds is None else kinds
-    scan = None
+    the tick, the picked robot's scan (its safe sectors to :func:`safe_radius_m`) and state in
+    words, the failure causes, the clock and the time limit (:func:`limit_s`); and, when the
+    recording has estimated poses, those of the tick and the estimated paths since the start.
+    ``kinds`` and ``status`` are :func:`robot_kinds` and :func:`drawn_status` (made when None)."""
+    status = drawn_status(rec) if status is None else status
+    kinds = robot_kinds(rec, status) if kinds is None else kinds
+    causes = [str(r.get("failure") or "") for r in rec.rows]
+    scan, label = None, ""
     if picked is not None:
         scan = ScanView(rec.angles_rad, rec.scan_m[tick, picked], rec.safe[tick, picked],
-                        rec.config.sensor.range_m)
+                        rec.config.sensor.range_m, safe_radius_m(rec))
+        state = {name: rec.state[name][tick, picked] for name in ("mode", "side")
+                 if name in rec.state}
+        label = describe_robot(picked, int(status[tick, picked]), **state,
+                               cause=causes[picked])
     delivered = rec.delivered[rec.delivered[:, 0] == tick]
     est = rec.estimates
     return SwarmFrame(
         poses=rec.pose[tick], kinds=kinds[tick],
         trails=[rec.pose[: tick + 1, i, :2] for i in range(rec.n_robots)],
         time_s=float(rec.time_s[tick]), picked=picked, scan=scan,
-        messages=delivered[:, 1:3], causes=[str(r.get("failure") or "") for r in rec.rows],
+        messages=delivered[:, 1:3], causes=causes,
         estimates=None if est is None else est[tick],
         estimate_trails=() if est is None else [est[: tick + 1, i, :2]
-                                                for i in range(rec.n_robots)])
+                                                for i in range(rec.n_robots)],
+        end_s=limit_s(rec), picked_label=label)
 
 
 def window(rec: Recording, from_s: float | None, to_s: float | None) -> tuple[float, float]:
@@ -141,16 +230,16 @@ def frame_ticks(rec: Recording, *, from_s: float | None = None, to_s: float | No
 
 
 def _figure(rec: Recording, width_px: int) -> tuple[Any, FramePainter]:
+    """The figure of a recording's frames, ``width_px`` wide: its title, the map (with a
+    margin of 2 % round the world) and the key below it, an even number of pixel rows (as
+    H.264 needs)."""
     w, h = rec.world.size_m
-    height_px = 2 * round(width_px * (1.08 * h + 0.9) / (1.04 * w) / 2)  # even, for H.264
     dpi = 100 * (width_px / WIDTH_PX) ** 0.5
-    fig = new_figure(figsize=(width_px / dpi, height_px / dpi), dpi=dpi)
-    ax = fig.add_axes((0.02, 0.02, 0.96, 0.9))
-    ax.set_axis_off()
-    painter = FramePainter(ax, rec.world, rec.config.robot.r0_m, scale_bar=True)
-    ax.set_title(f"{rec.policy} on {rec.world.env} (map seed {rec.world.seed}, episode seed "
-                 f"{rec.seed})", fontsize=9)
-    return fig, painter
+    title = (f"{rec.policy} on {rec.world.env} (map seed {rec.world.seed}, episode seed "
+             f"{rec.seed})")
+    return keyed_figure(rec.world, rec.config.robot.r0_m, dpi=dpi,
+                        map_px=(round(width_px * h / w), width_px), margin=0.02, title=title,
+                        estimates=rec.estimates is not None, safe_m=safe_radius_m(rec))
 
 
 def _pixels(fig: Any) -> np.ndarray:
@@ -167,16 +256,19 @@ class _Panels:
         self.recs = list(recs)
         self.picked = [picked] + [check_robot(r, picked if picked < r.n_robots else None)
                                   for r in recs[1:]]
-        self.kinds = [robot_kinds(r) for r in recs]
+        self.status = [drawn_status(r) for r in recs]
+        self.kinds = [robot_kinds(r, status) for r, status in zip(recs, self.status,
+                                                                  strict=True)]
         self.figures = [_figure(r, width_px) for r in recs]
 
     def pixels(self, time_s: float) -> np.ndarray:
         """The frame of every recording at ``time_s`` (each clamped to its end), side by side
         on white."""
         images = []
-        for rec, picked, kinds, (fig, painter) in zip(self.recs, self.picked, self.kinds,
-                                                      self.figures, strict=True):
-            painter.update(recording_frame(rec, rec.tick_at(time_s + 1e-9), picked, kinds))
+        for rec, picked, kinds, status, (fig, painter) in zip(
+                self.recs, self.picked, self.kinds, self.status, self.figures, strict=True):
+            painter.update(recording_frame(rec, rec.tick_at(time_s + 1e-9), picked, kinds,
+                                           status))
             images.append(_pixels(fig))
         height = max(image.shape[0] for image in images)
         return np.hstack([np.pad(image, ((0, height - image.shape[0]), (0, 0), (0, 0)),

@@ -7,11 +7,14 @@ robot's radius from the experiment's config (as ``fftnav world difficulty``). Ro
 gives a byte-identical file.
 
 :func:`map_spl` puts each map's SPL (per policy, the mean over its robots) beside the map's
-mean measures; :func:`spearman_table` says which measures rank the maps as SPL does.
+mean measures; :func:`spearman_table` says which measures rank the maps as SPL does, with an
+exact p-value on up to :data:`SPEARMAN_EXACT_MAX` maps (:func:`spearman_test`).
 """
 
 from __future__ import annotations
 
+import functools
+import itertools
 import warnings
 from collections.abc import Sequence
 from pathlib import Path
@@ -20,19 +23,26 @@ import numpy as np
 import pandas as pd
 from scipy import stats
 
+from fftnav.errors import FftnavError
 from fftnav.files import write_atomic
 from fftnav.optimal.difficulty import MEASURES, map_difficulty
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.executors import TaskError, execute
 from fftnav.runner.tasks import Task, task_world
 
-__all__ = ["MAPS_COLUMNS", "SPEARMAN_COLUMNS", "map_measures", "map_spl", "maps_current",
-           "maps_table", "spearman_table", "write_maps_csv"]
+__all__ = ["MAPS_COLUMNS", "SPEARMAN_COLUMNS", "SPEARMAN_EXACT_MAX", "T_APPROX", "map_measures",
+           "map_spl", "maps_current", "maps_table", "spearman_table", "spearman_test",
+           "write_maps_csv"]
 
 #: Columns of ``maps.csv``: the map's keys, the robot, then the measures in BARN's order.
 MAPS_COLUMNS: tuple[str, ...] = ("env", "map_seed", "robot", *MEASURES)
 #: Columns of :func:`spearman_table`.
-SPEARMAN_COLUMNS: tuple[str, ...] = ("scope", "policy", "measure", "maps", "rho", "p_value")
+SPEARMAN_COLUMNS: tuple[str, ...] = ("scope", "policy", "measure", "maps", "rho", "p_value",
+                                     "p_method")
+#: Maps (pairs) up to which :func:`spearman_test` enumerates every ordering (9! = 362,880).
+SPEARMAN_EXACT_MAX = 9
+#: ``p_method`` of a Spearman p-value from the t approximation (``scipy.stats.spearmanr``).
+T_APPROX = "t approx."
 #: Fixed float format of ``maps.csv`` (that of ``episodes.csv``).
 FLOAT_FORMAT = "%.6f"
 
@@ -169,9 +179,11 @@ def spearman_table(per_map: pd.DataFrame, *, envs: Sequence[str] | None = None,
     -------
     pandas.DataFrame
         Columns :data:`SPEARMAN_COLUMNS`: for ``scope`` = ``"all"`` (every map of every env
-        pooled) and then each env, each policy and measure, ``scipy.stats.spearmanr`` of SPL
-        and the measure over the maps where both are defined (``maps`` of them): ``rho`` and its
-        two-sided ``p_value``. Both NaN with fewer than 3 maps or a constant column (no ranking).
+        pooled) and then each env, each policy and measure, :func:`spearman_test` of SPL and
+        the measure over the maps where both are defined (``maps`` of them): ``rho``, its
+        two-sided ``p_value`` and how that was computed (``p_method``: ``"exact"`` up to
+        :data:`SPEARMAN_EXACT_MAX` maps, :data:`T_APPROX` beyond). rho and p NaN, ``p_method``
+        empty, with fewer than 3 maps or a constant column (no ranking).
     """
     envs = list(envs) if envs is not None else list(dict.fromkeys(per_map["env"]))
     policies = (list(policies) if policies is not None
@@ -183,16 +195,82 @@ def spearman_table(per_map: pd.DataFrame, *, envs: Sequence[str] | None = None,
             sub = table[table["policy"] == policy]
             for measure in MEASURES:
                 pair = sub[["spl", measure]].dropna()
-                rho, p = _spearman(pair["spl"].to_numpy(), pair[measure].to_numpy())
-                rows.append((scope, policy, measure, len(pair), rho, p))
+                rho, p, method = spearman_test(pair["spl"].to_numpy(),
+                                               pair[measure].to_numpy())
+                rows.append((scope, policy, measure, len(pair), rho, p, method))
     return pd.DataFrame(rows, columns=list(SPEARMAN_COLUMNS))
 
 
-def _spearman(x: np.ndarray, y: np.ndarray) -> tuple[float, float]:
-    """``spearmanr(x, y)``'s (rho, p), NaN for fewer than 3 pairs or a constant input."""
+def spearman_test(x: Sequence[float] | np.ndarray,
+                  y: Sequence[float] | np.ndarray) -> tuple[float, float, str]:
+    """Spearman's rank correlation of ``x`` and ``y`` and its two-sided p-value (H0: no
+    association).
+
+    rho is ``scipy.stats.spearmanr``'s (the Pearson correlation of the average ranks). With at
+    most :data:`SPEARMAN_EXACT_MAX` pairs the p-value is **exact**: under H0 every one of the
+    ``n!`` orderings of ``y`` against ``x`` is equally likely, and p is twice the smaller of
+    the fractions of orderings whose rank correlation is at least, and at most, the observed
+    one (at most 1; ties keep their average ranks). Beyond, ``spearmanr``'s t approximation.
+
+    Parameters
+    ----------
+    x, y : (n,) array_like
+        Paired values, finite.
+
+    Returns
+    -------
+    (rho, p_value, p_method) : (float, float, str)
+        ``p_method`` is ``"exact"`` or :data:`T_APPROX`; ``(nan, nan, "")`` for fewer than 3
+        pairs or a constant input (no ranking).
+
+    Raises
+    ------
+    ValueError
+        ``x`` and ``y`` not 1-D of one length, or not finite.
+
+    Examples
+    --------
+    Four maps in the same order: 1 of the 24 orderings has rho = 1, none more: p = 2/24.
+
+    >>> rho, p, method = spearman_test([1, 2, 3, 4], [10, 20, 30, 40])
+    >>> rho, round(p * 24, 9), method
+    (1.0, 2.0, 'exact')
+    """
+    x, y = np.asarray(x, dtype=float), np.asarray(y, dtype=float)
+    if x.ndim != 1 or x.shape != y.shape:
+        raise FftnavError(f"x and y must be 1-D of one length, got shapes {x.shape} and "
+                          f"{y.shape}")
+    for name, values in (("x", x), ("y", y)):
+        bad = np.flatnonzero(~np.isfinite(values))
+        if bad.size:
+            raise FftnavError(f"{name} must be finite, got {name}[{bad[0]}]={values[bad[0]]}")
     if len(x) < 3 or np.ptp(x) == 0 or np.ptp(y) == 0:
-        return float("nan"), float("nan")
+        return float("nan"), float("nan"), ""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         result = stats.spearmanr(x, y)
-    return float(result.statistic), float(result.pvalue)
+    rho = float(result.statistic)
+    if len(x) > SPEARMAN_EXACT_MAX:
+        return rho, float(result.pvalue), T_APPROX
+    rx, ry = _centred_ranks(x), _centred_ranks(y)
+    observed = int(rx @ ry)
+    null = _spearman_null(tuple(sorted(rx.tolist())), tuple(sorted(ry.tolist())))
+    at_most = int(np.searchsorted(null, observed, side="right"))
+    at_least = len(null) - int(np.searchsorted(null, observed, side="left"))
+    return rho, min(1.0, 2 * min(at_most, at_least) / len(null)), "exact"
+
+
+def _centred_ranks(values: np.ndarray) -> np.ndarray:
+    """Twice the average ranks minus ``n + 1``: integers (ties' ranks end in .5) summing to 0,
+    whose products sum to a multiple of the rank covariance, exactly."""
+    return np.rint(2 * stats.rankdata(values) - (len(values) + 1)).astype(np.int64)
+
+
+@functools.lru_cache(maxsize=64)
+def _spearman_null(rx: tuple[int, ...], ry: tuple[int, ...]) -> np.ndarray:
+    """``sum(rx * ry[perm])`` over every permutation ``perm``, sorted: the null distribution
+    of the rank statistic, which depends only on the two multisets of ranks (so is cached)."""
+    perms = np.array(list(itertools.permutations(range(len(ry)))), dtype=np.intp)
+    null = np.sort(np.asarray(ry, dtype=np.int64)[perms] @ np.asarray(rx, dtype=np.int64))
+    null.flags.writeable = False  # shared by the cache
+    return null

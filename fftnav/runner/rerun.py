@@ -30,8 +30,8 @@ from fftnav.runner.config import ExperimentConfig, load_config
 from fftnav.runner.run import CSV_COLUMNS
 from fftnav.runner.tasks import Task, TaskResult, iter_tasks, run_task
 
-__all__ = ["Rerun", "close_names", "committed_lines", "folder_config", "rerun_task",
-           "results_folders", "task_ids"]
+__all__ = ["Rerun", "close_names", "committed_lines", "first_difference", "folder_config",
+           "rerun_task", "results_folders", "task_ids", "task_lines"]
 
 #: What makes a folder a results folder (``fftnav run`` writes both).
 FOLDER_FILES = ("config.toml", "episodes.csv")
@@ -152,7 +152,7 @@ def _find_task(config: ExperimentConfig, results_dir: Path, name: str) -> Task:
     return dataclasses.replace(found[0], keep_trajectories=True)
 
 
-def _rows_lines(task: Task, result: TaskResult) -> list[str]:
+def task_lines(task: Task, result: TaskResult) -> list[str]:
     """The rerun's rows as ``episodes.csv`` writes them (:func:`fftnav.runner.run._save_task`)."""
     keys = {"env": task.env, "map_seed": task.map_seed, "policy": task.policy,
             "episode_seed": task.episode_seed}
@@ -160,7 +160,7 @@ def _rows_lines(task: Task, result: TaskResult) -> list[str]:
     return episode_csv(rows, columns=CSV_COLUMNS, header=False).splitlines()
 
 
-def _difference(committed: list[str], rerun: list[str]) -> str:
+def first_difference(committed: list[str], rerun: list[str]) -> str:
     """The first difference between two tasks' lines, in words."""
     if len(committed) != len(rerun):
         return f"{len(rerun)} rows, the folder has {len(committed)}"
@@ -190,10 +190,10 @@ def rerun_task(results_dir: str | Path, task: str) -> Rerun:
     config = folder_config(results_dir)
     found = _find_task(config, results_dir, task)
     result = run_task(dataclasses.replace(config, record="all"), found)
-    committed, rerun = committed_lines(results_dir, found), _rows_lines(found, result)
+    committed, rerun = committed_lines(results_dir, found), task_lines(found, result)
     if rerun != committed:
         raise FftnavError(f"the rerun of {task} must give the rows of "
                           f"{results_dir / 'episodes.csv'}, got other rows "
-                          f"({_difference(committed, rerun)}): this fftnav does not reproduce "
+                          f"({first_difference(committed, rerun)}): this fftnav does not reproduce "
                           "the folder")
     return Rerun(config, found, result)

@@ -34,10 +34,10 @@ LOCK_NAME = ".lock"
 #: Folders and files ``fftnav run`` writes into a results folder (what :func:`remove_results`
 #: deletes).
 RESULT_FOLDERS: tuple[str, ...] = ("episodes", "trajectories", "records", "reference",
-                                   "figures")
+                                   "figures", "timing")
 RESULT_FILES: tuple[str, ...] = ("episodes.csv", "summary.csv", "paired_tests.csv",
                                  "errors.csv", "report.md", "run_info.json", "config.toml",
-                                 "config.json", "maps.csv")
+                                 "config.json", "maps.csv", "timing.csv")
 #: Fields of :class:`ExperimentConfig` that come from the ``[experiment]`` table.
 _EXPERIMENT_FIELDS = ("name", "envs", "maps", "map_seed", "robots", "policies",
                       "trajectory_maps")

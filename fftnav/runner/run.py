@@ -17,6 +17,10 @@ Layout of the output folder ``DIR``:
 - ``maps.csv``: every map's difficulty measures per robot (:mod:`fftnav.runner.maps`), written
   when missing or not of the config's maps (a resume keeps it; real episodes only, not with
   an injected ``task_fn``);
+- ``timing/<same>.json`` and ``timing.csv`` (:data:`TIMING_COLUMNS`): each finished task's
+  compute, the FFT pipeline and controller wall-clock seconds and robot-ticks
+  (:attr:`fftnav.episode.EpisodeResult.compute_ms`); the one output that is not deterministic
+  (it depends on the machine and its load), so it is kept out of every other file;
 - ``errors.csv`` (only if some tasks failed in this run), ``summary.csv``, ``paired_tests.csv``,
   ``config.toml`` (verbatim copy), ``config.json`` (canonical form: a rerun into the folder
   must have the same), ``run_info.json`` (versions, git revision, workers, wall time).
@@ -65,7 +69,7 @@ from fftnav.runner.tasks import (
     task_count,
 )
 
-__all__ = ["CSV_COLUMNS", "RunOutcome", "run_experiment"]
+__all__ = ["CSV_COLUMNS", "TIMING_COLUMNS", "RunOutcome", "read_timing", "run_experiment"]
 
 #: Columns of ``episodes.csv``: the task's keys, then the episode's per-robot columns.
 CSV_COLUMNS: tuple[str, ...] = ("env", "map_seed", "policy", "episode_seed",
@@ -73,6 +77,8 @@ CSV_COLUMNS: tuple[str, ...] = ("env", "map_seed", "policy", "episode_seed",
 #: Fixed float format so that CSVs are byte-identical across runs.
 FLOAT_FORMAT = "%.6f"
 ERROR_COLUMNS = ("env", "map_seed", "policy", "error_type", "message", "traceback")
+#: Columns of ``timing.csv``: a task's compute seconds, robot-ticks and ms per robot-tick.
+TIMING_COLUMNS = ("env", "map_seed", "policy", "compute_s", "robot_ticks", "compute_ms")
 #: Maps whose reference lengths are computed together, just before their episodes: the first
 #: episodes start after 256 maps' lengths, however many maps the experiment has.
 REFERENCE_BATCH_MAPS = 256
@@ -141,6 +147,7 @@ def run_experiment(
         outcome = _run_tasks(config, out, options=options, task_fn=task_fn, progress=progress,
                              fresh=fresh, clock=clock)
         _write_errors(out, outcome.failed)
+        _write_timing(out, config)
         episodes = read_episodes(out / "episodes.csv")
         order = {"envs": config.envs, "policies": config.policy_names}
         write_atomic(out / "summary.csv", summarize(
@@ -177,7 +184,7 @@ def _run_tasks(config: ExperimentConfig, out: Path, *, options: dict[str, object
     (:func:`~fftnav.runner.executors.execute`): with real episodes, each batch's reference
     lengths are computed just before its episodes. ``episodes.csv`` is rebuilt now and then
     (at most ~5 % of the time) and at the end, even on interruption."""
-    for sub in ("episodes", "trajectories", "records"):
+    for sub in ("episodes", "trajectories", "records", "timing"):
         (out / sub).mkdir(parents=True, exist_ok=True)
     write_atomic(out / "config.toml", config.source)
     real = task_fn is run_task  # real episodes: each map's reference lengths computed once
@@ -449,6 +456,10 @@ def _save_task(out: Path, task: Task, result: TaskResult) -> TaskResult:
     the task done."""
     if result.recording is not None:
         write_atomic(record_path(out, task), result.recording)
+    if result.compute is not None:
+        seconds, ticks = result.compute
+        write_atomic(out / "timing" / f"{task.task_id}.json",
+                     json.dumps({"compute_s": float(seconds), "robot_ticks": int(ticks)}))
     if result.trajectories is not None:
         buffer = io.BytesIO()
         np.savez_compressed(buffer, *result.trajectories)
@@ -476,6 +487,32 @@ def _write_episodes(out: Path, config: ExperimentConfig) -> None:
             if task_file_problem(path, None, task, robots=config.robots,
                                  columns=CSV_COLUMNS) is None:
                 fh.write(path.read_bytes())
+
+
+def _write_timing(out: Path, config: ExperimentConfig) -> None:
+    """Write ``timing.csv`` (:data:`TIMING_COLUMNS`) from the finished tasks' ``timing/``
+    files, in task order; a missing or damaged file leaves its task out."""
+    rows = []
+    folder = out / "timing"
+    for task in iter_tasks(config, where=lambda name: (folder / f"{name}.json").exists()):
+        try:
+            found = json.loads((folder / f"{task.task_id}.json").read_text())
+            seconds, ticks = float(found["compute_s"]), int(found["robot_ticks"])
+        except (OSError, ValueError, KeyError, TypeError):
+            continue
+        rows.append((task.env, task.map_seed, task.policy, seconds, ticks,
+                     1000 * seconds / ticks if ticks else np.nan))
+    write_atomic(out / "timing.csv", pd.DataFrame(rows, columns=list(TIMING_COLUMNS)).to_csv(
+        index=False, float_format="%.6g"))
+
+
+def read_timing(folder: str | Path) -> pd.DataFrame:
+    """A results folder's ``timing.csv`` (:data:`TIMING_COLUMNS`); empty when the folder has
+    none (results written before timing was kept, or by an injected task function)."""
+    path = Path(folder) / "timing.csv"
+    if not path.exists():
+        return pd.DataFrame(columns=list(TIMING_COLUMNS))
+    return read_episodes(path)
 
 
 def _write_errors(out: Path, failed: list[tuple[Task, TaskError]]) -> None:

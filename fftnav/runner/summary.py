@@ -5,6 +5,8 @@ APL = mean path length of the robots that arrived (metres), SPL = mean over all 
 ``S_i l_i / max(p_i, l_i)`` (the episode's ``spl`` column). Rates are fractions, not percent.
 Intervals: 95% percentile bootstrap over *maps* (a map's robots share obstacles, so they are
 not independent): maps are resampled with replacement and the pooled statistic recomputed.
+Paired tests: the Wilcoxon signed-rank test of per-map differences (:func:`signed_rank_test`),
+exact up to :data:`WILCOXON_EXACT_MAX` non-zero differences, whatever their ties.
 The p-values of a sweep report are Holm-Bonferroni adjusted over all its comparisons, one
 family (:func:`holm`, :func:`sweep_table`).
 """
@@ -13,6 +15,7 @@ from __future__ import annotations
 
 import warnings
 from collections.abc import Iterable, Iterator, Sequence
+from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
@@ -21,11 +24,12 @@ from scipy import stats
 
 from fftnav.errors import FftnavError
 from fftnav.metrics import MEASURES
-from fftnav.validate import check_integer, check_number
+from fftnav.validate import check_choice, check_integer, check_number
 
-__all__ = ["PAIRED_COLUMNS", "SWEEP_COLUMNS", "bootstrap_ratio_ci", "gain_table", "holm",
-           "in_order", "noninferiority_p", "paired_gain", "paired_tests", "summarize",
-           "summary_columns", "sweep_table"]
+__all__ = ["EXACT", "NORMAL_APPROX", "PAIRED_COLUMNS", "SWEEP_COLUMNS", "WILCOXON_EXACT_MAX",
+           "SignedRankTest", "bootstrap_ratio_ci", "gain_table", "holm", "in_order",
+           "noninferiority_p", "paired_gain", "paired_tests", "signed_rank_test", "summarize",
+           "summary_columns", "sweep_table", "wilcoxon_method"]
 
 #: Columns of a summary before the measures: the group and its size.
 _KEYS: tuple[str, ...] = ("env", "policy", "episodes", "robots")
@@ -42,8 +46,137 @@ def summary_columns(conditions: Iterable[str] = ()) -> tuple[str, ...]:
 
 PAIRED_COLUMNS: tuple[str, ...] = (
     "env", "reference", "policy", "maps", "spl_reference", "spl_policy", "median_diff",
-    "statistic", "p_value",
+    "statistic", "p_value", "p_method",
 )
+
+#: ``p_method`` of a p-value computed from its exact null distribution.
+EXACT = "exact"
+#: ``p_method`` of a p-value from the normal approximation (with continuity correction).
+NORMAL_APPROX = "normal approx."
+#: Non-zero paired differences up to which :func:`signed_rank_test` enumerates the null
+#: distribution (2**20 sign assignments, counted in a fraction of a millisecond).
+WILCOXON_EXACT_MAX = 20
+_ALTERNATIVES = ("two-sided", "greater", "less")
+
+
+@dataclass(frozen=True)
+class SignedRankTest:
+    """A Wilcoxon signed-rank test (:func:`signed_rank_test`).
+
+    Attributes
+    ----------
+    statistic : float
+        Two-sided: the smaller of the rank sums of the positive and of the negative
+        differences; one-sided: the rank sum of the positive ones (scipy's convention). NaN
+        without a test.
+    p_value : float
+        NaN when every difference is 0 (or there is none): no test.
+    method : str
+        :data:`EXACT` or :data:`NORMAL_APPROX`; ``""`` without a test.
+    n : int
+        The non-zero differences the test ranks.
+    """
+
+    statistic: float
+    p_value: float
+    method: str
+    n: int
+
+
+def _signed_rank_counts(doubled_ranks: np.ndarray) -> np.ndarray:
+    """How many of the ``2**n`` sign assignments give each doubled rank sum of the positive
+    differences: ``counts[s]`` for ``s`` in ``0..sum(doubled_ranks)`` (exact integers).
+
+    Doubled, so that the average ranks of ties (``k + 0.5``) are integers; counted one
+    difference at a time (each either adds its rank to the sum or not), which is the
+    enumeration of all ``2**n`` assignments grouped by their sum.
+
+    >>> _signed_rank_counts(np.array([2, 4, 6])).tolist()  # ranks 1, 2, 3
+    [1, 0, 1, 0, 1, 0, 2, 0, 1, 0, 1, 0, 1]
+    """
+    counts = np.zeros(int(doubled_ranks.sum()) + 1, dtype=np.int64)
+    counts[0] = 1
+    for w in doubled_ranks.tolist():
+        counts[w:] = counts[w:] + counts[:len(counts) - w]
+    return counts
+
+
+def signed_rank_test(diff: Sequence[float] | np.ndarray, *,
+                     alternative: str = "two-sided") -> SignedRankTest:
+    """The Wilcoxon signed-rank test of paired differences ``diff`` (H0: symmetric about 0).
+
+    Zero differences are dropped (Wilcoxon's convention, scipy's ``zero_method="wilcox"``), the
+    others ranked by absolute value with ties given their average rank. With at most
+    :data:`WILCOXON_EXACT_MAX` of them the p-value is **exact**: the fraction of the ``2**n``
+    equally likely sign assignments whose rank sum of positives is at least as extreme as the
+    observed one, ties and all (two-sided: twice the smaller tail, at most 1). Beyond,
+    ``scipy.stats.wilcoxon``'s default on ``diff``: its exact distribution without ties or zeros
+    up to 50 differences, else the normal approximation with continuity correction.
+
+    Parameters
+    ----------
+    diff : (n,) array_like
+        Paired differences (e.g. per-map SPL of a policy minus its reference), finite.
+    alternative : {"two-sided", "greater", "less"}
+        "greater": the differences lie above 0.
+
+    Returns
+    -------
+    SignedRankTest
+        Statistic, p-value, how it was computed and the number of non-zero differences.
+
+    Raises
+    ------
+    ValueError
+        ``diff`` not 1-D or not finite, ``alternative`` unknown.
+
+    Examples
+    --------
+    Five positive differences: only 1 of the 32 sign assignments puts every rank on the
+    positive side, and 1 every rank on the negative one: p = 2/32.
+
+    >>> signed_rank_test([0.1, 0.2, 0.3, 0.4, 0.5])
+    SignedRankTest(statistic=0.0, p_value=0.0625, method='exact', n=5)
+
+    Six differences with a tie (ranks 1, 2.5, 2.5, 4, 5, 6), one negative (rank 5): the
+    negative rank sum is 5, and 10 of the 64 subsets of the ranks sum to 5 or less ({},
+    {1}, {2.5} twice, {4}, {5}, {1, 2.5} twice, {2.5, 2.5}, {1, 4}): p = 2 x 10/64.
+
+    >>> signed_rank_test([1, 2, 2, 3, -4, 5]).p_value
+    0.3125
+    >>> signed_rank_test([0, 0, 0]).method  # no test
+    ''
+    """
+    check_choice("alternative", alternative, _ALTERNATIVES)
+    d = np.asarray(diff, dtype=float)
+    if d.ndim != 1:
+        raise FftnavError(f"diff must be 1-D, got diff of shape {d.shape}")
+    bad = np.flatnonzero(~np.isfinite(d))
+    if bad.size:
+        raise FftnavError(f"diff must be finite, got diff[{bad[0]}]={d[bad[0]]}")
+    nonzero = d[d != 0]
+    n = len(nonzero)
+    if n == 0:
+        return SignedRankTest(float("nan"), float("nan"), "", 0)
+    if n > WILCOXON_EXACT_MAX:
+        with warnings.catch_warnings():
+            warnings.simplefilter("ignore")
+            test = stats.wilcoxon(d, alternative=alternative)
+        ties = len(np.unique(np.abs(nonzero))) < n
+        exact = len(d) <= 50 and not ties and n == len(d)  # scipy's choice of method
+        return SignedRankTest(float(test.statistic), float(test.pvalue),
+                              EXACT if exact else NORMAL_APPROX, n)
+    doubled = np.rint(2 * stats.rankdata(np.abs(nonzero))).astype(np.int64)
+    plus = int(doubled[nonzero > 0].sum())
+    counts = _signed_rank_counts(doubled)
+    total = 2 ** n
+    upper, lower = int(counts[plus:].sum()), int(counts[:plus + 1].sum())
+    tail = {"greater": upper, "less": lower,
+            "two-sided": min(total, 2 * min(upper, lower))}[alternative]
+    r_plus = plus / 2
+    r_minus = int(doubled.sum()) / 2 - r_plus
+    statistic = min(r_plus, r_minus) if alternative == "two-sided" else r_plus
+    return SignedRankTest(float(statistic), tail / total, EXACT, n)
 
 
 def bootstrap_ratio_ci(
@@ -179,7 +312,9 @@ def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion",
     DataFrame
         Columns ``PAIRED_COLUMNS``: number of paired maps, mean per-map SPL of both, median of
         the per-map differences (reference - policy), the two-sided test statistic and p-value
-        (NaN when every difference is zero or no map is paired). Empty if ``reference`` is absent.
+        of :func:`signed_rank_test` (NaN when every difference is zero or no map is paired) and
+        how the p-value was computed (``p_method``: :data:`EXACT` or :data:`NORMAL_APPROX`,
+        empty without a p-value). Empty if ``reference`` is absent.
     """
     per_map = episodes.pivot_table(index=["env", "map_seed"], columns="policy", values="spl",
                                    aggfunc="mean")
@@ -191,13 +326,10 @@ def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion",
             for policy in in_order((c for c in per_map.columns if c != reference), policies):
                 pair = table[[reference, policy]].dropna()
                 diff = (pair[reference] - pair[policy]).to_numpy()
-                statistic = p_value = np.nan
-                if np.any(diff != 0):
-                    test = stats.wilcoxon(diff)
-                    statistic, p_value = float(test.statistic), float(test.pvalue)
+                test = signed_rank_test(diff)
                 rows.append((env, reference, policy, len(pair), pair[reference].mean(),
                              pair[policy].mean(), np.median(diff) if len(diff) else np.nan,
-                             statistic, p_value))
+                             test.statistic, test.p_value, test.method))
     return pd.DataFrame(rows, columns=list(PAIRED_COLUMNS))
 
 
@@ -268,18 +400,21 @@ def _mean_ci(diff: np.ndarray) -> tuple[float, float]:
     return float(res.confidence_interval.low), float(res.confidence_interval.high)
 
 
-def _wilcoxon(diff: np.ndarray) -> float:
-    if not np.any(diff != 0):
-        return float("nan")
-    with warnings.catch_warnings():
-        warnings.simplefilter("ignore")
-        return float(stats.wilcoxon(diff).pvalue)
+def wilcoxon_method(diff: Sequence[float] | np.ndarray, *, alternative: str = "two-sided") -> str:
+    """How :func:`signed_rank_test` (and so :func:`paired_gain`, :func:`noninferiority_p`)
+    computes the p-value of ``diff``: :data:`EXACT`, :data:`NORMAL_APPROX`, or ``""`` when
+    every difference is 0 (no test).
+
+    >>> wilcoxon_method([0.1, -0.2, 0.3]), wilcoxon_method([0.0, 0.0])
+    ('exact', '')
+    """
+    return signed_rank_test(diff, alternative=alternative).method
 
 
 def paired_gain(diff: Sequence[float] | np.ndarray) -> tuple[float, float, float, float]:
     """Mean of paired per-map differences ``diff``, its 95% bootstrap interval and the
-    two-sided Wilcoxon signed-rank p (NaN when every difference is 0): what
-    :func:`gain_table` reports for each comparison.
+    two-sided Wilcoxon signed-rank p of :func:`signed_rank_test` (NaN when every difference is
+    0): what :func:`gain_table` reports for each comparison.
 
     >>> gain, low, high, p = paired_gain(np.array([0.1, 0.2, 0.15, 0.05, 0.12, 0.3, 0.2, 0.1]))
     >>> round(gain, 4), low < gain < high, round(p, 4)
@@ -287,25 +422,24 @@ def paired_gain(diff: Sequence[float] | np.ndarray) -> tuple[float, float, float
     """
     d = np.asarray(diff, dtype=float)
     low, high = _mean_ci(d)
-    return (float(d.mean()) if len(d) else float("nan")), low, high, _wilcoxon(d)
+    return (float(d.mean()) if len(d) else float("nan")), low, high, signed_rank_test(d).p_value
 
 
 def noninferiority_p(diff: Sequence[float] | np.ndarray, *, margin: float) -> float:
-    """One-sided Wilcoxon signed-rank p of the per-map differences ``diff`` against "the
-    policy is worse than its reference by ``margin`` or more" (H1: the differences plus
-    ``margin`` lie above 0); NaN when every shifted difference is 0.
+    """One-sided Wilcoxon signed-rank p (:func:`signed_rank_test`) of the per-map differences
+    ``diff`` against "the policy is worse than its reference by ``margin`` or more" (H1: the
+    differences plus ``margin`` lie above 0); NaN when every shifted difference is 0.
 
-    Identical on 20 maps: within a margin of 0.1 points; a point worse on every map: not.
+    Identical on 20 maps: within a margin of 0.1 points (exact p = 1/2**20, the one sign
+    assignment with every shifted difference positive); a point worse on every map: not (p = 1).
 
-    >>> noninferiority_p(np.zeros(20), margin=0.001) < 1e-5
+    >>> noninferiority_p(np.zeros(20), margin=0.001) == 1 / 2**20
     True
-    >>> noninferiority_p(np.full(20, -0.01), margin=0.001) > 0.5
-    True
+    >>> noninferiority_p(np.full(20, -0.01), margin=0.001)
+    1.0
     """
     shifted = np.asarray(diff, dtype=float) + margin
-    if not np.any(shifted != 0):
-        return float("nan")
-    return float(stats.wilcoxon(shifted, alternative="greater").pvalue)
+    return signed_rank_test(shifted, alternative="greater").p_value
 
 
 def gain_table(episodes: pd.DataFrame, cell: str, *, envs: Sequence[str] | None = None,

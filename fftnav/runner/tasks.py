@@ -59,6 +59,9 @@ class TaskResult:
     rows: list[EpisodeRow]
     trajectories: list[np.ndarray] | None
     recording: bytes | None = None
+    #: The method's compute: wall-clock seconds and robot-ticks
+    #: (:attr:`fftnav.episode.EpisodeResult.compute_ms`); None: not measured.
+    compute: tuple[float, int] | None = None
 
 
 def episode_seed(env: str, map_seed: int) -> int:
@@ -116,7 +119,8 @@ def run_task(config: ExperimentConfig, task: Task) -> TaskResult:
                          reference=lengths, record=config.record != "none")
     kept = config.record == "all" or (config.record == "failures" and result.failed)
     return TaskResult(result.rows, result.trajectories if task.keep_trajectories else None,
-                      result.recording() if kept else None)
+                      result.recording() if kept else None,
+                      compute=(result.compute_s, result.robot_ticks))
 
 
 def map_reference(config: ExperimentConfig, task: Task) -> np.ndarray:

@@ -149,12 +149,14 @@ def test_episode_runs_a_plugin_importing_its_neighbour_and_says_how_it_went(newc
     rows = pd.read_csv(newcomer / "e.csv")
     assert list(rows.policy) == ["mine"] * 3
     arrived, collided = int(rows.arrived.sum()), int(rows.collided.sum())
-    causes = rows.failure.dropna().value_counts().sort_index()
-    why = ("; failures: " + ", ".join(f"{c} {n}" for c, n in causes.items())
-           if len(causes) else "")
-    assert proc.stderr.splitlines()[-1] == (
-        f"{arrived}/3 arrived, SPL {rows.spl.mean():.2f}, {collided} collided, "
-        f"{3 - arrived - collided} timed out{why}")
+    line = proc.stderr.splitlines()[-1]
+    head, _, named = line.partition("; failed: ")
+    assert head == (f"{arrived}/3 arrived, SPL {rows.spl.mean():.2f}, {collided} collided, "
+                    f"{3 - arrived - collided} timed out")
+    failed = rows[~rows.arrived]
+    assert named == "" if failed.empty else named.startswith(f"{failed.robot.iloc[0]} (")
+    for r in failed.itertuples():  # a collision also says when: "(collision at T s)"
+        assert re.search(rf"(^|, ){r.robot} \({r.failure}( at [\d.]+ s)?\)", named), line
 
 
 CRASHING = """\

@@ -51,7 +51,7 @@ def test_smoke_run_writes_every_output(smoke_run):
     assert summary.set_index("policy").spl.to_dict() == pytest.approx(by_policy.to_dict(),
                                                                       abs=1e-6)
     report = (smoke_run / "report.md").read_text()
-    assert "| forest | fusion | Proposed |" in report and "git `" in report
+    assert "| forest | fusion |" in report and "paper AR %" not in report and "git `" in report
     for name in ("trajectories_forest.png", "spl_apl.png", "path_lengths.png"):
         assert (smoke_run / "figures" / name).stat().st_size > 1000
         assert f"figures/{name}" in report

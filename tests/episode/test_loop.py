@@ -48,6 +48,15 @@ def test_single_robot_in_an_empty_world_is_near_optimal():
     assert row.decisions_left + row.decisions_right == 0
 
 
+def test_the_method_s_compute_is_timed_over_every_robot_tick():
+    world = _world([], [[3, 1, UP], [5, 1, UP]], [[3, 9], [5, 9]])
+    res = run_episode(world, "fusion", seed=0, config=CFG)
+    # a robot is served at each tick it drives: one trajectory sample after its start
+    assert res.robot_ticks == sum(len(t) - 1 for t in res.trajectories)
+    assert res.compute_s > 0
+    assert res.compute_ms == pytest.approx(1000 * res.compute_s / res.robot_ticks)
+
+
 WALL = _box(2.5, 5.5, 4.5, 4.8)  # 3 m wide, centred on the robot's straight line x = 4
 
 

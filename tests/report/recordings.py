@@ -7,8 +7,12 @@ World 10 m x 8 m, one trunk at (8, 6). 60 ticks of 0.1 s (6 s), then the end tic
   (y = 3), where it stays (status ``ARRIVED`` from tick 41);
 - robot 1 drives along y = 5 from x = 1 at 0.5 m/s in state ``FOLLOW``;
 - robot 2 drives along y = 2 from x = 4 at 0.5 m/s in state ``ESCAPE``, times out at the end;
-- robot 3 stands at (8, 4) in state ``GUIDED`` and collides at tick 30 (status ``COLLIDED``
-  after it).
+- robot 3 stands at (8, 4) in state ``GUIDED`` and collides at tick 30: its
+  ``contact_obstacle`` is set at tick 30 (a touch during the tick's control period), its
+  status ``COLLIDED`` from tick 31, as the episode judges it after the period.
+
+Each failed robot is drawn failed from its failure tick on (:data:`FAILURE_TICKS`): robot 3
+from the tick it touched (30), robot 2 from the tick its time ran out (the end tick).
 
 States and statuses are the codes of :mod:`fftnav.states` (the recording's ``state/mode`` and
 ``status`` columns).
@@ -69,13 +73,20 @@ MODES = (State.GOAL, State.FOLLOW, State.ESCAPE, State.GUIDED)
 MOVING_KINDS = ("moving", "following", "escaping", "guided")
 
 
+#: The tick at which each failed robot failed, by the story above: robot 3 touched the trunk
+#: during tick 30, robot 2 ran out of time at the end tick.
+FAILURE_TICKS = {2: TICKS, 3: 30}
+#: The tick during whose control period robot 3 touched the trunk (its ``contact_obstacle``).
+TOUCH_TICK = 30
+
+
 def expected_kind(robot: int, tick: int) -> str:
-    """How robot ``robot`` is drawn at ``tick``: failed once it collided or timed out, arrived
-    once it arrived, else by its state (:data:`MOVING_KINDS`)."""
-    code = status(robot, tick)
-    if code in (Status.COLLIDED, Status.TIMED_OUT):
+    """How robot ``robot`` is drawn at ``tick``: failed from its failure tick on
+    (:data:`FAILURE_TICKS`), arrived once it arrived, else by its state
+    (:data:`MOVING_KINDS`)."""
+    if tick >= FAILURE_TICKS.get(robot, TICKS + 1):
         return "failed"
-    return "arrived" if code == Status.ARRIVED else MOVING_KINDS[robot]
+    return "arrived" if status(robot, tick) == Status.ARRIVED else MOVING_KINDS[robot]
 
 
 def angles() -> np.ndarray:
@@ -109,6 +120,8 @@ def make_recording(path, *, estimates: bool = False) -> None:
                   safe=safe, state={i: {"mode": float(MODES[i]), "side": 1.0, "decisions": float(g // 10)}
                                     for i in np.flatnonzero(moving).tolist()},
                   **_estimates(estimates, n, g))
+        tape.contacts(np.arange(n) == 3 if g == TOUCH_TICK else np.zeros(n, bool),
+                      np.zeros(n, bool))
         tape.delivery(g, 0, 1, g)
     tape.end(TICKS * DT, np.array([pose(i, TICKS) for i in range(n)]),
              np.array([status(i, TICKS) for i in range(n)]), **_estimates(estimates, n, TICKS))

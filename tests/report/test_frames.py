@@ -100,22 +100,29 @@ def test_a_failed_robot_has_a_cross_beyond_its_disc_and_its_cause():
 
 
 def test_picked_scan_safe_sectors_trails_goal_lines_and_messages():
+    """Returns 1 m ahead; the beams behind safe, their sectors drawn out to l_th = 1.5 m (not
+    to the 3 m range)."""
     angles = -math.pi + np.arange(360) * 2 * math.pi / 360
     ahead = np.abs(angles) < math.pi / 2
-    scan = ScanView(angles, np.where(ahead, 1.0, 3.0), ~ahead, 3.0)
+    scan = ScanView(angles, np.where(ahead, 1.0, 3.0), ~ahead, 3.0, safe_m=1.5)
     poses = np.array([[6.0, 4.0, 0.0], [2.0, 1.0, 0.0]])
     frame = SwarmFrame(poses=poses, kinds=np.array([1, 1]), picked=0, scan=scan,
                        trails=[np.array([[6.0, 1.0], [6.0, 4.0]]), np.zeros((0, 2))],
                        messages=np.array([[1, 0]]))
     _, at = _render(frame)
     assert at(7.0, 4.0).max() < 60  # a return 1 m ahead
-    assert np.abs(at(4.0, 4.0) - _blend(SAFE_COLOUR, 0.22)).max() <= 3  # safe, behind, 2 m
+    for behind_m in (0.5, 1.0, 1.4):  # safe, behind, within l_th
+        assert np.abs(at(6.0 - behind_m, 4.0) - _blend(SAFE_COLOUR, 0.22)).max() <= 3
+    for behind_m in (1.6, 2.0, 2.8):  # beyond l_th, within the range: no sector
+        assert tuple(at(6.0 - behind_m, 4.0)) == (255, 255, 255), behind_m
     assert tuple(at(6.8, 5.0)) == (255, 255, 255)  # ahead, beyond the returns: nothing
     trail = at(6.0, 2.5).astype(int)
     assert trail[2] > trail[0] + 60  # the trail, in the moving colour (blue)
     message = at(*(poses[0, :2] + poses[1, :2]) / 2)
     assert np.abs(message - _blend(MESSAGE_COLOUR, 0.8)).max() <= 40
-    assert tuple(at(8.5, 5.75)) != (255, 255, 255)  # the dashed line to the goal (11, 7.5)
+    # the dashed line to the goal (11, 7.5): drawn, with gaps
+    line = [tuple(at(6.0 + 5.0 * f, 4.0 + 3.5 * f)) for f in np.linspace(0.3, 0.7, 40)]
+    assert 5 <= sum(px != (255, 255, 255) for px in line) < 40
 
 
 def test_runs_of_safe_beams_wrap_round_a_full_circle():
@@ -127,10 +134,14 @@ def test_runs_of_safe_beams_wrap_round_a_full_circle():
 
 
 def test_robot_kinds_follow_status_and_mode(recording):
+    """By status and mode, a failed robot failed from its failure tick: robot 3 from the tick
+    it touched the trunk (29: guided, 30: failed), robot 2 at the end tick."""
     kinds = robot_kinds(recording)
-    for tick in (0, 30, 31, 40, 41, TICKS):
+    for tick in (0, 29, 30, 31, 40, 41, TICKS - 1, TICKS):
         for i in range(4):
             assert KINDS[kinds[tick, i]] == expected_kind(i, tick), (i, tick)
+    assert [KINDS[k] for k in kinds[29:32, 3]] == ["guided", "failed", "failed"]
+    assert [KINDS[k] for k in kinds[TICKS - 1:, 2]] == ["escaping", "failed"]
 
 
 def test_recording_frame_has_poses_trails_messages_and_the_picked_scan(recording):
@@ -257,28 +268,31 @@ def test_estimated_poses_are_dashed_hollow_discs_with_headings_and_paths():
     tinted = path[(255 - path).max(axis=-1) > 15]
     assert 10 <= len(tinted) < 60  # dashed: drawn, with gaps
     assert (tinted[:, 0] > tinted[:, 2] + 15).all()  # in the robot's colour (orange)
-    legend = painted[0].ax.get_legend()
-    assert legend.get_visible()
-    assert [t.get_text() for t in legend.get_texts()] == [TRUTH_LABEL, ESTIMATE_LABEL]
+    texts = [t.get_text() for t in painted[0].legend.get_texts()]
+    assert texts[-2:] == [TRUTH_LABEL, ESTIMATE_LABEL]  # the key lists truth and estimate
+
+
+def _legend_texts(painter) -> list[str]:
+    return [t.get_text() for t in painter.legend.get_texts()]
 
 
 def test_a_frame_without_estimates_draws_none_of_them():
-    """A frame without estimates has no legend and no estimated pose or path; a painter that
-    drew estimates hides them again for such a frame."""
+    """A frame without estimates lists no estimates in its key and draws no estimated pose or
+    path; a painter that drew estimates hides them again for such a frame."""
     frame = SwarmFrame(poses=np.array([[3.0, 4.0, 0.0]]), kinds=np.array([1]),
                        trails=[np.array([[1.0, 4.0], [3.0, 4.0]])])
     painted: list = []
     _render(frame, painted=painted)
     painter = painted[0]
-    assert painter.ax.get_legend() is None
+    assert ESTIMATE_LABEL not in _legend_texts(painter)
     assert len(painter.estimate_robots.get_offsets()) == 0
     assert not painter.estimate_trails.get_segments()
-    # a later frame with estimates shows the legend; one without hides it again
+    # a later frame with estimates lists them; one without drops them again
     painter.update(SwarmFrame(poses=frame.poses, kinds=frame.kinds,
                               estimates=np.array([[5.0, 4.0, 0.0]])))
-    assert painter.ax.get_legend().get_visible()
+    assert _legend_texts(painter)[-2:] == [TRUTH_LABEL, ESTIMATE_LABEL]
     painter.update(frame)
-    assert not painter.ax.get_legend().get_visible()
+    assert TRUTH_LABEL not in _legend_texts(painter)
     assert len(painter.estimate_robots.get_offsets()) == 0
 
 
@@ -306,8 +320,9 @@ def test_png_and_gif_frames_draw_the_estimates(recording, estimated, tmp_path):
                                                  robot=1)).convert("RGB")).astype(int)
     exact = np.asarray(Image.open(write_image(recording, tmp_path / "x.png", at_s=4.2,
                                               robot=1)).convert("RGB")).astype(int)
-    assert with_est.shape == exact.shape
-    changed = np.abs(with_est - exact).max(axis=-1) > 40
+    # the same title and map (640 x 512 px under a 24 px title); the key lists two entries more
+    assert with_est.shape[1] == exact.shape[1] and with_est.shape[0] > exact.shape[0]
+    changed = np.abs(with_est[:536] - exact[:536]).max(axis=-1) > 40
     assert 0.002 < changed.mean() < 0.05
     gif = write_video(estimated, tmp_path / "e.gif", robot=1, from_s=2.0, to_s=4.0, speed=10)
     with Image.open(gif) as frames:

@@ -134,8 +134,9 @@ class DevTools:
         os.close(self._write)
 
 
-def _open(browser: str, html, profile) -> DevTools:
-    """A DevTools session on ``html`` once its player is ready."""
+def _open(browser: str, html, profile, hash: str = "") -> DevTools:
+    """A DevTools session on ``html`` (opened at ``hash``, e.g. ``#robot=3&t=2``) once its
+    player is ready."""
     tools = DevTools(browser, str(profile))
     target = tools.call("Target.createTarget", url="about:blank")["targetId"]
     tools.session = tools.call("Target.attachToTarget", targetId=target,
@@ -144,7 +145,7 @@ def _open(browser: str, html, profile) -> DevTools:
         tools.call(f"{domain}.enable")
     tools.call("Emulation.setDeviceMetricsOverride", width=1100, height=800,
                deviceScaleFactor=1, mobile=False)
-    tools.call("Page.navigate", url=html.as_uri())
+    tools.call("Page.navigate", url=html.as_uri() + hash)
     deadline = time.monotonic() + 10
     while not tools.evaluate("!!(window.fftnavPlayer && window.fftnavPlayer.ready)"):
         assert time.monotonic() < deadline, "the player did not start"
@@ -285,7 +286,7 @@ def test_estimates_are_drawn_beside_the_true_poses(estimated_page):
     page.evaluate("window.fftnavPlayer.seek(4.2)")
     assert page.evaluate("window.fftnavPlayer.tick") == 42
     info = page.evaluate("document.getElementById('robot-info').textContent")
-    assert info == "following; did not arrive; estimate off by 0.42 m"
+    assert info == "follow (left); did not arrive; estimate off by 0.42 m"  # its mode and side
     on = page.screenshot()
     page.evaluate("window.fftnavPlayer.setLayer('estimates', false)")
     off = page.screenshot()

@@ -14,7 +14,17 @@ import pytest
 from fftnav.episode.recording import read_recording
 from fftnav.report.frames import ESTIMATE_LABEL, KINDS, TRUTH_LABEL
 from fftnav.report.replay_html import player_data, write_html
-from tests.report.recordings import MODES, TICKS, estimate, expected_kind, make_recording, pose
+from fftnav.states import State, Status
+from tests.report.recordings import (
+    FAILURE_TICKS,
+    MODES,
+    TICKS,
+    estimate,
+    expected_kind,
+    make_recording,
+    pose,
+    status,
+)
 
 TYPES = {"Float32Array": "<f4", "Uint8Array": "u1", "Uint16Array": "<u2", "Int32Array": "<i4"}
 
@@ -35,7 +45,12 @@ def test_window_arrays_are_the_recordings(recording):
     for k, tick in enumerate(range(10, 31)):
         np.testing.assert_allclose(pose_[k], [pose(i, tick) for i in range(4)], atol=1e-5)
     kinds = a["kind"].reshape(g, 4)
-    assert [header["kinds"][c] for c in kinds[0]] == [expected_kind(i, 10) for i in range(4)]
+    for k in (0, 19, 20, g - 1):  # ticks 10, 29, 30 (robot 3 touched the trunk), 30
+        assert [header["kinds"][c] for c in kinds[k]] == [expected_kind(i, 10 + k)
+                                                          for i in range(4)]
+    drawn = a["status"].reshape(g, 4)  # robot 3 collided from its failure tick, 30
+    assert [int(drawn[k, 3]) for k in (19, 20)] == [Status.MOVING, Status.COLLIDED]
+    assert [int(drawn[19, i]) for i in range(3)] == [status(i, 29) for i in range(3)]
     assert header["kinds"] == list(KINDS)
     assert [header["kinds"][c] for c in header["driving"]] == [
         "moving", "following", "escaping", "guided"]
@@ -52,15 +67,50 @@ def test_window_arrays_are_the_recordings(recording):
     assert state[names.index("mode"), 0].tolist() == [float(m) for m in MODES]
     assert state[names.index("command v (m/s)"), 0, 0] == pytest.approx(0.5)
     assert [o["failure"] for o in header["outcomes"]] == ["", "", "slow", "collision"]
+    # robot 3 failed at tick 30 (20 ticks into the window), at 3.0 s; robot 2 after the window
+    assert header["failTicks"] == [None, None, None, FAILURE_TICKS[3] - 10]
+    assert [o["failedAt"] for o in header["outcomes"]] == [None, None, TICKS * 0.1, 3.0]
+    assert header["limitS"] == 120.0 and header["limitText"] == "120"  # the default limit
+    assert header["safeM"] == pytest.approx(0.3 ** 2 / 0.15)  # l_th = r^2 / r0
+    assert header["keyLabels"]["safe"] == "safe (to l_th = 0.60 m)"
+    assert header["stateLabels"][int(State.FOLLOW)] == "follow"
+    assert header["sideNames"] == {"1": "left", "-1": "right"}
+    assert [header["statusLabels"][c] for c in (Status.MOVING, Status.LOST)] == ["moving",
+                                                                                 "lost"]
+
+
+def _page(text):
+    """The pane headers and the data blocks of a player page, as the page reads them."""
+    panes = json.loads(re.search(r'id="fftnav-header">(.*?)</script>', text, re.S)
+                       .group(1))["panes"]
+    blocks = [base64.b64decode(re.search(rf'id="fftnav-data-{k}">(.*?)</script>', text, re.S)
+                               .group(1)) for k in range(len(panes))]
+    return panes, blocks
 
 
 def test_html_embeds_header_and_data(recording, tmp_path):
     out = write_html(recording, tmp_path / "p.html")
-    text = out.read_text()
-    header = json.loads(re.search(r'id="fftnav-header">(.*?)</script>', text, re.S).group(1))
-    data = base64.b64decode(re.search(r'id="fftnav-data">(.*?)</script>', text, re.S).group(1))
+    (header,), (data,) = _page(out.read_text())
     assert header["ticks"] == TICKS + 1 and header["picked"] == 1  # the first not to arrive
     assert _arrays(header, data)["pose"].size == (TICKS + 1) * 4 * 3
+    assert header["failTicks"] == [None, None, FAILURE_TICKS[2], FAILURE_TICKS[3]]
+
+
+def test_recordings_side_by_side_are_panes_of_one_page(recording, tmp_path):
+    """Each recording beside the first is a pane of its own with its own data; the window and
+    the robot are the first's, clamped to each recording's episode."""
+    make_recording(tmp_path / "e.npz", estimates=True)
+    other = read_recording(tmp_path / "e.npz")
+    out = write_html(recording, tmp_path / "p.html", beside=[other], robot=2, from_s=1.0,
+                     to_s=3.0)
+    panes, blocks = _page(out.read_text())
+    assert len(panes) == 2 and [h["picked"] for h in panes] == [2, 2]
+    assert [h["estimates"] for h in panes] == [False, True] and "estimate" in panes[1]["arrays"]
+    for header, data in zip(panes, blocks, strict=True):
+        a = _arrays(header, data)
+        np.testing.assert_allclose(a["time"], np.arange(10, 31) * 0.1, atol=1e-5)
+    with pytest.raises(ValueError, match=r"from_s must be <= to_s, got from_s=3.0, to_s=1.0"):
+        write_html(recording, tmp_path / "x.html", beside=[other], from_s=3, to_s=1)
 
 
 def test_bad_window_and_robot(recording):

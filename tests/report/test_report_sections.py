@@ -1,11 +1,14 @@
-"""report.md's sections on map difficulty (Spearman) and on why robots failed, on folders written
-by the runner with a fake task function (fast, with failures of every cause)."""
+"""report.md's sections on map difficulty (Spearman) and on why robots failed, the paper's
+columns only beside the paper's protocol, and the reason of every missing number, on folders
+written by the runner with a fake task function (fast, with failures of every cause)."""
 
 from __future__ import annotations
 
 import csv
+import dataclasses
 import shutil
 from collections import Counter
+from pathlib import Path
 
 import numpy as np
 import pandas as pd
@@ -15,10 +18,22 @@ from fftnav.episode import EPISODE_COLUMNS, EpisodeRow
 from fftnav.metrics import FAILURE_CAUSES
 from fftnav.optimal.difficulty import MEASURES
 from fftnav.report.difficulty import spearman_markdown
-from fftnav.report.experiment import write_report
+from fftnav.report.experiment import (
+    PAPER_NAMES,
+    PAPER_TABLE1,
+    is_paper_protocol,
+    p_method_lines,
+    paired_table,
+    results_table,
+    write_report,
+)
 from fftnav.report.failures import REPLAY_COLUMN, failure_positions, failure_table
-from fftnav.runner import TaskResult, parse_config, run_experiment
+from fftnav.report.markdown import Dashes
+from fftnav.runner import TaskResult, load_config, parse_config, run_experiment, summarize
 from fftnav.runner.maps import MAPS_COLUMNS, map_spl, spearman_table
+from fftnav.runner.summary import paired_tests
+
+ROOT = Path(__file__).resolve().parents[2]
 
 CONFIG = parse_config({
     "experiment": {"name": "sections", "envs": ["forest", "rocky"], "maps": 6, "map_seed": 3,
@@ -99,15 +114,16 @@ def _failed_episodes(out):
                 if r["arrived"] == "false"}
 
 
-def test_the_report_says_how_to_make_the_recording_of_a_failure(results, monkeypatch):
+def test_the_report_says_how_to_make_the_replay_page_of_a_failure(results, monkeypatch):
     monkeypatch.chdir(results.parent)
     report = write_report(CONFIG, results).read_text()
-    order = {"env": CONFIG.envs.index, "policy": CONFIG.policy_names.index}  # the table's
+    order = {"env": CONFIG.envs.index, "policy": CONFIG.policy_names.index}  # the list's
     first = min(_failed_episodes(results),
-                key=lambda k: (order["env"](k[0]), order["policy"](k[2]), int(k[1])))
+                key=lambda k: (order["env"](k[0]), int(k[1]), order["policy"](k[2])))
     task = "-".join(first)
-    assert (f"`fftnav replay results --task {task} --out {task}.html` reruns that episode"
-            in report)
+    assert (f"`fftnav replay results --task {task} --out results/replays/{task}.html` reruns "
+            "that episode" in report)
+    assert report.count("`fftnav replay results --task") == 1  # said once
     assert not (results / "records").exists() or not any((results / "records").iterdir())
 
 
@@ -134,6 +150,10 @@ def test_failure_positions_are_the_last_points_of_the_failed_robots(results):
 def test_report_without_maps_csv_skips_the_difficulty_figure(results):
     assert not (results / "maps.csv").exists()  # a fake task function writes none
     report = write_report(CONFIG, results).read_text()
+    # not the paper's protocol (8 m worlds, 6 maps, 4 robots): no paper column
+    assert "## Results\n" in report and "paper AR %" not in report
+    assert "The paper's Table I is not shown: this experiment is not the paper's protocol" \
+        in report
     assert "(no `maps.csv` in this folder: rerun `fftnav run` on it to write it)" in report
     assert not (results / "figures" / "spl_vs_difficulty.png").exists()
     assert "## Why robots failed" in report and "| forest | fusion |" in report
@@ -159,6 +179,12 @@ def test_report_with_maps_csv_has_the_spearman_table_and_figure(results):
     # the per-map SPL is 1 - seed/20, the mean tortuosity grows with the seed: rho = -1
     assert expected["tortuosity"].str.startswith("**-1.00 (").all()
     assert expected["predicts SPL (p < 0.05)"].str.contains("tortuosity (-)", regex=False).all()
+    # 6 maps per env: exact, 1 ordering of 6! as extreme in each direction; 12 pooled: t
+    per_env = expected[expected.scope != "all"]
+    assert (per_env["tortuosity"] == f"**-1.00 ({2 / 720:.2g})**").all()
+    assert ("Spearman p-values above: exact (all n! orderings of the maps) in the 4 row(s) of "
+            "at most 9 maps (scope forest, rocky); from the t approximation in the 2 row(s) of "
+            "more than 9 maps (scope all).") in report
 
 
 def test_a_folder_without_the_failure_column_says_so(results):
@@ -166,3 +192,133 @@ def test_a_folder_without_the_failure_column_says_so(results):
     episodes.to_csv(results / "episodes.csv", index=False)
     report = write_report(CONFIG, results).read_text()
     assert "(`episodes.csv` has no `failure` column" in report
+
+
+def test_the_paper_protocol_is_table1s_and_nothing_else(tmp_path):
+    table1 = load_config(ROOT / "experiments" / "table1.toml")
+    assert is_paper_protocol(table1)
+    base = {"name": "p", "envs": ["forest", "rocky"], "maps": 20, "map_seed": 1000,
+            "robots": 15, "policies": ["fusion", "own-only"]}
+    assert is_paper_protocol(parse_config({"experiment": {**base, "envs": ["rocky"]},
+                                           "record": {"episodes": "all"}}))
+    others = [
+        {"experiment": {**base, "envs": ["forest", "walls"]}},
+        {"experiment": {**base, "maps": 19}},
+        {"experiment": {**base, "map_seed": 1001}},
+        {"experiment": {**base, "robots": 14}},
+        {"experiment": base, "comms": {"packet_loss": 0.3}},
+        {"experiment": base, "sensor": {"range_m": 6.0}},
+        {"experiment": base, "episode": {"departure": "waves"}},
+        {"experiment": base, "planner": {"drive": "straight"}},
+        {"experiment": base, "localization": {"mode": "odometry"}},
+        {"experiment": base, "world": {"size_m": [30.0, 30.0]}},
+        {"experiment": base, "world": {"rocky": {"size_m": [30.0, 30.0]}}},
+    ]
+    for data in others:
+        assert not is_paper_protocol(parse_config(data)), data
+    files = dataclasses.replace(parse_config({"experiment": base}),
+                                world_files={"forest": str(tmp_path / "w.json")})
+    assert not is_paper_protocol(files)
+    assert not is_paper_protocol(CONFIG)
+
+
+def test_the_papers_columns_stand_beside_the_papers_protocol(tmp_path):
+    paper = parse_config({"experiment": {
+        "name": "paper", "envs": ["forest", "rocky"], "maps": 20, "map_seed": 1000,
+        "robots": 15, "policies": ["bug-left", "fusion", "own-only"], "trajectory_maps": 0}},
+        source="# paper\n")
+    assert is_paper_protocol(paper)
+    run_experiment(paper, tmp_path, task_fn=fake_task, workers=1, progress=False)
+    report = write_report(paper, tmp_path).read_text()
+    assert "## Results beside the paper's Table I\n" in report
+    lines = [line for line in report.splitlines() if line.startswith("| ")]
+    assert lines[0] == ("| env | policy | paper name | AR % | APL m | SPL % | SPL geodesic % | "
+                        "paper AR % | paper APL m | paper SPL % |")
+    for env in ("forest", "rocky"):
+        for policy in ("bug-left", "fusion"):  # the paper's figures, as printed in its table
+            ar, apl, spl = PAPER_TABLE1[env, policy]
+            row = next(line for line in lines if line.startswith(f"| {env} | {policy} |"))
+            assert row.endswith(f"| {ar:.1f} | {apl:.3f} | {spl:.1f} |")
+            assert f"| {PAPER_NAMES[policy]} |" in row
+        own = next(line for line in lines if line.startswith(f"| {env} | own-only |"))
+        assert own.startswith(f"| {env} | own-only | -¹ |") and own.endswith("| -² | -² | -² |")
+    assert ("`-¹` the policy is not one of the paper's methods; `-²` the paper's Table I has no "
+            "row of this env and policy.") in report
+
+
+def _hand_episodes(rows):
+    """Episodes of the given (env, map_seed, policy, arrived, spl), one robot per row."""
+    table = pd.DataFrame(rows, columns=["env", "map_seed", "policy", "arrived", "spl"])
+    return table.assign(robot=table.groupby(["env", "map_seed", "policy"]).cumcount(),
+                        collided=False, path_length_m=np.where(table.arrived, 20.0, 5.0),
+                        optimal_length_m=18.0, geodesic_length_m=17.5, time_s=30.0,
+                        bytes_sent=0, messages_sent=0, decisions_left=0, decisions_right=0,
+                        decisions_with_neighbours=0, decisions_flipped_by_neighbours=0,
+                        robot_contacts=0, failure=np.where(table.arrived, "", "stuck"))
+
+
+def test_every_missing_number_of_the_results_table_says_why():
+    episodes = _hand_episodes([
+        # "one": a single map, so no interval over maps
+        ("forest", 1, "one", True, 0.9), ("forest", 1, "one", False, 0.0),
+        # "none": no robot arrives on either map, so no APL at all
+        *[("forest", m, "none", False, 0.0) for m in (1, 2) for _ in range(2)],
+        # "half": no robot arrives on map 2 of 2: a resample of map 2 alone has no APL
+        ("forest", 1, "half", True, 0.9), ("forest", 1, "half", True, 0.8),
+        ("forest", 2, "half", False, 0.0), ("forest", 2, "half", False, 0.0),
+    ])
+    summary = summarize(episodes, policies=["one", "none", "half"], n_resamples=200)
+    dashes = Dashes()
+    table = results_table(summary, episodes, paper=False, dashes=dashes).set_index("policy")
+    assert "paper AR %" not in table
+    assert table.loc["one", "AR %"] == "50.0 [-¹]"
+    assert table.loc["one", "APL m"] == "20.000 [-¹]"
+    assert table.loc["none", "APL m"] == "-²"
+    assert table.loc["none", "AR %"] == "0.0 [0.0, 0.0]"
+    assert table.loc["half", "APL m"] == "20.000 [-³]"
+    assert table.loc["half", "AR %"].startswith("50.0 [") and "-" not in table.loc["half", "AR %"]
+    assert dashes.legend() == [
+        "`-¹` 1 map: no interval over maps (it needs two or more); `-²` no robot arrived (APL "
+        "is the mean path length of the robots that arrived); `-³` 1 of the 2 maps had no robot "
+        "arrive: a bootstrap resample of those maps alone has no APL, so the interval is "
+        "undefined."]
+
+
+def test_a_paired_test_without_p_says_why():
+    episodes = _hand_episodes([
+        *[("forest", m, p, True, 0.9) for m in (1, 2, 3) for p in ("fusion", "same")],
+        ("forest", 1, "apart", True, 0.5), ("rocky", 1, "fusion", True, 0.7),
+        ("rocky", 2, "apart", True, 0.6),
+    ])
+    paired = paired_tests(episodes, policies=["fusion", "same", "apart"])
+    dashes = Dashes()
+    shown = paired_table(paired, dashes=dashes).set_index(["env", "policy"])
+    assert shown.loc[("forest", "same"), "p_value"] == "-¹"  # identical SPL on 3 maps
+    assert shown.loc[("forest", "same"), "statistic"] == "-¹"
+    assert shown.loc[("forest", "same"), "median_diff"] == 0
+    assert shown.loc[("forest", "apart"), "p_value"] == "1"  # one map: p = 2 x 1/2
+    assert shown.loc[("rocky", "same"), "p_value"] == "-²"  # no map with both
+    assert shown.loc[("rocky", "apart"), "p_value"] == "-³"
+    assert shown.loc[("rocky", "apart"), "spl_policy"] == "-³"
+    assert dashes.legend() == [
+        "`-¹` every paired difference is 0 (`fusion` and `same` have the same SPL on each of "
+        "the 3 maps): no test; `-²` no map has results of both `fusion` and `same` on rocky; "
+        "`-³` no map has results of both `fusion` and `apart` on rocky."]
+
+
+def test_the_report_says_how_each_p_was_computed(results):
+    paired = pd.read_csv(results / "paired_tests.csv")
+    assert paired["p_value"].isna().all()  # every policy has the same per-map SPL here
+    paired["p_method"] = paired["p_method"].astype(object)  # empty: read as NaN
+    paired.loc[0, ["statistic", "p_value", "p_method"]] = [0.0, 2 / 64, "exact"]
+    paired.loc[1, ["statistic", "p_value", "p_method"]] = [12.0, 0.2, "normal approx."]
+    paired.to_csv(results / "paired_tests.csv", index=False)
+    report = write_report(CONFIG, results).read_text()
+    assert "| forest | fusion | bug-left | 6 | 0.725 | 0.725 | 0 | 0.0 | 0.031 | exact |" in report
+    assert "| 12.0 | 0.2 | normal approx. |" in report
+    assert "`p_method` `exact`: from the exact null distribution, the 2^n equally likely signs" \
+        in report
+    assert "`normal approx.`: the normal approximation with continuity correction" in report
+    assert "this `paired_tests.csv` has no `p_method` column" in p_method_lines(
+        paired.drop(columns="p_method"))[0]  # a folder written before p_method
+    assert p_method_lines(paired.iloc[2:]) == []  # no p-value, nothing to say

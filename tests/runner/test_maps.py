@@ -22,6 +22,7 @@ from fftnav.runner.maps import (
     write_maps_csv,
 )
 from fftnav.runner.tasks import task_world
+from tests.runner.test_maps_exact import brute_force_spearman_p
 
 #: Small 8 m x 8 m forests (the smoke experiment's), 2 envs x 2 maps x 3 robots.
 SMALL = {
@@ -149,13 +150,14 @@ def _ranks_pearson(x, y):
     return float(np.corrcoef(rx, ry)[0, 1])
 
 
-def test_spearman_table_is_scipy_per_scope_policy_and_measure():
+def test_spearman_table_per_scope_policy_and_measure_exact_on_few_maps():
     per_map = _per_map(np.random.default_rng(3))
     per_map.loc[(per_map.env == "a") & (per_map.map_seed < 4), "tortuosity"] = np.nan
     per_map.loc[per_map.policy == "q", "spl"] += 2 * per_map.loc[per_map.policy == "q",
                                                                  "dispersion"]
     table = spearman_table(per_map, envs=["b", "a"], policies=["q", "p"])
-    assert list(table.columns) == ["scope", "policy", "measure", "maps", "rho", "p_value"]
+    assert list(table.columns) == ["scope", "policy", "measure", "maps", "rho", "p_value",
+                                   "p_method"]
     assert list(dict.fromkeys(table.scope)) == ["all", "b", "a"]
     assert len(table) == 3 * 2 * len(MEASURES)
     for r in table.itertuples(index=False):
@@ -165,7 +167,14 @@ def test_spearman_table_is_scipy_per_scope_policy_and_measure():
         assert r.maps == len(sub)
         expected = stats.spearmanr(sub.spl, sub[r.measure])
         assert r.rho == pytest.approx(expected.statistic, abs=1e-12)
-        assert r.p_value == pytest.approx(expected.pvalue, rel=1e-9)
+        if r.maps <= 9:  # 8 maps of env a with tortuosity: every ordering enumerated
+            assert r.p_method == "exact"
+            assert r.p_value == pytest.approx(
+                brute_force_spearman_p(sub.spl.to_numpy(), sub[r.measure].to_numpy()),
+                rel=1e-9)
+        else:
+            assert r.p_method == "t approx."
+            assert r.p_value == pytest.approx(expected.pvalue, rel=1e-9)
         assert r.rho == pytest.approx(_ranks_pearson(sub.spl.to_numpy(),
                                                      sub[r.measure].to_numpy()), abs=1e-12)
     q = table[(table.policy == "q") & (table.measure == "dispersion")]

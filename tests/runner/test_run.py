@@ -12,6 +12,8 @@ import pytest
 
 from fftnav.episode import EPISODE_COLUMNS, EpisodeRow
 from fftnav.runner import CSV_COLUMNS, TaskResult, execute, parse_config, run_experiment
+from fftnav.runner.run import TIMING_COLUMNS, read_timing
+from fftnav.runner.tasks import iter_tasks
 
 CONFIG = parse_config({
     "experiment": {"name": "fake", "envs": ["forest", "rocky"], "maps": 3, "map_seed": 5,
@@ -230,7 +232,7 @@ def _recorded_episodes(monkeypatch, events, *, stop_after=None, started=None):
                               "policy": policy, "arrived": True, "collided": False,
                               "bytes_sent": 0, "failure": ""}) for r in range(3)]
         return types.SimpleNamespace(rows=rows, trajectories=[np.zeros((2, 3))] * 3,
-                                     failed=False)
+                                     failed=False, compute_s=0.5, robot_ticks=10)
 
     monkeypatch.setattr(run_module, "map_reference", reference)
     monkeypatch.setattr(run_module, "write_maps_csv", lambda *a, **k: None)
@@ -289,3 +291,22 @@ def test_run_info_config_json_and_report_say_the_fftnav_that_ran(tmp_path, monke
     assert json.loads((tmp_path / "run_info.json").read_text())["fftnav_version"] == "9.8.7"
     assert json.loads((tmp_path / "config.json").read_text())["fftnav_version"] == "9.8.7"
     assert "fftnav 9.8.7, git" in write_report(CONFIG, tmp_path).read_text()
+
+
+def test_each_task_s_compute_goes_to_timing_csv_and_nowhere_else(tmp_path, monkeypatch):
+    """timing.csv holds each finished task's compute (the fake episodes report 0.5 s over 10
+    robot-ticks: 50 ms each), in task order; a rerun that skips every task keeps it."""
+    events = []
+    _recorded_episodes(monkeypatch, events)
+    run_experiment(CONFIG, tmp_path, workers=1, progress=False)
+    timing = pd.read_csv(tmp_path / "timing.csv")
+    assert list(timing.columns) == list(TIMING_COLUMNS)
+    assert len(timing) == N_TASKS
+    assert list(zip(timing.env, timing.map_seed, timing.policy, strict=True)) == [
+        (t.env, t.map_seed, t.policy) for t in iter_tasks(CONFIG)]
+    assert (timing.compute_ms == 50.0).all() and (timing.robot_ticks == 10).all()
+    assert "compute" not in (tmp_path / "episodes.csv").read_text().splitlines()[0]
+    before = (tmp_path / "timing.csv").read_bytes()
+    run_experiment(CONFIG, tmp_path, workers=1, progress=False)
+    assert (tmp_path / "timing.csv").read_bytes() == before
+    assert read_timing(tmp_path / "nowhere").empty

@@ -95,6 +95,7 @@ def test_paired_tests_align_maps_not_rows():
     assert test.median_diff == pytest.approx(0.1)
     # all six differences positive: W- = 0 and the exact two-sided p-value is 2 / 2**6
     assert test.statistic == 0 and test.p_value == pytest.approx(2 / 2**6)
+    assert test.p_method == "exact"
     assert test.spl_reference - test.spl_policy == pytest.approx(0.1)
 
 
@@ -103,6 +104,7 @@ def test_paired_tests_without_reference_or_differences():
                    for m in (1, 2) for p in ("bug-left", "fusion")])
     equal = paired_tests(df).iloc[0]
     assert equal.maps == 2 and equal.median_diff == 0 and np.isnan(equal.p_value)
+    assert equal.p_method == ""
     assert paired_tests(df[df.policy != "fusion"]).empty
 
 
