@@ -40,7 +40,7 @@ def _num(value: float, digits: int) -> str:
 
 
 def _sig(value: float) -> str:
-    return "-" if value is None or not np.isfinite(value) else f"{value:.3g}"
+    return "-" if value is None or not np.isfinite(value) else f"{value:#.3g}"
 
 
 def _p(value: float) -> str:

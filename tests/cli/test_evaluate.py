@@ -151,3 +151,34 @@ def test_replay_of_a_suite_s_reference_episode_is_made_on_demand(home, tmp_path)
 def test_replay_suite_refusals(home, tmp_path, args, pattern):
     _one_line_error(fftnav("replay", *args, cwd=tmp_path, home=home),
                     r"^fftnav replay: error: " + pattern)
+
+
+def test_leaderboard_build_ranks_every_reference_method(home, tmp_path):
+    proc = fftnav("leaderboard", "build", "--out", "board", cwd=tmp_path, home=home)
+    assert proc.returncode == 0, proc.stderr
+    table = pd.read_csv(tmp_path / "board" / "leaderboard.csv")
+    assert sorted(table["method"]) == ["bug-left", "bug-right", "fusion"]
+    assert (tmp_path / "board" / "tiny-v1" / "failures.md").exists()
+    assert "window.fftnavLeaderboard" in (tmp_path / "board" / "index.html").read_text()
+
+
+def test_suites_references_runs_every_builtin_and_writes_checked_rows(home, tmp_path):
+    import shutil
+
+    own = tmp_path / "home"
+    shutil.copytree(home, own)
+    proc = fftnav("suites", "--references", "--runs", "runs", "--suite", "tiny", "--workers",
+                  "2", "--quiet", cwd=tmp_path, home=own)
+    assert proc.returncode == 0, proc.stderr
+    assert "tiny-v1: references written to" in proc.stdout
+    listed = fftnav("suites", cwd=tmp_path, home=own).stdout
+    assert "references: 10 built-ins x 2 maps" in listed
+    # the shipped methods' rows are those the first references had, byte for byte
+    for method in ("bug-left", "fusion"):
+        assert ((own / "references" / "tiny-v1" / f"{method}.csv").read_bytes()
+                == (home / "references" / "tiny-v1" / f"{method}.csv").read_bytes())
+
+
+def test_suites_references_needs_its_runs_folder(home, tmp_path):
+    _one_line_error(fftnav("suites", "--references", cwd=tmp_path, home=home),
+                    r"^fftnav suites: error: --references needs --runs DIR")

@@ -16,6 +16,7 @@ from __future__ import annotations
 import json
 import math
 import time
+from pathlib import Path
 
 import pytest
 
@@ -226,3 +227,45 @@ def test_links_point_to_the_reports_and_the_failures(page):
     assert p_holm["fusion"] == ["-", "the suite's rank-1 method: the others are tested against it"]
     assert p_holm["bug-left"] == ["<0.001", ""]
     assert not _errors(page.events)
+
+
+def test_the_committed_leaderboard_page_loads_sorts_and_switches_tabs(tmp_path):
+    """results/leaderboard/index.html itself: no console error or request, a tab per suite
+    in reading order, the SPL column sorts both ways as leaderboard.csv does, the tabs switch
+    by a click."""
+    import pandas as pd
+
+    from fftnav.suites import ordered_suites
+
+    root = Path(__file__).resolve().parents[2] / "results" / "leaderboard"
+    board_csv = pd.read_csv(root / "leaderboard.csv")
+    browser = _browser()
+    tools = DevTools(browser, str(tmp_path / "profile"))
+    try:
+        target = tools.call("Target.createTarget", url="about:blank")["targetId"]
+        tools.session = tools.call("Target.attachToTarget", targetId=target,
+                                   flatten=True)["sessionId"]
+        for domain in ("Runtime", "Log", "Page", "Network"):
+            tools.call(f"{domain}.enable")
+        tools.call("Emulation.setDeviceMetricsOverride", width=1600, height=900,
+                   deviceScaleFactor=1, mobile=False)
+        _load(tools, (root / "index.html").as_uri())
+        names = [s.name for s in ordered_suites()]
+        assert tools.evaluate("Array.from(document.querySelectorAll('[role=tab]'),"
+                              " (b) => b.textContent)") == names
+        for panel, suite in enumerate(names):
+            rows = board_csv[board_csv["suite"] == suite]
+            _click(tools, f"#tab-{panel}")
+            assert tools.evaluate("window.fftnavLeaderboard.suite") == suite
+            assert _order(tools, suite) == list(rows.sort_values(["rank", "method"])["method"])
+            _click(tools, f"#panel-{panel} th[data-key='spl'] button")
+            first = _order(tools, suite)
+            _click(tools, f"#panel-{panel} th[data-key='spl'] button")
+            second = _order(tools, suite)
+            by_spl = sorted(rows["spl"])
+            spl = rows.set_index("method")["spl"]
+            assert [spl[m] for m in first] in (by_spl, by_spl[::-1]), (suite, first, by_spl)
+            assert [spl[m] for m in second] == [spl[m] for m in first][::-1], (suite, first, second)
+        assert not _errors(tools.events)
+    finally:
+        tools.close()
