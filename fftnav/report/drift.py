@@ -14,10 +14,13 @@ preset) and, optionally, results of the same maps with exact localization (the p
 - ``drift_gains.csv``: the paired comparisons (per-map SPL differences over the same maps:
   mean, 95% bootstrap interval, two-sided Wilcoxon p, Holm-adjusted over all rows as one
   family; and the non-inferiority test against a loss of :data:`MARGIN` (0.1 SPL points),
-  one-sided, Holm-adjusted over all rows) of ``collab`` against ``own-only`` and of ``fusion``
-  against each Bug baseline and ``own-only``, per env and drift;
+  one-sided, Holm-adjusted over all rows; how each p was computed, ``p_method`` and
+  ``p_noninferior_method``, :func:`fftnav.runner.summary.wilcoxon_method`: exact for up to 20
+  non-zero differences) of ``collab`` against ``own-only`` and of ``fusion`` against each Bug
+  baseline and ``own-only``, per env and drift;
 - ``drift.png``: SPL and AR against drift, one line per policy, one column per env;
-- ``drift.md``: the tables and the verdicts (``fftnav.report.sweep.verdict``).
+- ``drift.md``: the tables and the verdicts (``fftnav.report.sweep.verdict``), every missing
+  number a ``-`` marked with its reason (:class:`fftnav.report.markdown.Dashes`).
 """
 
 from __future__ import annotations
@@ -32,6 +35,8 @@ from fftnav.errors import FftnavError
 from fftnav.files import write_atomic
 from fftnav.metrics.measures import believed, believed_spl_terms
 from fftnav.report import new_figure, save_figure
+from fftnav.report.experiment import p_method_lines
+from fftnav.report.markdown import Dashes
 from fftnav.report.sweep import verdict
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.summary import (
@@ -40,10 +45,11 @@ from fftnav.runner.summary import (
     in_order,
     noninferiority_p,
     paired_gain,
+    wilcoxon_method,
 )
 
 __all__ = ["ALPHA", "COMPARISONS", "DRIFT_ORDER", "MAP_COLUMNS", "MARGIN", "drift_episodes",
-           "drift_gains", "drift_maps", "drift_summary", "write_drift_report"]
+           "drift_gains", "drift_maps", "drift_summary", "gain_lines", "write_drift_report"]
 
 #: The x axis: exact localization, then the presets by drift.
 DRIFT_ORDER = ("exact", "none", "low", "typical", "high")
@@ -158,7 +164,20 @@ def drift_summary(maps: pd.DataFrame, *, policies: Sequence[str] | None = None
 
 def drift_gains(maps: pd.DataFrame) -> pd.DataFrame:
     """The paired comparisons of :data:`COMPARISONS` per env and drift (module docstring), on
-    the per-map mean SPL of ``maps`` (:func:`drift_maps`)."""
+    the per-map mean SPL of ``maps`` (:func:`drift_maps`).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Per comparison, env and drift: the paired maps, the gain (mean per-map difference) and
+        its 95% bootstrap interval, ``p_value`` (two-sided) and ``p_method``,
+        ``p_noninferior`` (one-sided, against a loss of :data:`MARGIN`) and
+        ``p_noninferior_method`` (``"exact"`` or ``"normal approx."``,
+        :func:`fftnav.runner.summary.wilcoxon_method`; empty without a test), both p
+        Holm-adjusted over all rows, ``noninferior`` and the ``verdict``. A comparison of a
+        policy and a reference that never ran the same map at a drift keeps its row, with 0
+        maps and NaN numbers.
+    """
     per_map = maps.assign(mean=maps["spl"] / maps["robots"]).pivot_table(
         index=["env", "drift", "map_seed"], columns="policy", values="mean", aggfunc="mean")
     rows = []
@@ -171,8 +190,10 @@ def drift_gains(maps: pd.DataFrame) -> pd.DataFrame:
             gain, low, high, p = paired_gain(diff)
             rows.append({"env": env, "drift": drift, "policy": policy, "reference": ref,
                          "maps": len(pair), "gain": gain, "gain_ci_low": low,
-                         "gain_ci_high": high, "p_value": p,
-                         "p_noninferior": noninferiority_p(diff, margin=MARGIN)})
+                         "gain_ci_high": high, "p_value": p, "p_method": wilcoxon_method(diff),
+                         "p_noninferior": noninferiority_p(diff, margin=MARGIN),
+                         "p_noninferior_method": wilcoxon_method(diff + MARGIN,
+                                                                 alternative="greater")})
     table = pd.DataFrame(rows)
     if len(table):
         table["p_holm"] = holm(table["p_value"].to_numpy(dtype=float))
@@ -215,10 +236,20 @@ def _figure(summary: pd.DataFrame, policies: Sequence[str], path: Path) -> Path:
 
 
 def _pct(v: float) -> str:
-    return "" if pd.isna(v) else f"{100 * v:.1f}"
+    return f"{100 * v:.1f}"
 
 
-def _policy_table(summary: pd.DataFrame, measure: str, policies: Sequence[str]) -> list[str]:
+def _not_run(drift: str) -> str:
+    """Why the summary has no row of a policy in an env at ``drift``."""
+    if drift == "exact":
+        return "no run with exact localization of this policy on these maps (`--exact` folders)"
+    return "no run of this policy on this env at this drift"
+
+
+def _policy_table(summary: pd.DataFrame, measure: str, policies: Sequence[str],
+                  dashes: Dashes) -> list[str]:
+    """One table per env of ``measure`` (percent) per policy and drift; a policy not run in
+    an env at a drift is a ``-`` marked with its reason (collected in ``dashes``)."""
     drifts = [d for d in DRIFT_ORDER if d in set(summary["drift"])]
     lines = []
     for env in in_order(summary["env"], None):
@@ -227,21 +258,57 @@ def _policy_table(summary: pd.DataFrame, measure: str, policies: Sequence[str]) 
         for policy in policies:
             rows = summary[(summary["env"] == env) & (summary["policy"] == policy)]
             rows = rows.set_index("drift").reindex(drifts)
-            lines.append(f"| {policy} | " + " | ".join(_pct(v) for v in rows[measure]) + " |")
+            cells = [dashes.dash(_not_run(d)) if pd.isna(v) else _pct(v)
+                     for d, v in zip(drifts, rows[measure], strict=True)]
+            lines.append(f"| {policy} | " + " | ".join(cells) + " |")
         lines.append("")
     return lines
 
 
-def _gain_lines(gains: pd.DataFrame) -> list[str]:
-    lines = ["| policy | vs | env | drift | maps | gain (SPL points) | p | p (Holm) | verdict "
-             "| no worse than -0.1 (Holm p) |", "|---|---|---|---|---|---|---|---|---|---|"]
+def _policy_section(summary: pd.DataFrame, measure: str, policies: Sequence[str]
+                    ) -> list[str]:
+    """:func:`_policy_table` and the legend of its missing numbers."""
+    dashes = Dashes()
+    lines = _policy_table(summary, measure, policies, dashes)
+    legend = dashes.legend()
+    return [*lines, *([*legend, ""] if legend else [])]
+
+
+def gain_lines(gains: pd.DataFrame, *, dashes: Dashes | None = None) -> list[str]:
+    """``drift_gains.csv`` (:func:`drift_gains`) as the Markdown table of ``drift.md``: the
+    gain in SPL points with its interval, both p of the two-sided test, how they were computed
+    (``p_method``), the verdict and the non-inferiority result; a number missing is a ``-``
+    marked with its reason (collected in ``dashes``): no map with both policies at that drift,
+    or every per-map difference 0 (no two-sided test)."""
+    dashes = dashes if dashes is not None else Dashes()
+    lines = ["| policy | vs | env | drift | maps | gain (SPL points) | p | p_method | p (Holm) "
+             "| verdict | no worse than -0.1 (Holm p) |",
+             "|---|---|---|---|---|---|---|---|---|---|---|"]
     for r in gains.itertuples(index=False):
-        p, ph, pn = (("" if pd.isna(v) else f"{v:.2g}")
-                     for v in (r.p_value, r.p_holm, r.p_noninferior_holm))
+        if r.maps == 0:
+            mark = dashes.dash("no map has results of both the policy and its reference (`vs`) "
+                               "in this env at this drift")
+            lines.append(f"| {r.policy} | {r.reference} | {r.env} | {r.drift} | 0 | {mark} | "
+                         f"{mark} | {mark} | {mark} | {mark} | {mark} |")
+            continue
+        gain = (f"{100 * r.gain:+.1f} [{100 * r.gain_ci_low:+.1f}, "
+                f"{100 * r.gain_ci_high:+.1f}]")
+        if pd.isna(r.p_value):
+            p = ph = method = dashes.dash(
+                "every per-map difference is 0 (the policy and its reference, `vs`, have the "
+                "same SPL on each map): no two-sided test")
+        else:
+            p, ph, method = f"{r.p_value:.2g}", f"{r.p_holm:.2g}", r.p_method
+        if r.p_noninferior_method not in ("", r.p_method):
+            method += f"; non-inferiority: {r.p_noninferior_method}"
+        if pd.isna(r.p_noninferior_holm):
+            shown = dashes.dash("every per-map difference is exactly -0.1 points: no "
+                                "non-inferiority test")
+        else:
+            shown = (f"{'yes' if r.noninferior else 'not shown'} "
+                     f"({r.p_noninferior_holm:.2g})")
         lines.append(f"| {r.policy} | {r.reference} | {r.env} | {r.drift} | {r.maps} | "
-                     f"{100 * r.gain:+.1f} [{100 * r.gain_ci_low:+.1f}, "
-                     f"{100 * r.gain_ci_high:+.1f}] | {p} | {ph} | {r.verdict} | "
-                     f"{'yes' if r.noninferior else 'not shown'} ({pn}) |")
+                     f"{gain} | {p} | {method} | {ph} | {r.verdict} | {shown} |")
     return lines
 
 
@@ -273,6 +340,7 @@ def write_drift_report(configs: Sequence[ExperimentConfig], roots: Sequence[Path
     write_atomic(out / "drift_summary.csv", summary.to_csv(index=False, float_format="%.6f"))
     write_atomic(out / "drift_gains.csv", gains.to_csv(index=False, float_format="%.6g"))
     figure = _figure(summary, policies, out / "drift.png")
+    dashes = Dashes()
     lines = [
         "# What drift does: every method without external positioning",
         "",
@@ -290,15 +358,15 @@ def write_drift_report(configs: Sequence[ExperimentConfig], roots: Sequence[Path
         "",
         "## SPL (%)",
         "",
-        *_policy_table(summary, "spl", policies),
+        *_policy_section(summary, "spl", policies),
         "## AR (%)",
         "",
-        *_policy_table(summary, "ar", policies),
+        *_policy_section(summary, "ar", policies),
         "## SPL counting the robots that stopped at their believed goal (%)",
         "",
         "How well each method navigated in its own frame, whatever its drift (`spl_believed`).",
         "",
-        *_policy_table(summary, "spl_believed", policies),
+        *_policy_section(summary, "spl_believed", policies),
         "## Paired comparisons",
         "",
         "Per-map SPL differences on the same maps: mean and 95 % bootstrap interval (SPL "
@@ -306,10 +374,13 @@ def write_drift_report(configs: Sequence[ExperimentConfig], roots: Sequence[Path
         "as one family. *pays*: interval above 0 and Holm p < 0.05; *costs*: below 0 and Holm "
         "p < 0.05. *No worse than -0.1*: the one-sided Wilcoxon test of the differences plus "
         "0.1 points against 0 (non-inferiority with a margin of 0.1 SPL points), Holm-adjusted "
-        "over all rows, p < 0.05.",
+        "over all rows, p < 0.05. `p_method`: how both p of the row were computed.",
         "",
-        *_gain_lines(gains),
+        *gain_lines(gains, dashes=dashes),
         "",
+        *([*dashes.legend(), ""] if dashes.legend() else []),
+        *p_method_lines(pd.DataFrame({"p_method": [*gains.get("p_method", []),
+                                                   *gains.get("p_noninferior_method", [])]})),
     ]
     path = out / "drift.md"
     write_atomic(path, "\n".join(lines))

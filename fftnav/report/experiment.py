@@ -1,17 +1,23 @@
-"""Report of an experiment folder: ``report.md`` beside the paper's Table I, and its figures.
+"""Report of an experiment folder: ``report.md`` (beside the paper's Table I when the experiment
+is the paper's protocol, :func:`is_paper_protocol`), and its figures.
 
 Reads what :func:`fftnav.runner.run_experiment` wrote (``episodes.csv``, ``summary.csv``,
 ``paired_tests.csv``, ``run_info.json``, ``config.toml``, ``maps.csv``, ``trajectories/``,
-``records/``) and writes ``report.md`` and ``figures/*.png`` into the same folder:
+``records/``) and writes ``report.md``, ``failures.csv`` (every robot that did not arrive,
+:func:`fftnav.report.failures.failed_robots`) and ``figures/*.png`` into the same folder:
 
 - ``trajectories_<env>.png``: all robots of the first map, one panel per policy (paper Fig. 7);
 - ``spl_apl.png``: SPL and APL per env and policy with 95% bootstrap intervals over maps, the
-  paper's Table I values as crosses;
+  paper's Table I values as crosses (the paper's protocol only);
 - ``path_lengths.png``: distributions of the path lengths of the robots that arrived;
 - ``spl_vs_difficulty.png`` (with ``maps.csv``): per-map SPL against each difficulty measure,
   beside a table of Spearman's rho (:mod:`fftnav.report.difficulty`);
 - ``failure_positions.png``: where the robots that failed ended, by cause, beside the failure
-  counts per env and policy with links to the recordings (:mod:`fftnav.report.failures`).
+  counts per env and policy and the list of failed robots with links to their replays
+  (:mod:`fftnav.report.failures`).
+
+Every ``-`` of a table is a missing number whose reason, computed from the data, is given under
+the table (:class:`fftnav.report.markdown.Dashes`).
 """
 
 from __future__ import annotations
@@ -25,23 +31,25 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
+from fftnav.config import SwarmConfig
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow
 from fftnav.errors import FftnavError
 from fftnav.files import write_atomic
 from fftnav.report import save_figure
 from fftnav.report.difficulty import difficulty_lines
 from fftnav.report.failures import failure_lines
-from fftnav.report.markdown import markdown_table
+from fftnav.report.markdown import Dashes, markdown_table
 from fftnav.report.trajectories import draw_trajectories as draw_paths
 from fftnav.report.trajectories import plot_failures
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.maps import maps_current, write_maps_csv
 from fftnav.runner.resume import FolderLock, canonical_config, config_changes
 from fftnav.runner.run import CSV_COLUMNS
-from fftnav.runner.summary import in_order
+from fftnav.runner.summary import EXACT, NORMAL_APPROX, WILCOXON_EXACT_MAX, in_order
 from fftnav.runner.tasks import task_world
 
-__all__ = ["PAPER_TABLE1", "PAPER_NAMES", "report_folder", "write_report"]
+__all__ = ["PAPER_NAMES", "PAPER_PROTOCOL", "PAPER_TABLE1", "is_paper_protocol", "p_method_lines",
+           "paired_table", "report_folder", "results_table", "write_report"]
 
 #: The paper's Table I (Gazebo): (env, policy) -> (AR %, APL m, SPL %).
 PAPER_TABLE1: dict[tuple[str, str], tuple[float, float, float]] = {
@@ -54,6 +62,34 @@ PAPER_TABLE1: dict[tuple[str, str], tuple[float, float, float]] = {
 }
 #: The paper's names of our policies.
 PAPER_NAMES = {"bug-left": "Bug (left)", "bug-right": "Bug (right)", "fusion": "Proposed"}
+#: The paper's protocol (Sec. IV), as :func:`is_paper_protocol` checks it: its envs, maps and
+#: robots (the swarm settings are :class:`fftnav.config.SwarmConfig`'s defaults).
+PAPER_PROTOCOL: dict[str, Any] = {"envs": ("forest", "rocky"), "maps": 20, "map_seed": 1000,
+                                  "robots": 15}
+
+
+def is_paper_protocol(config: ExperimentConfig) -> bool:
+    """Whether ``config`` runs the paper's protocol, so that its results may stand beside the
+    paper's Table I: envs among forest and rocky, 20 maps from map seed 1000, 15 robots, the
+    default robot, sensor, comms, episode, planner and localization settings
+    (``SwarmConfig()``), the worlds as generated (no ``[world]`` overrides, no
+    ``[world_files]``). The policies and ``[record]`` are free (recording changes no result).
+
+    >>> from fftnav.runner import parse_config
+    >>> paper = {"name": "t", "envs": ["rocky"], "maps": 20, "map_seed": 1000, "robots": 15,
+    ...          "policies": ["fusion"]}
+    >>> is_paper_protocol(parse_config({"experiment": paper}))
+    True
+    >>> is_paper_protocol(parse_config({"experiment": paper, "comms": {"packet_loss": 0.3}}))
+    False
+    """
+    return (bool(config.envs) and set(config.envs) <= set(PAPER_PROTOCOL["envs"])
+            and config.maps == PAPER_PROTOCOL["maps"]
+            and config.map_seed == PAPER_PROTOCOL["map_seed"]
+            and config.robots == PAPER_PROTOCOL["robots"]
+            and config.swarm == SwarmConfig()
+            and not config.world and not any(config.world_by_env.values())
+            and not config.world_files)
 
 
 def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
@@ -78,10 +114,11 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
     summary = pd.read_csv(out / "summary.csv")
     paired = pd.read_csv(out / "paired_tests.csv")
     info = json.loads((out / "run_info.json").read_text())
+    paper = is_paper_protocol(config)
     pictures = [draw_trajectories(config, out, env, episodes, figures) for env in config.envs]
     pictures = [p for p in pictures if p is not None]
     if len(summary):
-        pictures += [draw_metric_bars(summary, figures / "spl_apl.png"),
+        pictures += [draw_metric_bars(summary, figures / "spl_apl.png", paper=paper),
                      draw_path_lengths(episodes, figures / "path_lengths.png",
                                        envs=config.envs, policies=config.policy_names)]
     sections = []
@@ -92,6 +129,7 @@ def write_report(config: ExperimentConfig, out_dir: str | Path) -> Path:
                     *failure_lines(config, out, episodes, figures)]
     path = out / "report.md"
     write_atomic(path, "\n".join(_report_lines(config, info=info, summary=summary, paired=paired,
+                                               episodes=episodes, paper=paper,
                                                pictures=pictures, sections=sections)))
     return path
 
@@ -101,8 +139,9 @@ def report_folder(config: ExperimentConfig, out_dir: str | Path, *,
     """Bring a finished results folder's ``maps.csv`` and report up to date, running no episode.
 
     ``maps.csv`` is written if missing or not of the config's maps
-    (:func:`fftnav.runner.maps.maps_current`), then ``report.md`` and its figures
-    (:func:`write_report`); nothing else in the folder changes (its CSVs, ``run_info.json``).
+    (:func:`fftnav.runner.maps.maps_current`), then ``report.md``, ``failures.csv`` and the
+    figures (:func:`write_report`); nothing else in the folder changes (the run's CSVs,
+    ``run_info.json``).
 
     Parameters
     ----------
@@ -137,9 +176,13 @@ def report_folder(config: ExperimentConfig, out_dir: str | Path, *,
 
 
 def _report_lines(config: ExperimentConfig, *, info: dict[str, Any], summary: pd.DataFrame,
-                  paired: pd.DataFrame, pictures: list[Path], sections: list[str]) -> list[str]:
-    """The lines of ``report.md``: the run, the results beside the paper's Table I, the paired
-    tests, the ``sections`` (map difficulty, failures), the figures and the config."""
+                  paired: pd.DataFrame, episodes: pd.DataFrame, paper: bool,
+                  pictures: list[Path], sections: list[str]) -> list[str]:
+    """The lines of ``report.md``: the run, the results (beside the paper's Table I when
+    ``paper``), the paired tests, the ``sections`` (map difficulty, failures), the figures and
+    the config."""
+    results_dashes, paired_dashes = Dashes(), Dashes()
+    results = results_table(summary, episodes, paper=paper, dashes=results_dashes)
     return [
         f"# Experiment `{config.name}`",
         "",
@@ -156,22 +199,25 @@ def _report_lines(config: ExperimentConfig, *, info: dict[str, Any], summary: pd
         *([f"**{info['tasks_failed']} episode(s) failed and are missing from the tables: see "
            "`errors.csv`; rerun the same command to retry them.**", ""]
           if info["tasks_failed"] else []),
-        "## Results beside the paper's Table I",
+        "## Results beside the paper's Table I" if paper else "## Results",
         "",
         "This run: AR and SPL in percent with 95% bootstrap intervals over maps; APL in metres "
         "over the robots that arrived. SPL uses the paper's reference (8-connected grid A* at "
         "0.05 m); SPL geodesic uses the near-Euclidean 32-connected length, which does not let "
-        "paths shorter than an 8-connected detour score 1. Paper: Table I (Gazebo, 20 maps, "
-        "15 robots).",
+        "paths shorter than an 8-connected detour score 1."
+        + (" Paper: Table I (Gazebo, 20 maps, 15 robots)." if paper else
+           " The paper's Table I is not shown: this experiment is not the paper's protocol "
+           "(forest and rocky, 20 maps from seed 1000, 15 robots, default settings, "
+           "generated worlds)."),
         "",
-        *markdown_table(results_table(summary)),
+        *markdown_table(results),
         "",
+        *_legend(results_dashes),
         "## Paired tests (per-map SPL, Wilcoxon signed-rank, two-sided)",
         "",
-        *(markdown_table(paired.round(4).assign(
-            p_value=paired["p_value"].map(lambda v: f"{v:.2g}")))
-          if len(paired) else ["(no `fusion` rows to compare)"]),
-        "",
+        *([*markdown_table(paired_table(paired, dashes=paired_dashes)), "",
+           *_legend(paired_dashes), *p_method_lines(paired)]
+          if len(paired) else ["(no `fusion` rows to compare)", ""]),
         *sections,
         "## Figures",
         "",
@@ -186,24 +232,129 @@ def _report_lines(config: ExperimentConfig, *, info: dict[str, Any], summary: pd
     ]
 
 
-def results_table(summary: pd.DataFrame) -> pd.DataFrame:
-    """Our AR / APL / SPL (percent, metres) beside the paper's Table I, one row per env/policy."""
+def _legend(dashes: Dashes) -> list[str]:
+    """The legend of a table's missing numbers and a blank line, or nothing."""
+    legend = dashes.legend()
+    return [*legend, ""] if legend else []
+
+
+def results_table(summary: pd.DataFrame, episodes: pd.DataFrame | None = None, *,
+                  paper: bool = True, dashes: Dashes | None = None) -> pd.DataFrame:
+    """Our AR / APL / SPL (percent, metres), one row per env/policy, beside the paper's Table I
+    when ``paper`` (:func:`is_paper_protocol`).
+
+    Parameters
+    ----------
+    summary : pandas.DataFrame
+        ``summary.csv``.
+    episodes : pandas.DataFrame, optional
+        ``episodes.csv``: the maps without an arrived robot, which leave APL's interval
+        undefined, are counted from it.
+    paper : bool
+        Add the paper's columns (its name of the policy, AR, APL, SPL).
+    dashes : Dashes, optional
+        Collects the reason of every missing number (its legend goes under the table).
+
+    Returns
+    -------
+    pandas.DataFrame
+        Values as text; an undefined interval is ``[-]`` and a missing value ``-``, each
+        marked with its reason's number.
+    """
+    dashes = dashes if dashes is not None else Dashes()
     rows = []
     for r in summary.itertuples(index=False):
-        paper = PAPER_TABLE1.get((r.env, r.policy), (np.nan,) * 3)
-        rows.append({
+        mine = (episodes[(episodes["env"] == r.env) & (episodes["policy"] == r.policy)]
+                if episodes is not None else None)
+        maps = int(r.episodes)
+        no_robot = f"no robot of `{r.policy}` on {r.env} in `episodes.csv`"
+        row = {
             "env": r.env,
             "policy": r.policy,
-            "paper name": PAPER_NAMES.get(r.policy, "-"),
-            "AR %": _ci(100 * r.ar, 100 * r.ar_ci_low, 100 * r.ar_ci_high, 1),
-            "APL m": _ci(r.apl_m, r.apl_ci_low, r.apl_ci_high, 3),
-            "SPL %": _ci(100 * r.spl, 100 * r.spl_ci_low, 100 * r.spl_ci_high, 1),
-            "SPL geodesic %": _fmt(100 * r.spl_geodesic, 1),
-            "paper AR %": _fmt(paper[0], 1),
-            "paper APL m": _fmt(paper[1], 3),
-            "paper SPL %": _fmt(paper[2], 1),
-        })
+            "AR %": _ci(dashes, 100 * r.ar, 100 * r.ar_ci_low, 100 * r.ar_ci_high, 1,
+                        reason=no_robot, interval_reason=_interval_reason("ar", maps, mine)),
+            "APL m": _ci(dashes, r.apl_m, r.apl_ci_low, r.apl_ci_high, 3,
+                         reason="no robot arrived (APL is the mean path length of the robots "
+                         "that arrived)", interval_reason=_interval_reason("apl", maps, mine)),
+            "SPL %": _ci(dashes, 100 * r.spl, 100 * r.spl_ci_low, 100 * r.spl_ci_high, 1,
+                         reason=no_robot, interval_reason=_interval_reason("spl", maps, mine)),
+            "SPL geodesic %": _fmt(dashes, 100 * r.spl_geodesic, 1, _geodesic_reason(mine)),
+        }
+        if paper:
+            figures = PAPER_TABLE1.get((r.env, r.policy), (np.nan,) * 3)
+            absent = "the paper's Table I has no row of this env and policy"
+            row = {"env": row.pop("env"), "policy": row.pop("policy"),
+                   "paper name": PAPER_NAMES.get(r.policy) or dashes.dash(
+                       "the policy is not one of the paper's methods"), **row,
+                   "paper AR %": _fmt(dashes, figures[0], 1, absent),
+                   "paper APL m": _fmt(dashes, figures[1], 3, absent),
+                   "paper SPL %": _fmt(dashes, figures[2], 1, absent)}
+        rows.append(row)
     return pd.DataFrame(rows)
+
+
+def _interval_reason(measure: str, maps: int, episodes: pd.DataFrame | None) -> str:
+    """Why the bootstrap interval of ``measure`` over ``maps`` maps is undefined."""
+    if maps < 2:
+        return f"{maps} map: no interval over maps (it needs two or more)"
+    if measure == "apl" and episodes is not None:
+        arrived = episodes.groupby("map_seed")["arrived"].sum()
+        empty = int((arrived == 0).sum())
+        if empty:
+            return (f"{empty} of the {maps} maps had no robot arrive: a bootstrap resample of "
+                    "those maps alone has no APL, so the interval is undefined")
+    return f"the bootstrap interval of {measure} is undefined (a resample with no {measure})"
+
+
+def _geodesic_reason(episodes: pd.DataFrame | None) -> str:
+    """Why SPL geodesic is missing."""
+    if episodes is not None and "geodesic_length_m" not in episodes:
+        return "`episodes.csv` has no `geodesic_length_m` column"
+    return "no geodesic length in `episodes.csv` for these robots"
+
+
+def paired_table(paired: pd.DataFrame, *, dashes: Dashes | None = None) -> pd.DataFrame:
+    """``paired_tests.csv`` as the report shows it: numbers rounded to 4 decimals, p to 2
+    significant digits, and each missing number a ``-`` marked with its reason (collected in
+    ``dashes``): no map with both policies, or every paired difference 0 (no test)."""
+    dashes = dashes if dashes is not None else Dashes()
+    shown = paired.round(4).astype(object)
+    for i, r in enumerate(paired.itertuples(index=False)):
+        if r.maps == 0:
+            reason = (f"no map has results of both `{r.reference}` and `{r.policy}` on "
+                      f"{r.env}")
+        else:
+            reason = (f"every paired difference is 0 (`{r.reference}` and `{r.policy}` have "
+                      f"the same SPL on each of the {r.maps} maps): no test")
+        for column in ("spl_reference", "spl_policy", "median_diff", "statistic", "p_value"):
+            if pd.isna(getattr(r, column)):
+                shown.iloc[i, shown.columns.get_loc(column)] = dashes.dash(reason)
+        if not pd.isna(r.p_value):
+            shown.iloc[i, shown.columns.get_loc("p_value")] = f"{r.p_value:.2g}"
+        if "p_method" in paired and pd.isna(r.p_method):
+            shown.iloc[i, shown.columns.get_loc("p_method")] = dashes.dash(reason)
+    return shown
+
+
+def p_method_lines(paired: pd.DataFrame) -> list[str]:
+    """The footnote of a table of paired tests (``paired_tests.csv``): how its p-values were
+    computed, from its ``p_method`` column (a line and a blank line; none without a p-value)."""
+    if "p_method" not in paired:
+        return ["How these p-values were computed is not recorded: this `paired_tests.csv` "
+                "has no `p_method` column (rerun `fftnav run` on the folder to rewrite it).", ""]
+    used = set(paired["p_method"].dropna())
+    lines = []
+    if EXACT in used:
+        lines.append(f"`{EXACT}`: from the exact null distribution, the 2^n equally likely "
+                     "signs of the n non-zero per-map differences, ties at their average rank "
+                     f"(n <= {WILCOXON_EXACT_MAX}; beyond, scipy's exact distribution, which "
+                     "holds without ties or zeros up to 50 maps)")
+    if NORMAL_APPROX in used:
+        lines.append(f"`{NORMAL_APPROX}`: the normal approximation (scipy's default: no "
+                     "continuity correction, the variance corrected for ties) "
+                     f"(more than {WILCOXON_EXACT_MAX} non-zero differences, with ties or zeros "
+                     "or more than 50 maps)")
+    return ["`p_method` " + "; ".join(lines) + ".", ""] if lines else []
 
 
 def draw_trajectories(config: ExperimentConfig, out: Path, env: str, episodes: pd.DataFrame,
@@ -234,8 +385,9 @@ def draw_trajectories(config: ExperimentConfig, out: Path, env: str, episodes: p
     return path
 
 
-def draw_metric_bars(summary: pd.DataFrame, path: Path) -> Path:
-    """SPL (%) and APL (m) bars per env and policy with 95% intervals; paper values as crosses."""
+def draw_metric_bars(summary: pd.DataFrame, path: Path, *, paper: bool = True) -> Path:
+    """SPL (%) and APL (m) bars per env and policy with 95% intervals; with ``paper``
+    (:func:`is_paper_protocol`), the paper's Table I values as crosses."""
     fig = Figure(figsize=(10, 4), layout="constrained")
     envs = list(dict.fromkeys(summary["env"]))
     policies = list(dict.fromkeys(summary["policy"]))
@@ -250,12 +402,13 @@ def draw_metric_bars(summary: pd.DataFrame, path: Path) -> Path:
             err = scale * np.abs(rows[[f"{metric}_ci_low", f"{metric}_ci_high"]].to_numpy().T
                                  - rows[value].to_numpy())
             ax.bar(x, y, width, yerr=err, capsize=3, label=policy, color=f"C{j}")
-            paper = [PAPER_TABLE1.get((e, policy), (np.nan,) * 3)[paper_col] for e in envs]
-            ax.plot(x, paper, "kx", ms=8, label="paper" if j == 0 else None)
+            if paper:
+                values = [PAPER_TABLE1.get((e, policy), (np.nan,) * 3)[paper_col] for e in envs]
+                ax.plot(x, values, "kx", ms=8, label="paper" if j == 0 else None)
         ax.set_xticks(np.arange(len(envs)), envs)
         ax.set_ylabel(label)
     fig.legend(*fig.axes[0].get_legend_handles_labels(), loc="outside upper center",
-               ncols=len(policies) + 1, fontsize=8)
+               ncols=len(policies) + int(paper), fontsize=8)
     save_figure(fig, path, dpi=110)
     return path
 
@@ -281,14 +434,20 @@ def draw_path_lengths(episodes: pd.DataFrame, path: Path, *, envs: Sequence[str]
     return path
 
 
-def _fmt(value: float, digits: int) -> str:
-    return "-" if np.isnan(value) else f"{value:.{digits}f}"
+def _fmt(dashes: Dashes, value: float, digits: int, reason: str) -> str:
+    """``value`` with ``digits`` decimals, or a dash marked with ``reason`` when NaN."""
+    return dashes.dash(reason) if np.isnan(value) else f"{value:.{digits}f}"
 
 
-def _ci(value: float, low: float, high: float, digits: int) -> str:
-    """``value [low, high]``; the interval is left out when undefined (NaN)."""
-    interval = "" if np.isnan(low) else f" [{low:.{digits}f}, {high:.{digits}f}]"
-    return _fmt(value, digits) + interval
+def _ci(dashes: Dashes, value: float, low: float, high: float, digits: int, *, reason: str,
+        interval_reason: str) -> str:
+    """``value [low, high]``; a dash marked with ``reason`` when the value is NaN, and
+    ``value [-]`` marked with ``interval_reason`` when only the interval is."""
+    if np.isnan(value):
+        return dashes.dash(reason)
+    if np.isnan(low):
+        return f"{value:.{digits}f} [{dashes.dash(interval_reason)}]"
+    return f"{value:.{digits}f} [{low:.{digits}f}, {high:.{digits}f}]"
 
 
 def draw_failures(config: ExperimentConfig, results: str | Path, *, env: str, map_seed: int,

@@ -3,16 +3,19 @@
 For every cell of a ``[sweep]`` config (:attr:`fftnav.runner.config.ExperimentConfig.cells`; one
 cell ``base`` for a plain config), env and policy: AR and SPL with 95% bootstrap intervals over
 maps, bytes per robot, and the gain against ``own-only`` (per-map SPL of the policy minus that
-of own-only: mean, 95% bootstrap interval, paired Wilcoxon signed-rank p and that p
-Holm-adjusted over every comparison of the report, one family); plus ``collab`` against
-``fusion``. The verdicts use the adjusted p. One figure per sweep axis: the gain of ``collab``
-and ``fusion`` against the axis's values, one panel per env.
+of own-only: mean, 95% bootstrap interval, paired Wilcoxon signed-rank p, how that p was
+computed (``p_method``, :func:`fftnav.runner.summary.wilcoxon_method`: exact for up to 20
+non-zero differences) and that p Holm-adjusted over every comparison of the report, one
+family); plus ``collab`` against ``fusion``. The verdicts use the adjusted p. Every missing
+number of the report's table is a ``-`` marked with its reason
+(:class:`fftnav.report.markdown.Dashes`). One figure per sweep axis: the gain of ``collab`` and
+``fusion`` against the axis's values, one panel per env.
 
 A cell's rows come from its ``episodes.csv`` where the folder has it (what a run writes); where
 it has not (a committed sweep keeps its summaries only, ``.gitignore``), from the rows of that
-cell in the folder's ``sweep_summary.csv`` (the p-values with 6 significant digits), and the
-report says which cells those are. The Holm adjustment is recomputed over all rows either way.
-Cells with neither are listed as not run.
+cell in the folder's ``sweep_summary.csv`` (the p-values with 6 significant digits, and their
+``p_method`` where the file records it), and the report says which cells those are. The Holm
+adjustment is recomputed over all rows either way. Cells with neither are listed as not run.
 """
 
 from __future__ import annotations
@@ -26,14 +29,19 @@ from matplotlib.figure import Figure
 
 from fftnav.files import write_atomic
 from fftnav.report import save_figure
+from fftnav.report.experiment import p_method_lines
+from fftnav.report.markdown import Dashes
 from fftnav.runner.config import ExperimentConfig
-from fftnav.runner.summary import SWEEP_COLUMNS, gain_table, sweep_table
+from fftnav.runner.summary import SWEEP_COLUMNS, gain_table, sweep_table, wilcoxon_method
 
-__all__ = ["ALPHA", "cell_tables", "figure_envs", "verdict", "verdict_lines",
-           "write_sweep_report"]
+__all__ = ["ALPHA", "SUMMARY_COLUMNS", "cell_tables", "figure_envs", "p_methods",
+           "sweep_view", "verdict", "verdict_lines", "write_sweep_report"]
 
 #: Significance level of the verdicts.
 ALPHA = 0.05
+#: Columns of ``sweep_summary.csv``: those of :func:`fftnav.runner.summary.gain_table`, then
+#: how each p-value was computed (:func:`p_methods`; empty without a p).
+SUMMARY_COLUMNS: tuple[str, ...] = (*SWEEP_COLUMNS, "p_method")
 
 def _axis_of(cell: str) -> str:
     return cell.split("=")[0] if "=" in cell else ""
@@ -131,70 +139,159 @@ def verdict_lines(table: pd.DataFrame) -> list[str]:
 
 
 def _fmt(v: float, scale: float = 100.0, digits: int = 1) -> str:
-    return "" if pd.isna(v) else f"{scale * v:.{digits}f}"
+    return f"{scale * v:.{digits}f}"
 
 
-def _view(table: pd.DataFrame) -> pd.DataFrame:
-    """The sweep table as ``report.md`` shows it: percent with intervals, verdicts."""
-    return pd.DataFrame({
-        "cell": table["cell"], "env": table["env"], "policy": table["policy"],
-        "maps": table["maps"],
-        "AR %": [f"{_fmt(a)} [{_fmt(lo)}, {_fmt(hi)}]" for a, lo, hi in
-                 zip(table["ar"], table["ar_ci_low"], table["ar_ci_high"], strict=True)],
-        "SPL %": [f"{_fmt(a)} [{_fmt(lo)}, {_fmt(hi)}]" for a, lo, hi in
-                  zip(table["spl"], table["spl_ci_low"], table["spl_ci_high"], strict=True)],
-        "bytes/robot": [f"{b:.0f}" for b in table["bytes_per_robot"]],
-        "vs": table["reference"],
-        "gain (SPL points)": [f"{_fmt(g)} [{_fmt(lo)}, {_fmt(hi)}]" if r else "" for g, lo, hi, r
-                              in zip(table["gain"], table["gain_ci_low"],
-                                     table["gain_ci_high"], table["reference"], strict=True)],
-        "p (Wilcoxon)": ["" if pd.isna(p) else f"{p:.2g}" for p in table["p_value"]],
-        "p (Holm)": ["" if pd.isna(p) else f"{p:.2g}" for p in table["p_holm"]],
-        "verdict": [verdict(g, lo, hi, p) if r else "" for g, lo, hi, p, r
-                    in zip(table["gain"], table["gain_ci_low"], table["gain_ci_high"],
-                           table["p_holm"], table["reference"], strict=True)],
-    })
+def _no_gain_reason(r: Any) -> str:
+    """Why a row of the sweep table has no comparison (an empty ``reference``)."""
+    if r.policy == "own-only":
+        return "`own-only` is the reference of the gains: it is not compared with itself"
+    return "the cell has no `own-only` rows to compare this policy with"
+
+
+def _no_p_reason(r: Any) -> str:
+    """Why a compared row of the sweep table has no p-value."""
+    if pd.isna(r.gain):
+        return "no map has results of both the policy and its reference (`vs`) in this env"
+    return ("every per-map difference is 0 (the policy and its reference, `vs`, have the same "
+            "SPL on each map): no test")
+
+
+def _interval(dashes: Dashes, r: Any, value: float, low: float, high: float) -> str:
+    """``value [low, high]`` in percent; an undefined interval ``[-]`` with its reason."""
+    if pd.isna(low) or pd.isna(high):
+        reason = ("1 map: no interval over maps (it needs two or more)" if r.maps < 2 else
+                  "the bootstrap interval over maps is undefined")
+        return f"{_fmt(value)} [{dashes.dash(reason)}]"
+    return f"{_fmt(value)} [{_fmt(low)}, {_fmt(high)}]"
+
+
+def sweep_view(table: pd.DataFrame, *, dashes: Dashes | None = None) -> pd.DataFrame:
+    """The sweep table (:data:`SUMMARY_COLUMNS`) as ``report.md`` shows it: percent with
+    intervals, both p with how the raw one was computed, verdicts; every missing number a
+    ``-`` marked with its reason, collected in ``dashes``.
+
+    Parameters
+    ----------
+    table : pandas.DataFrame
+        :func:`fftnav.runner.summary.sweep_table`'s rows with a ``p_method`` column
+        (:func:`p_methods`; empty where none was recorded).
+    dashes : Dashes, optional
+        Collects the reasons: no comparison (``own-only`` itself, or a cell without it), no
+        map with both policies, every per-map difference 0, an interval over one map, a p
+        whose method the summary does not record.
+
+    Returns
+    -------
+    pandas.DataFrame
+        One text row per row of ``table``.
+    """
+    dashes = dashes if dashes is not None else Dashes()
+    rows = []
+    for r in table.itertuples(index=False):
+        row = {"cell": r.cell, "env": r.env, "policy": r.policy, "maps": r.maps,
+               "AR %": _interval(dashes, r, r.ar, r.ar_ci_low, r.ar_ci_high),
+               "SPL %": _interval(dashes, r, r.spl, r.spl_ci_low, r.spl_ci_high),
+               "bytes/robot": f"{r.bytes_per_robot:.0f}"}
+        if not r.reference:
+            mark = dashes.dash(_no_gain_reason(r))
+            rows.append({**row, "vs": mark, "gain (SPL points)": mark, "p (Wilcoxon)": mark,
+                         "p_method": mark, "p (Holm)": mark, "verdict": mark})
+            continue
+        no_p = dashes.dash(_no_p_reason(r)) if pd.isna(r.p_value) else ""
+        gain = (no_p if pd.isna(r.gain) else
+                _interval(dashes, r, r.gain, r.gain_ci_low, r.gain_ci_high))
+        recorded = r.p_method if isinstance(r.p_method, str) else ""
+        method = recorded or no_p or dashes.dash(
+            "`sweep_summary.csv` does not record how this p was computed (no `p_method`): "
+            "rerun the cell with `fftnav run` to recompute it")
+        rows.append({**row, "vs": r.reference, "gain (SPL points)": gain,
+                     "p (Wilcoxon)": no_p or f"{r.p_value:.2g}", "p_method": method,
+                     "p (Holm)": no_p or f"{r.p_holm:.2g}",
+                     "verdict": verdict(r.gain, r.gain_ci_low, r.gain_ci_high, r.p_holm)})
+    return pd.DataFrame(rows, columns=["cell", "env", "policy", "maps", "AR %", "SPL %",
+                                       "bytes/robot", "vs", "gain (SPL points)",
+                                       "p (Wilcoxon)", "p_method", "p (Holm)", "verdict"])
 
 
 def _family_lines(table: pd.DataFrame) -> list[str]:
     """What the report's Holm family holds."""
     compared = table[table["reference"].fillna("") != ""]
     tested = int(compared["p_value"].notna().sum())
-    untested = len(compared) - tested
+    unpaired = int((compared["p_value"].isna() & compared["gain"].isna()).sum())
+    untested = len(compared) - tested - unpaired
     return [
         f"The p-values are Holm-Bonferroni adjusted over one family: all {tested} paired "
         "comparisons of this report with a p (every policy against `own-only` and `collab` "
         "against `fusion`, in every cell and env"
         + (f"; {untested} more have no p, every per-map difference being 0" if untested else "")
+        + (f"; {unpaired} more have no map with both policies" if unpaired else "")
         + f"), so the chance of any false *pays* or *costs* in the report is at most {ALPHA}, "
         "whatever the dependence between the tests (`fftnav.runner.summary.holm`)."
     ]
 
 
 def _summary_csv(table: pd.DataFrame) -> str:
-    """``sweep_summary.csv``: floats ``%.6f``, the p-values ``%.6g`` (they go far below
-    1e-6, and a report rebuilt from this file adjusts them again)."""
-    out = table.copy()
+    """``sweep_summary.csv`` (:data:`SUMMARY_COLUMNS`): floats ``%.6f``, the p-values ``%.6g``
+    (they go far below 1e-6, and a report rebuilt from this file adjusts them again)."""
+    out = table[list(SUMMARY_COLUMNS)].copy()
     for column in ("p_value", "p_holm"):
         out[column] = ["" if pd.isna(v) else f"{v:.6g}" for v in out[column]]
     return out.to_csv(index=False, float_format="%.6f")
 
 
+def _texts_filled(table: pd.DataFrame) -> pd.DataFrame:
+    """``table`` with the columns :data:`SUMMARY_COLUMNS` (a missing one added), its
+    ``reference`` and ``p_method`` text, ``""`` where empty."""
+    table = table.reindex(columns=list(SUMMARY_COLUMNS))
+    return table.assign(**{c: table[c].astype(object).fillna("").astype(str)
+                           for c in ("reference", "p_method")})
+
+
+def p_methods(episodes: pd.DataFrame, table: pd.DataFrame) -> list[str]:
+    """How each p-value of a cell's :func:`fftnav.runner.summary.gain_table` was computed:
+    :func:`fftnav.runner.summary.wilcoxon_method` of the row's per-map SPL differences (the
+    policy minus its ``reference``, on the maps where both have results, as
+    :func:`~fftnav.runner.summary.gain_table` pairs them); ``""`` for a row without a p.
+
+    >>> episodes = pd.DataFrame({"env": "walls", "map_seed": [1, 2, 1, 2],
+    ...                          "policy": ["own-only", "own-only", "collab", "collab"],
+    ...                          "spl": [0.5, 0.6, 0.7, 0.6]})
+    >>> table = pd.DataFrame({"env": "walls", "policy": ["own-only", "collab"],
+    ...                       "reference": ["", "own-only"]})
+    >>> p_methods(episodes, table)
+    ['', 'exact']
+    """
+    per_map = episodes.pivot_table(index=["env", "map_seed"], columns="policy", values="spl",
+                                   aggfunc="mean")
+    methods = []
+    for r in table.itertuples(index=False):
+        if not r.reference:
+            methods.append("")
+            continue
+        pair = per_map.loc[r.env][[r.policy, r.reference]].dropna()
+        methods.append(wilcoxon_method((pair[r.policy] - pair[r.reference]).to_numpy()))
+    return methods
+
+
 def cell_tables(config: ExperimentConfig, root: Path) -> tuple[list[pd.DataFrame], list[str],
                                                                  list[str]]:
-    """Each cell's gain table (module docstring): from its ``episodes.csv``, else from the
-    folder's ``sweep_summary.csv``; and the names of the cells read from that summary and of
-    those with neither."""
+    """Each cell's gain table (module docstring) with its ``p_method`` column
+    (:data:`SUMMARY_COLUMNS`): from its ``episodes.csv``, else from the folder's
+    ``sweep_summary.csv`` (``p_method`` empty where the file has none); and the names of the
+    cells read from that summary and of those with neither."""
     cells = [(name, root / name, cell) for name, cell in config.cells] or [("base", root, config)]
-    summary = pd.DataFrame(columns=list(SWEEP_COLUMNS))
+    summary = pd.DataFrame(columns=list(SUMMARY_COLUMNS))
     if (root / "sweep_summary.csv").is_file():
         summary = pd.read_csv(root / "sweep_summary.csv", keep_default_na=False,
-                              na_values=[""], dtype={"reference": str}).fillna({"reference": ""})
+                              na_values=[""], dtype={"reference": str, "p_method": str})
+        summary = _texts_filled(summary)
     tables, from_summary, missing = [], [], []
     for name, folder, cell in cells:
         if (folder / "episodes.csv").exists():
-            tables.append(gain_table(pd.read_csv(folder / "episodes.csv"), name,
-                                     envs=cell.envs, policies=cell.policy_names))
+            episodes = pd.read_csv(folder / "episodes.csv")
+            table = gain_table(episodes, name, envs=cell.envs, policies=cell.policy_names)
+            tables.append(table.assign(p_method=p_methods(episodes, table)))
         elif (summary["cell"] == name).any():
             tables.append(summary[summary["cell"] == name].reset_index(drop=True))
             from_summary.append(name)
@@ -209,19 +306,22 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
     is ``ROOT/gains.md``, beside the run's own ``report.md``)."""
     root = Path(root)
     tables, from_summary, missing = cell_tables(config, root)
-    table = sweep_table(tables)
+    table = _texts_filled(sweep_table(tables))
     write_atomic(root / "sweep_summary.csv", _summary_csv(table))
     axes = sorted({_axis_of(c) for c in table["cell"]} - {""})
     figures = [_gain_figure(table, axis, root / "figures" / f"gain_{axis or 'cells'}.png")
                for axis in (axes or [""])] if len(table) else []
-    view = _view(table)
+    dashes = Dashes()
+    view = sweep_view(table, dashes=dashes)
+    legend = dashes.legend()
     lines = [
         f"# Sweep `{config.name}`: does collaboration pay?",
         "",
         "Per cell, env and policy: AR and SPL (percent, 95% bootstrap intervals over maps), "
         "bytes sent per robot, and the gain in SPL points over `own-only` (and, for `collab`, "
-        "over `fusion`): mean of the per-map differences, its 95% bootstrap interval and the "
-        "paired two-sided Wilcoxon signed-rank p over maps.",
+        "over `fusion`): mean of the per-map differences, its 95% bootstrap interval, the "
+        "paired two-sided Wilcoxon signed-rank p over maps and how it was computed "
+        "(`p_method`, explained under the table).",
         "",
         *([f"Cells not run (no episodes.csv): {', '.join(missing)}.", ""] if missing else []),
         *([f"Cells read from the folder's `sweep_summary.csv` (their episodes.csv is not here; "
@@ -244,6 +344,8 @@ def write_sweep_report(config: ExperimentConfig, root: str | Path) -> Path:
         "|" + "---|" * len(view.columns),
         *("| " + " | ".join(str(v) for v in row) + " |" for row in view.itertuples(index=False)),
         "",
+        *([*legend, ""] if legend else []),
+        *p_method_lines(table),
         *(f"![{p.stem}](figures/{p.name})" for p in figures),
         "",
     ]

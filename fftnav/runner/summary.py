@@ -51,7 +51,8 @@ PAIRED_COLUMNS: tuple[str, ...] = (
 
 #: ``p_method`` of a p-value computed from its exact null distribution.
 EXACT = "exact"
-#: ``p_method`` of a p-value from the normal approximation (with continuity correction).
+#: ``p_method`` of a p-value from the normal approximation (scipy's default: no continuity
+#: correction, the variance corrected for ties).
 NORMAL_APPROX = "normal approx."
 #: Non-zero paired differences up to which :func:`signed_rank_test` enumerates the null
 #: distribution (2**20 sign assignments, counted in a fraction of a millisecond).
@@ -111,7 +112,8 @@ def signed_rank_test(diff: Sequence[float] | np.ndarray, *,
     equally likely sign assignments whose rank sum of positives is at least as extreme as the
     observed one, ties and all (two-sided: twice the smaller tail, at most 1). Beyond,
     ``scipy.stats.wilcoxon``'s default on ``diff``: its exact distribution without ties or zeros
-    up to 50 differences, else the normal approximation with continuity correction.
+    up to 50 differences, else the normal approximation (no continuity correction, the
+    variance corrected for ties).
 
     Parameters
     ----------
@@ -333,7 +335,8 @@ def paired_tests(episodes: pd.DataFrame, *, reference: str = "fusion",
     return pd.DataFrame(rows, columns=list(PAIRED_COLUMNS))
 
 
-#: Columns of ``sweep_summary.csv``.
+#: Columns of :func:`gain_table` and :func:`sweep_table` (``sweep_summary.csv`` adds
+#: ``p_method``, :data:`fftnav.report.sweep.SUMMARY_COLUMNS`).
 SWEEP_COLUMNS: tuple[str, ...] = (
     "cell", "env", "policy", "maps", "ar", "ar_ci_low", "ar_ci_high", "spl", "spl_ci_low",
     "spl_ci_high", "bytes_per_robot", "reference", "gain", "gain_ci_low", "gain_ci_high",

@@ -42,6 +42,21 @@ def _until(tools: DevTools, expression: str, what: str, timeout: float = 10.0) -
         time.sleep(0.05)
 
 
+def _session(browser: str, profile, html, *, width: int = 1400) -> DevTools:
+    """A DevTools session on the leaderboard page ``html``, loaded (its URL in ``tools.url``)."""
+    tools = DevTools(browser, str(profile))
+    target = tools.call("Target.createTarget", url="about:blank")["targetId"]
+    tools.session = tools.call("Target.attachToTarget", targetId=target,
+                               flatten=True)["sessionId"]
+    for domain in ("Runtime", "Log", "Page", "Network"):
+        tools.call(f"{domain}.enable")
+    tools.call("Emulation.setDeviceMetricsOverride", width=width, height=800,
+               deviceScaleFactor=1, mobile=False)
+    tools.url = html.as_uri()
+    _load(tools, tools.url)
+    return tools
+
+
 @pytest.fixture(scope="module")
 def page(tmp_path_factory):
     """A DevTools session on the page of the small leaderboard, ``fusion`` highlighted."""
@@ -49,17 +64,8 @@ def page(tmp_path_factory):
     folder = tmp_path_factory.mktemp("leaderboard")
     html = write_leaderboard_page(folder / "index.html", board(), suites=SUITES,
                                   highlight=HIGHLIGHT, generated="made by the test")
-    tools = DevTools(browser, str(folder / "profile"))
+    tools = _session(browser, folder / "profile", html)
     try:
-        target = tools.call("Target.createTarget", url="about:blank")["targetId"]
-        tools.session = tools.call("Target.attachToTarget", targetId=target,
-                                   flatten=True)["sessionId"]
-        for domain in ("Runtime", "Log", "Page", "Network"):
-            tools.call(f"{domain}.enable")
-        tools.call("Emulation.setDeviceMetricsOverride", width=1400, height=800,
-                   deviceScaleFactor=1, mobile=False)
-        tools.url = html.as_uri()
-        _load(tools, tools.url)
         yield tools
     finally:
         tools.close()
@@ -239,17 +245,8 @@ def test_the_committed_leaderboard_page_loads_sorts_and_switches_tabs(tmp_path):
 
     root = Path(__file__).resolve().parents[2] / "results" / "leaderboard"
     board_csv = pd.read_csv(root / "leaderboard.csv")
-    browser = _browser()
-    tools = DevTools(browser, str(tmp_path / "profile"))
+    tools = _session(_browser(), tmp_path / "profile", root / "index.html", width=1600)
     try:
-        target = tools.call("Target.createTarget", url="about:blank")["targetId"]
-        tools.session = tools.call("Target.attachToTarget", targetId=target,
-                                   flatten=True)["sessionId"]
-        for domain in ("Runtime", "Log", "Page", "Network"):
-            tools.call(f"{domain}.enable")
-        tools.call("Emulation.setDeviceMetricsOverride", width=1600, height=900,
-                   deviceScaleFactor=1, mobile=False)
-        _load(tools, (root / "index.html").as_uri())
         names = [s.name for s in ordered_suites()]
         assert tools.evaluate("Array.from(document.querySelectorAll('[role=tab]'),"
                               " (b) => b.textContent)") == names

@@ -318,7 +318,8 @@ def test_the_report_says_how_each_p_was_computed(results):
     assert "| 12.0 | 0.2 | normal approx. |" in report
     assert "`p_method` `exact`: from the exact null distribution, the 2^n equally likely signs" \
         in report
-    assert "`normal approx.`: the normal approximation with continuity correction" in report
+    assert ("`normal approx.`: the normal approximation (scipy's default: no continuity "
+            "correction, the variance corrected for ties)") in report
     assert "this `paired_tests.csv` has no `p_method` column" in p_method_lines(
         paired.drop(columns="p_method"))[0]  # a folder written before p_method
     assert p_method_lines(paired.iloc[2:]) == []  # no p-value, nothing to say

@@ -14,7 +14,7 @@ import pytest
 from scipy import stats
 
 from fftnav.runner import load_config, parse_config
-from fftnav.runner.summary import gain_table, holm
+from fftnav.runner.summary import SWEEP_COLUMNS, gain_table, holm
 
 ROOT = Path(__file__).resolve().parents[2]
 
@@ -193,7 +193,8 @@ def test_report_verdicts_use_the_holm_p_over_the_tests_of_the_report(tmp_path):
     assert table.loc["collab", "p_holm"] == table.loc["collab", "p_value"]
     assert "all 1 paired comparisons of this report with a p" in text
     assert "1 more have no p" in text and "  - pays in 1: base / walls (+12.5," in text
-    assert re.search(r"\| own-only \| 12\.5 \[[^]]*\] \| 0\.031 \| 0\.031 \| pays \|", text)
+    assert re.search(r"\| own-only \| 12\.5 \[[^]]*\] \| 0\.031 \| exact \| 0\.031 \| pays \|",
+                     text)
 
     # fusion adds two tests: collab's raw p still passes, its Holm p >= 2 x 2 / 2**6 does not
     spl["fusion"] = [v + (0.02 if m % 2 else -0.01) for m, v in enumerate(own)]
@@ -210,8 +211,8 @@ def test_report_verdicts_use_the_holm_p_over_the_tests_of_the_report(tmp_path):
     assert "- `collab` against `own-only`, 1 (cell, env) pairs:\n  - pays in 0." in text
     assert "    - would pay by the raw p alone in 1: base / walls (+12.5, p = 0.031" in text
     # the smallest of the three p: 3 x 2 / 2**6 = 0.094
-    assert re.search(r"\| own-only \| 12\.5 \[[^]]*\] \| 0\.031 \| 0\.094 \| no clear "
-                     r"difference \|", text)
+    assert re.search(r"\| own-only \| 12\.5 \[[^]]*\] \| 0\.031 \| exact \| 0\.094 \| no "
+                     r"clear difference \|", text)
 
 
 def test_an_axis_of_one_envs_world_draws_that_env_only():
@@ -257,3 +258,101 @@ def test_figure_sweep_works_from_the_committed_summary_plus_what_a_rerun_writes(
         pd.testing.assert_frame_equal(again, summary, rtol=1e-5)
         for name, data_ in episodes.items():  # what a rerun writes back
             (tmp_path / name / "episodes.csv").write_bytes(data_)
+
+
+def _legend(text: str) -> dict[str, str]:
+    """The marks of a report's legend line (`-¹` reason; `-²` reason.) -> their reasons."""
+    line = next(x for x in text.splitlines() if x.startswith("`-¹` "))
+    return dict(re.findall(r"`(-[¹²³⁴⁵⁶⁷⁸⁹⁰]+)` (.*?)(?:; (?=`-)|\.$)", line))
+
+
+def _row(text: str, **cells: str) -> dict[str, str]:
+    """The one row of the report's table whose columns hold ``cells``, by the header."""
+    lines = [x for x in text.splitlines() if x.startswith("| ")]
+    header = [c.strip() for c in lines[0].strip("|").split("|")]
+    rows = [dict(zip(header, (c.strip() for c in x.strip("|").split("|")), strict=True))
+            for x in lines[1:]]
+    found = [r for r in rows if all(r[k.replace("_", " ")] == v for k, v in cells.items())]
+    assert len(found) == 1, (cells, found)
+    return found[0]
+
+
+def test_every_missing_number_of_the_sweep_report_says_why_and_each_p_how(tmp_path):
+    """A hand-made sweep whose missing numbers have known reasons: own-only (the reference),
+    fusion equal to own-only on walls (every difference 0), forest without own-only (no map
+    with both), traps with one map (no interval over maps), and a cell read from a summary
+    that does not record how its p was computed; collab's p on walls' 24 tied differences is
+    the normal approximation's, on traps' one difference exact (2 x 1/2 = 1)."""
+    from fftnav.report.sweep import write_sweep_report
+
+    config = parse_config({"experiment": {"name": "d", "envs": ["walls", "traps", "forest"],
+                                          "maps": 24, "map_seed": 0, "robots": 1,
+                                          "policies": ["own-only", "fusion", "collab"]},
+                           "sweep": {"comms.packet_loss": [0.3]}})
+    own = 0.5 + 0.01 * np.arange(24)
+    diff = 0.01 * (1 + np.arange(24) // 2)  # 24 positive differences, tied in pairs
+    rows = [("walls", m, p, 0, True, v, 10) for p, values in
+            (("own-only", own), ("fusion", own), ("collab", own + diff))
+            for m, v in enumerate(values)]
+    rows += [("traps", 0, "own-only", 0, True, 0.6, 0), ("traps", 0, "collab", 0, True, 0.7, 5),
+             ("traps", 0, "fusion", 0, True, 0.6, 9)]
+    rows += [("forest", m, p, 0, True, 0.9, 1) for m in range(3) for p in ("fusion", "collab")]
+    (tmp_path / "base").mkdir()
+    pd.DataFrame(rows, columns=["env", "map_seed", "policy", "robot", "arrived", "spl",
+                                "bytes_sent"]).to_csv(tmp_path / "base" / "episodes.csv",
+                                                      index=False)
+    old = pd.DataFrame([{**dict.fromkeys(SWEEP_COLUMNS, 0.5), "cell": "packet_loss=0.3",
+                         "env": "walls", "policy": "collab", "maps": 24,
+                         "reference": "own-only", "gain": 0.1, "gain_ci_low": 0.05,
+                         "gain_ci_high": 0.15, "p_value": 0.002, "p_holm": 0.002}])
+    old.to_csv(tmp_path / "sweep_summary.csv", index=False)  # SWEEP_COLUMNS: no p_method
+    text = write_sweep_report(config, tmp_path).read_text()
+    reasons = _legend(text)
+
+    def why(cell: str) -> str:
+        return reasons[cell.split("[")[-1].rstrip("]")]
+
+    collab = _row(text, cell="base", env="walls", policy="collab", vs="own-only")
+    assert collab["vs"] == "own-only" and collab["p_method"] == "normal approx."
+    # all 24 positive: rank sum 300 against a mean of 24 x 25 / 4 = 150, variance
+    # 24 x 25 x 49 / 24 less 12 ties of two x (2^3 - 2) / 48 = 1223.5 (no continuity correction)
+    z = (300 - 150) / np.sqrt(1223.5)
+    assert collab["p (Wilcoxon)"] == f"{2 * stats.norm.sf(z):.2g}" == "1.8e-05"
+    own_row = _row(text, cell="base", env="walls", policy="own-only")
+    assert {own_row[c] for c in ("vs", "gain (SPL points)", "p (Wilcoxon)", "p_method",
+                                 "p (Holm)", "verdict")} == {own_row["vs"]}
+    assert why(own_row["vs"]) == ("`own-only` is the reference of the gains: it is not "
+                                  "compared with itself")
+    fusion = _row(text, cell="base", env="walls", policy="fusion")
+    assert fusion["gain (SPL points)"] == "0.0 [0.0, 0.0]"
+    assert fusion["p (Wilcoxon)"] == fusion["p_method"] == fusion["p (Holm)"]
+    assert why(fusion["p (Wilcoxon)"]) == (
+        "every per-map difference is 0 (the policy and its reference, `vs`, have the same SPL "
+        "on each map): no test")
+    traps = _row(text, cell="base", env="traps", policy="collab", vs="own-only")
+    assert traps["AR %"].startswith("100.0 [-") and traps["p (Wilcoxon)"] == "1"
+    assert traps["p_method"] == "exact"
+    assert why(traps["SPL %"]) == "1 map: no interval over maps (it needs two or more)"
+    forest = _row(text, cell="base", env="forest", policy="fusion")
+    assert forest["vs"] == "own-only" and forest["gain (SPL points)"] == forest["p (Wilcoxon)"]
+    assert why(forest["p (Wilcoxon)"]) == ("no map has results of both the policy and its "
+                                           "reference (`vs`) in this env")
+    kept = _row(text, cell="packet_loss=0.3", env="walls", policy="collab")
+    assert kept["p (Wilcoxon)"] == "0.002"
+    assert why(kept["p_method"]).startswith("`sweep_summary.csv` does not record how this p was "
+                                            "computed (no `p_method`)")
+    # the family: collab's 2 rows at walls, 2 at traps and 1 in the kept cell; without a p,
+    # fusion at walls and traps and collab against fusion in the forest (equal), fusion and
+    # collab against own-only in the forest (no map with both)
+    assert ("all 5 paired comparisons of this report with a p (every policy against `own-only` "
+            "and `collab` against `fusion`, in every cell and env; 3 more have no p, every "
+            "per-map difference being 0; 2 more have no map with both policies)") in text
+    assert "`p_method` `exact`: from the exact null distribution" in text
+    assert "`normal approx.`: the normal approximation" in text
+    assert not re.search(r"\| +\|", text)  # no empty cell anywhere
+    summary = pd.read_csv(tmp_path / "sweep_summary.csv", keep_default_na=False)
+    methods = summary.set_index(["cell", "env", "policy", "reference"])["p_method"]
+    assert methods[("base", "walls", "collab", "own-only")] == "normal approx."
+    assert methods[("base", "traps", "collab", "own-only")] == "exact"
+    assert methods[("base", "walls", "fusion", "own-only")] == ""  # no p
+    assert methods[("packet_loss=0.3", "walls", "collab", "own-only")] == ""  # not recorded
