@@ -31,7 +31,6 @@ import numpy as np
 import pandas as pd
 from matplotlib.figure import Figure
 
-from fftnav.config import SwarmConfig
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow
 from fftnav.errors import FftnavError
 from fftnav.files import write_atomic
@@ -47,8 +46,9 @@ from fftnav.runner.resume import FolderLock, canonical_config, config_changes
 from fftnav.runner.run import CSV_COLUMNS
 from fftnav.runner.summary import EXACT, NORMAL_APPROX, WILCOXON_EXACT_MAX, in_order
 from fftnav.runner.tasks import task_world
+from fftnav.suites import find_suite
 
-__all__ = ["PAPER_NAMES", "PAPER_PROTOCOL", "PAPER_TABLE1", "is_paper_protocol", "p_method_lines",
+__all__ = ["PAPER_NAMES", "PAPER_TABLE1", "is_paper_protocol", "p_method_lines",
            "paired_table", "report_folder", "results_table", "write_report"]
 
 #: The paper's Table I (Gazebo): (env, policy) -> (AR %, APL m, SPL %).
@@ -64,16 +64,13 @@ PAPER_TABLE1: dict[tuple[str, str], tuple[float, float, float]] = {
 PAPER_NAMES = {"bug-left": "Bug (left)", "bug-right": "Bug (right)", "fusion": "Proposed"}
 #: The paper's protocol (Sec. IV), as :func:`is_paper_protocol` checks it: its envs, maps and
 #: robots (the swarm settings are :class:`fftnav.config.SwarmConfig`'s defaults).
-PAPER_PROTOCOL: dict[str, Any] = {"envs": ("forest", "rocky"), "maps": 20, "map_seed": 1000,
-                                  "robots": 15}
-
-
 def is_paper_protocol(config: ExperimentConfig) -> bool:
     """Whether ``config`` runs the paper's protocol, so that its results may stand beside the
-    paper's Table I: envs among forest and rocky, 20 maps from map seed 1000, 15 robots, the
-    default robot, sensor, comms, episode, planner and localization settings
-    (``SwarmConfig()``), the worlds as generated (no ``[world]`` overrides, no
-    ``[world_files]``). The policies and ``[record]`` are free (recording changes no result).
+    paper's Table I: the newest version of the ``paper`` suite (``paper-v2``,
+    :mod:`fftnav.suites`) on some of its envs: its maps, map seed and robots, its robot,
+    sensor, comms, episode, planner and localization settings and its worlds (no other
+    ``[world]`` overrides, no ``[world_files]``). The policies and ``[record]`` are free
+    (recording changes no result).
 
     >>> from fftnav.runner import parse_config
     >>> paper = {"name": "t", "envs": ["rocky"], "maps": 20, "map_seed": 1000, "robots": 15,
@@ -83,12 +80,12 @@ def is_paper_protocol(config: ExperimentConfig) -> bool:
     >>> is_paper_protocol(parse_config({"experiment": paper, "comms": {"packet_loss": 0.3}}))
     False
     """
-    return (bool(config.envs) and set(config.envs) <= set(PAPER_PROTOCOL["envs"])
-            and config.maps == PAPER_PROTOCOL["maps"]
-            and config.map_seed == PAPER_PROTOCOL["map_seed"]
-            and config.robots == PAPER_PROTOCOL["robots"]
-            and config.swarm == SwarmConfig()
-            and not config.world and not any(config.world_by_env.values())
+    suite = find_suite("paper").experiment(["bug-left"])
+    return (bool(config.envs) and set(config.envs) <= set(suite.envs)
+            and config.maps == suite.maps and config.map_seed == suite.map_seed
+            and config.robots == suite.robots and config.swarm == suite.swarm
+            and all(config.world_overrides(env) == suite.world_overrides(env)
+                    for env in config.envs)
             and not config.world_files)
 
 
