@@ -10,8 +10,8 @@ the repository keeps no recording.
   episode seed, where every robot arrives; 12 times real time, :data:`GIF_WIDTH_PX` pixels a
   panel (the file stays under 1 MB).
 - ``results/figures/causes/<cause>.png`` (docs/analysis.md): one frame per cause of failure,
-  the failed robot picked, at the last tick of its episode, from the first episode with that
-  cause in the ``episodes.csv`` of ``results/table1``, ``results/collab/core`` and
+  the failed robot picked, at the tick it failed (``failure_ticks``), from the first episode
+  with that cause in the ``episodes.csv`` of ``results/table1``, ``results/collab/core`` and
   ``results/collab/fresh`` (in that order, each in its rows' order).
   No committed result has a ``collision`` (the planner's clearance guard keeps the robots off
   the obstacles), so its frame is of a scripted robot driving straight at a rock. Where none
@@ -19,7 +19,9 @@ the repository keeps no recording.
   frame is of fresh traps map 71 under ``collab`` with the squeeze switched off, its robots
   mapping each other as obstacles (``OwnMaps.set_robots`` switched off), its guided way
   switched off (``Walls.guides``) and the paper's motion (``PAPER_MOTION``: straight, or
-  rotation in place beyond 3 degrees of heading error), where robots 2 and 3 jam.
+  rotation in place beyond 3 degrees of heading error), where robots 2 and 3 jam. ``lost``
+  (robots that know only their odometry) is forest map 1000 of Table I under ``bug-left`` at
+  the ``high`` drift preset, robot 1.
 
 Run from the repository root: ``python experiments/replay_figures.py``.
 """
@@ -40,7 +42,7 @@ from fftnav.metrics import FAILURE_CAUSES
 from fftnav.navigation.controllers import Controller
 from fftnav.navigation.messages import Walls
 from fftnav.navigation.ownmap import OwnMaps
-from fftnav.report.replay import write_image, write_video
+from fftnav.report.replay import failure_ticks, write_image, write_video
 from fftnav.runner.rerun import rerun_task
 from fftnav.runner.tasks import task_id
 from fftnav.world import Circle, World
@@ -101,6 +103,22 @@ def _jam_recording():
     return read_recording(io.BytesIO(result.recording()))
 
 
+def _lost_recording():
+    """Forest map 1000 of Table I under ``bug-left`` with only odometry at the ``high`` drift
+    preset (the task forest-1000-bug-left of results/drift/table1/drift=high, whose
+    episodes.csv git does not keep): robot 1 stops where its estimate puts its goal."""
+    from fftnav.runner.tasks import episode_seed
+    from fftnav.world.generate import generate_world
+
+    config = SwarmConfig().replace({"localization.mode": "odometry", "localization.drift": "high"})
+    result = run_episode(generate_world("forest", 1000, robots=15), "bug-left",
+                         seed=episode_seed("forest", 1000), record=True, config=config)
+    if result.rows[1].failure != "lost":
+        raise RuntimeError(f"robot 1 of forest-1000-bug-left at high drift is no longer lost: "
+                           f"{result.rows[1].failure!r}")
+    return read_recording(io.BytesIO(result.recording()))
+
+
 def first_failures() -> dict[str, tuple[Path, str, int]]:
     """Each cause's first failure in :data:`SOURCES`: (folder, task, robot)."""
     found: dict[str, tuple[Path, str, int]] = {}
@@ -124,9 +142,13 @@ def cause_frames(folder: Path) -> list[Path]:
             rec, robot = (_collision_recording(), 0) if cause == "collision" else (
                 _jam_recording(), 2)
             where = "scripted" if cause == "collision" else "traps-71-collab, no squeeze"
+        elif cause == "lost":
+            rec, robot, where = _lost_recording(), 1, "forest-1000-bug-left, high drift"
         else:
             raise RuntimeError(f"no committed result has a {cause!r} failure")
-        at_s = float(rec.time_s[-2])  # the last tick with scans
+        # the tick the robot failed at (the player's and the frames' red), at most the last
+        # tick with scans
+        at_s = float(rec.time_s[min(failure_ticks(rec)[int(robot)], len(rec.time_s) - 2)])
         out = write_image(rec, folder / f"{cause}.png", at_s=at_s, robot=int(robot))
         print(f"{cause}: {where} robot {robot} at {at_s:.1f} s -> {out.relative_to(ROOT)}")
         written.append(out)

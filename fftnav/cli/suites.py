@@ -14,7 +14,7 @@ if TYPE_CHECKING:
 def cmd_suites(args: argparse.Namespace) -> int:
     """Print each suite: name, version, maps, what it measures, its references; or make the
     references."""
-    from fftnav.suites import SUITES
+    from fftnav.suites import ordered_suites
 
     if args.references:
         return _references(args)
@@ -22,7 +22,7 @@ def cmd_suites(args: argparse.Namespace) -> int:
         from fftnav.cli import CliError
 
         raise CliError("--runs and --suite go with --references")
-    for suite in SUITES.values():
+    for suite in ordered_suites():
         print(f"{suite.name}  (version {suite.version} of '{suite.family}')")
         print(f"    {suite.description}")
         print(f"    measures {suite.measures}")
