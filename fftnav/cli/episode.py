@@ -145,7 +145,8 @@ def register(sub: argparse._SubParsersAction) -> None:
     p.add_argument("--world", required=True, metavar="W.json", help="world file")
     p.add_argument("--policy", required=True, metavar="NAME",
                    help=f"decision policy or controller: {', '.join(registered_names())}, "
-                   "or module:attr, path/to/file.py:attr, an entry point of 'fftnav.policies'")
+                   "or module:attr, path/to/file.py:attr, an entry point of 'fftnav.policies', "
+                   "learned:PATH.npz, learned-decider:PATH.npz")
     p.add_argument("--seed", type=int, default=0, help="episode seed (default 0)")
     p.add_argument("--out", metavar="E.csv", help="per-robot CSV (default: stdout)")
     p.add_argument("--trajectories", metavar="T.npz",

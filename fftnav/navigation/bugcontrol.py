@@ -27,7 +27,8 @@ from fftnav.navigation.bug import BugPlanner
 from fftnav.navigation.controllers import Controller, ControllerSetup, SwarmStep
 from fftnav.navigation.decider import Decider
 from fftnav.navigation.messages import MessageKind
-from fftnav.navigation.policies import DecisionContext, Policy
+from fftnav.navigation.policies import DecisionContext, DecisionObservation, Policy
+from fftnav.observe.fusion import neighbour_input, neighbour_probability, rotate_sigma
 
 __all__ = ["SIDE_MARGIN_M", "SIDE_RADIUS_M", "UNKNOWN_COST", "BugController"]
 
@@ -75,10 +76,35 @@ class BugController(Controller):
             walled=setup.walled)
 
     def _decide(self, i: int) -> int:
+        seen: list[DecisionObservation] = []
+
+        def observation() -> DecisionObservation:
+            if not seen:
+                seen.append(self._observation(i))
+            return seen[0]
+
         ctx = DecisionContext(i, lambda: self.decider.own_probability(i),
                               lambda: self.decider.fused_probability(i), self.rng,
-                              lambda: self._shared_side(i))
+                              lambda: self._shared_side(i), observation)
         return self.policy.decide(ctx)
+
+    def _observation(self, i: int) -> DecisionObservation:
+        """What fusion uses at robot ``i``'s decision (:class:`DecisionObservation`): its P_s and
+        extrema, and each received message's P_i and sender pose in the goal frame (the
+        senders placed as :meth:`Decider.fused_probability
+        <fftnav.navigation.decider.Decider.fused_probability>` places them)."""
+        decider, cfg = self.decider, self.config
+        geometry, range_m = decider.geometry, cfg.sensor.range_m
+        p_s = decider.own_probability(i)
+        sigma = rotate_sigma(decider.sigma[i], -float(decider.beta[i]))
+        neighbours, rel = decider._neighbours(i)  # the senders as fusion places them
+        p_n = np.array([float(neighbour_probability(
+            neighbour_input(rotate_sigma(sig, float(pose[2])), is_min, target_rad=0.0,
+                            alpha_rad=geometry.alpha_rad, range_m=range_m),
+            geometry=geometry, range_m=range_m))
+            for (sig, is_min), pose in zip(neighbours, rel, strict=True)])
+        return DecisionObservation(p_s, sigma, p_n.reshape(-1), rel, range_m,
+                                   cfg.comms.comm_range_m)
 
     def _shared_side(self, i: int) -> int | None:
         """The side (+1 left, -1 right of the goal) whose way to the goal through robot ``i``'s

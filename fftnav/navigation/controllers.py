@@ -30,7 +30,7 @@ and controller runs through the same loop, runner, metrics and reports.
 from __future__ import annotations
 
 import math
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Callable, Iterator, Mapping, Sequence
 from dataclasses import dataclass
 from typing import ClassVar
 
@@ -53,6 +53,7 @@ __all__ = [
     "RobotObservation",
     "SwarmStep",
     "register_controller",
+    "robot_observations",
 ]
 
 #: Entry-point group in which installed packages declare policies and controllers.
@@ -265,6 +266,20 @@ class SwarmStep:
         return mask
 
 
+def robot_observations(swarm: SwarmStep, *, inbox: bool = True
+                       ) -> Iterator[tuple[int, RobotObservation]]:
+    """``(robot, its RobotObservation)`` of every active robot of ``swarm``, in index order
+    (``inbox=False``: without its received packets, for a controller that reads none)."""
+    for j, i in enumerate(swarm.active.tolist()):
+        yield i, RobotObservation(
+            robot=i, tick=swarm.tick, time_s=swarm.time_s, pose=swarm.poses[i],
+            goal=swarm.goals[i], ranges_m=swarm.ranges_m[i], angles_rad=swarm.angles_rad,
+            safe_mask=None if swarm.safe is None else swarm.safe[i],
+            y1=None if swarm.y1 is None else swarm.y1[i],
+            message=None if swarm.messages is None else swarm.messages[j],
+            inbox=swarm.inbox(i) if inbox else ())
+
+
 class Controller:
     """Base class of controllers: subclass it and write :meth:`act`.
 
@@ -303,14 +318,7 @@ class Controller:
         """
         commands = np.zeros((len(swarm.poses), 2))
         outgoing: dict[int, bytes] = {}
-        for j, i in enumerate(swarm.active.tolist()):
-            obs = RobotObservation(
-                robot=i, tick=swarm.tick, time_s=swarm.time_s, pose=swarm.poses[i],
-                goal=swarm.goals[i], ranges_m=swarm.ranges_m[i], angles_rad=swarm.angles_rad,
-                safe_mask=None if swarm.safe is None else swarm.safe[i],
-                y1=None if swarm.y1 is None else swarm.y1[i],
-                message=None if swarm.messages is None else swarm.messages[j],
-                inbox=swarm.inbox(i))
+        for i, obs in robot_observations(swarm):
             action = self.act(obs)
             if not isinstance(action, Action):
                 try:

@@ -43,6 +43,7 @@ __all__ = [
     "LEFT",
     "RIGHT",
     "DecisionContext",
+    "DecisionObservation",
     "Policy",
     "POLICIES",
     "register_policy",
@@ -51,6 +52,38 @@ __all__ = [
 
 LEFT = 1
 RIGHT = -1
+
+
+@dataclass(frozen=True)
+class DecisionObservation:
+    """What the paper's Bayesian fusion uses at one decision, in the robot's goal frame (the
+    robot frame rotated by the goal bearing: x towards the goal, y to its left).
+
+    Attributes
+    ----------
+    p_s : float
+        The robot's own P_s (eq. (P_s)).
+    sigma : ndarray, (n, 2)
+        The extrema of its own scan (the compressed message's numbers): angle (rad, goal frame,
+        in ``[-pi, pi)``) and distance (m).
+    p_neighbours : ndarray, (k,)
+        Each received message's P_i (eq. (P_ni)), towards the goal, computed for every sender
+        of the inbox (fusion fuses only those beside the robot, within range).
+    rel_poses : ndarray, (k, 3)
+        Each sender's pose (x m, y m, yaw rad) in the goal frame, as fusion places it (with
+        ``comms.pose_noise_m``), in the order of ``p_neighbours``.
+    range_m : float
+        The sensor range R (m).
+    comm_range_m : float
+        The communication range (m).
+    """
+
+    p_s: float
+    sigma: np.ndarray
+    p_neighbours: np.ndarray
+    rel_poses: np.ndarray
+    range_m: float
+    comm_range_m: float
 
 
 @dataclass
@@ -71,6 +104,11 @@ class DecisionContext:
         ``() -> int | None``: the side whose way to the goal through the robot's own map (its
         scans and the walls its neighbours shared, ``collab``'s messages) is clearly shorter,
         None if neither is.
+    observation : callable
+        ``() -> DecisionObservation | None``: P_s, the own extrema, the neighbours' P_i and
+        relative poses (computed once per decision on the first call, drawing the pose noise
+        from ``rng`` as ``fused_probability`` does); None where the controller does not
+        provide it.
     """
 
     robot: int
@@ -78,6 +116,7 @@ class DecisionContext:
     fused_probability: Callable[[], float]
     rng: np.random.Generator
     shared_side: Callable[[], int | None] = lambda: None
+    observation: Callable[[], DecisionObservation | None] = lambda: None
 
 
 def _message_kind(messages: str | type[MessageKind] | None) -> type[MessageKind] | None:

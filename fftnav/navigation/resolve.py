@@ -7,7 +7,13 @@ experiment, ``fftnav episode --policy``) into a :class:`Resolved`:
    (``fusion``, ``bug-left``, ...; run by the Bug planner) or a controller of
    :data:`~fftnav.navigation.controllers.CONTROLLERS` (``vfh``, ``ftg``, ``fft-go``);
 2. ``module:attr`` or ``path/to/file.py:attr`` (:func:`fftnav.plugins.load_reference`);
-3. the name of an entry point in the group ``fftnav.policies`` of an installed package.
+3. the name of an entry point in the group ``fftnav.policies`` of an installed package;
+4. ``learned:PATH.npz``: a trained network run by
+   :class:`~fftnav.navigation.learned.LearnedController` (taken before ``module:attr``, whose
+   form it also has), named ``learned-<stem of the file>``; its ``file`` is the ``.npz``, whose
+   SHA-256 ``fftnav run`` records as it does a plugin file's;
+5. ``learned-decider:PATH.npz``: a trained network picking the Bug planner's side
+   (:func:`~fftnav.navigation.learned_decider.learned_decider_policy`), likewise.
 
 The object found must be a :class:`~fftnav.navigation.controllers.Controller` subclass (a
 controller), a :class:`~fftnav.navigation.policies.Policy` or a plain function
@@ -53,6 +59,9 @@ from fftnav.navigation.controllers import (
     ControllerSetup,
     ControllerSpec,
 )
+from fftnav.navigation.learned import LEARNED_PREFIX, learned_controller
+from fftnav.navigation.learned_decider import PREFIX as DECIDER_PREFIX
+from fftnav.navigation.learned_decider import learned_decider_policy
 from fftnav.navigation.policies import POLICIES, Policy
 from fftnav.plugins import (
     PluginError,
@@ -170,7 +179,8 @@ def resolve(reference: str) -> Resolved:
     Parameters
     ----------
     reference : str
-        A registered name, ``module:attr``, ``path/to/file.py:attr`` or an entry-point name.
+        A registered name, ``module:attr``, ``path/to/file.py:attr``, an entry-point name or
+        ``learned:PATH.npz``.
 
     Returns
     -------
@@ -190,6 +200,13 @@ def resolve(reference: str) -> Resolved:
         return Resolved(reference, reference, policy=POLICIES[reference])
     if reference in CONTROLLERS:
         return Resolved(reference, reference, controller=CONTROLLERS[reference].factory)
+    if reference.startswith(DECIDER_PREFIX):
+        path = reference[len(DECIDER_PREFIX):]
+        policy = learned_decider_policy(path)
+        return Resolved(policy.name, reference, policy=policy, file=Path(path))
+    if reference.startswith(LEARNED_PREFIX):
+        name, cls, path = learned_controller(reference)
+        return Resolved(name, reference, controller=cls, file=path)
     if is_reference(reference):
         obj = load_reference(reference)
         file = reference_file(reference)

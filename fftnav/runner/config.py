@@ -309,6 +309,11 @@ def _policies(value: Any, base: str | Path | None) -> tuple[str, ...]:
         head, sep, attr = ref.rpartition(":")
         if sep and head.endswith(".py") and not Path(head).expanduser().is_absolute():
             ref = f"{(Path(base or '.') / head).resolve()}:{attr}"
+        for prefix in ("learned-decider:", "learned:"):  # trained networks, files too
+            path = ref[len(prefix):]
+            if ref.startswith(prefix) and not Path(path).expanduser().is_absolute():
+                ref = f"{prefix}{(Path(base or '.') / path).resolve()}"
+                break
         try:
             found = resolve(ref)
         except ValueError as exc:
