@@ -56,7 +56,7 @@ from gymnasium import spaces
 from fftnav import metrics
 from fftnav.config import SwarmConfig
 from fftnav.episode.core import EpisodeCore
-from fftnav.episode.loop import _reference_lengths, _row, positions_by_tick
+from fftnav.episode.loop import episode_rows
 from fftnav.episode.record import EpisodeRow
 from fftnav.errors import FftnavError
 from fftnav.navigation.bugcontrol import BugController
@@ -359,13 +359,7 @@ class DecisionEnv(gymnasium.Env):
         if worker is None or worker.core is None:
             raise FftnavError("episode_rows() needs a terminated episode: step until "
                               "terminated first")
-        core = worker.core
-        optimal, geodesic = _reference_lengths(worker.world.to_json(), self.config.robot.r0_m)
-        trajectories = core.trajectories()
-        by_tick = positions_by_tick(trajectories, core.robots.departure)
-        return [_row(core, i, trajectories[i], policy=POLICY_NAME,
-                     lengths_m=(float(optimal[i]), float(geodesic[i])), by_tick=by_tick)
-                for i in range(len(trajectories))]
+        return episode_rows(worker.core, POLICY_NAME)
 
     def _abandon(self) -> None:
         if self._worker is not None:

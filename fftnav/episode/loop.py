@@ -29,7 +29,7 @@ from fftnav.states import Status
 from fftnav.validate import check_integer
 from fftnav.world.model import World
 
-__all__ = ["OnTick", "failure_cause", "positions_by_tick", "run_episode"]
+__all__ = ["OnTick", "episode_rows", "failure_cause", "positions_by_tick", "run_episode"]
 
 
 @functools.lru_cache(maxsize=8)
@@ -116,12 +116,22 @@ def run_episode(
                            on_tick=on_tick)
         core.run()
     trajectories = core.trajectories()
-    by_tick = positions_by_tick(trajectories, core.robots.departure)
-    rows = [_row(core, i, trajectories[i], policy=method.name,
-                 lengths_m=(float(optimal[i]), float(geodesic[i])), by_tick=by_tick)
-            for i in range(len(trajectories))]
+    rows = episode_rows(core, method.name, (optimal, geodesic))
     return EpisodeResult(rows=rows, trajectories=trajectories, tape=tape,
                          compute_s=core.compute_s, robot_ticks=core.robot_ticks)
+
+
+def episode_rows(core: EpisodeCore, policy: str,
+                 reference: tuple[np.ndarray, np.ndarray] | None = None) -> list[EpisodeRow]:
+    """The rows of an ended episode's core, one per robot, named ``policy``; ``reference``:
+    the robots' grid A* and geodesic lengths (m), default computed (cached per process)."""
+    optimal, geodesic = (_reference_lengths(core.world.to_json(), core.config.robot.r0_m)
+                         if reference is None else reference)
+    trajectories = core.trajectories()
+    by_tick = positions_by_tick(trajectories, core.robots.departure)
+    return [_row(core, i, trajectories[i], policy=policy,
+                 lengths_m=(float(optimal[i]), float(geodesic[i])), by_tick=by_tick)
+            for i in range(len(trajectories))]
 
 
 def positions_by_tick(trajectories: list[np.ndarray], departure: np.ndarray) -> np.ndarray:
