@@ -29,6 +29,7 @@ def _report(result: dict, args: argparse.Namespace, table: str,
 
 #: The committed results each bench compares itself with by default (if present).
 _DEFAULT_PREVIOUS = {"pipeline": "results/pipeline_latency.csv", "sim": "results/sim_speed.csv",
+                     "env": "results/env_speed.csv",
                      "optimal": "results/optimal.csv", "scale": "results/scale.csv"}
 
 

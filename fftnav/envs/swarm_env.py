@@ -256,7 +256,10 @@ class SwarmNavEnv(ParallelEnv):
 
     def index(self, agent: str) -> int:
         """The robot index of ``agent`` (its start in the world)."""
-        return self._index[check_choice("agent", agent, self.possible_agents)]
+        try:
+            return self._index[agent]
+        except (KeyError, TypeError):  # not an agent: the error naming the choices
+            return self._index[check_choice("agent", agent, self.possible_agents)]
 
     # -- what a scripted controller sees -----------------------------------------------------
 
@@ -340,6 +343,16 @@ class SwarmNavEnv(ParallelEnv):
         assert self._core is not None
         moving = self._core.robots.moving(self._core.tick)
         commands = np.zeros((len(self.possible_agents), 2))
+        # every action checked at once; anything wrong is found and named agent by agent below
+        try:
+            idx = np.array([self._index[agent] for agent in actions], dtype=np.intp)
+            values = np.array(list(actions.values()), dtype=np.float64)
+        except (KeyError, TypeError, ValueError):
+            values = None
+        if values is not None and values.shape == (len(idx), 2) and np.isfinite(values).all():
+            keep = moving[idx]
+            commands[idx[keep]] = values[keep]
+            return commands
         for agent, action in actions.items():
             i = self.index(agent)
             try:
@@ -397,14 +410,16 @@ class SwarmNavEnv(ParallelEnv):
         ended = (arrived | (status == int(Status.COLLIDED))
                  | (status == int(Status.LOST))).tolist()
         timed_out = (status == int(Status.TIMED_OUT)).tolist()
+        values = reward.tolist()
+        arrivals, collisions, distances = arrived.tolist(), collided.tolist(), dist.tolist()
         rewards, terminations, truncations, infos = {}, {}, {}, {}
         for agent in agents:
             i = self._index[agent]
-            rewards[agent] = float(reward[i])
+            rewards[agent] = values[i]
             terminations[agent] = ended[i]
             truncations[agent] = timed_out[i]
-            infos[agent] = {"arrived": bool(arrived[i]), "collided": bool(collided[i]),
-                            "goal_distance_m": float(dist[i]), "pose": core.obs.poses[i].copy()}
+            infos[agent] = {"arrived": arrivals[i], "collided": collisions[i],
+                            "goal_distance_m": distances[i], "pose": core.obs.poses[i].copy()}
         observations = self._observe(agents)
         self.agents = [a for a in agents if core.robots.active[self._index[a]]]
         return observations, rewards, terminations, truncations, infos
@@ -421,47 +436,48 @@ class SwarmNavEnv(ParallelEnv):
             return {}
         swarm = core.swarm if core.swarm is not None and core.swarm.tick == core.tick else None
         idx = np.array([self._index[a] for a in agents])
-        seen = np.isin(idx, swarm.active) if swarm is not None else np.zeros(len(idx), bool)
+        seen = np.zeros(len(core.goals), bool)
+        if swarm is not None:
+            seen[swarm.active] = True
+        seen = seen[idx]
         sensed = None
         if not seen.all():
             sensed = core.sense(idx[~seen], pipeline=self.observations.pipeline)
         if swarm is not None and self.observations.max_neighbours:
             self._own_messages = self._broadcasts(swarm)
+        known = core.localizer.poses(core.obs.poses).tolist()
+        goals = core.goals.tolist()
         out = {}
         for agent, i, own in zip(agents, idx.tolist(), seen.tolist(), strict=True):
             view = swarm if own else sensed
             assert view is not None
-            out[agent] = self._agent_obs(i, view)
+            out[agent] = self._agent_obs(i, view, known[i], goals[i])
         return out
 
-    def _known_pose(self, i: int) -> np.ndarray:
-        """Robot ``i``'s pose as it knows it (its estimate with ``localization.mode =
-        "odometry"``)."""
-        assert self._core is not None
-        return self._core.localizer.poses(self._core.obs.poses)[i]
-
-    def _agent_obs(self, i: int, view: Any) -> dict[str, np.ndarray]:
-        """Robot ``i``'s observation from ``view`` (the swarm or a :class:`Sensed`)."""
-        assert self._core is not None
-        x, y, yaw = self._known_pose(i)
-        d = self._core.goals[i] - (x, y)
+    def _agent_obs(self, i: int, view: Any, pose: list[float],
+                   goal: list[float]) -> dict[str, np.ndarray]:
+        """Robot ``i``'s observation from ``view`` (the swarm or a :class:`Sensed`), at the pose
+        it knows ``pose`` ``(x_m, y_m, yaw_rad)`` (its estimate with ``localization.mode =
+        "odometry"``), with its goal ``goal`` ``(x_m, y_m)``."""
+        x, y, yaw = pose
+        dx, dy = goal[0] - x, goal[1] - y
         c, s = math.cos(yaw), math.sin(yaw)
         obs = {"scan": view.ranges_m[i].astype(np.float32),
-               "goal": np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1]], np.float32)}
+               "goal": np.array([c * dx + s * dy, -s * dx + c * dy], np.float32)}
         if self.observations.safe_mask:
             obs["safe_mask"] = view.safe[i].astype(np.int8)
         if self.observations.max_neighbours:
-            obs["messages"], obs["neighbours"] = self._inbox(i)
+            obs["messages"], obs["neighbours"] = self._inbox(i, pose)
         return obs
 
-    def _inbox(self, i: int) -> tuple[np.ndarray, np.ndarray]:
+    def _inbox(self, i: int, pose: list[float]) -> tuple[np.ndarray, np.ndarray]:
         core = self._core
         assert core is not None
         n = self.observations.max_neighbours
         messages = np.zeros((n, MESSAGE_BYTES), np.uint8)
         rel = np.zeros((n, 3), np.float32)
         packets = core.channel.inbox(i, tick=core.tick, max_age_ticks=core.max_age_ticks)
-        x, y, yaw = self._known_pose(i)
+        x, y, yaw = pose
         c, s = math.cos(yaw), math.sin(yaw)
         packets = sorted(packets, key=lambda p: math.hypot(p.sender_pose[0] - x,
                                                            p.sender_pose[1] - y))[:n]
