@@ -13,14 +13,15 @@ def cmd_leaderboard(args: argparse.Namespace) -> int:
     """Rebuild the leaderboard folder (after adding a submission, with ``add``)."""
     from fftnav import __version__
     from fftnav.report.leaderboard import write_leaderboard
-    from fftnav.suites.leaderboard import add_submission, build_leaderboard, leaderboard_episodes
+    from fftnav.suites.leaderboard import add_submission, leaderboard_episodes, rank_suites
 
     added = None
     if args.action == "add":
         added = add_submission(args.evaluation, args.out)
         print(f"added {added} from {args.evaluation}")
-    table = build_leaderboard(args.out)
-    episodes = {name: rows for name, (rows, _) in leaderboard_episodes(args.out).items()}
+    found = leaderboard_episodes(args.out)
+    table = rank_suites(found)
+    episodes = {name: rows for name, (rows, _) in found.items()}
     written = write_leaderboard(args.out, table, episodes=episodes, highlight=added,
                                 generated=f"fftnav {__version__}")
     print(f"leaderboard: {len(table)} rows over {table['suite'].nunique()} suites; "

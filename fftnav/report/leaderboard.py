@@ -19,7 +19,7 @@ from fftnav.files import write_atomic
 from fftnav.report.markdown import markdown_table
 from fftnav.suites import SUITES, Suite, find_suite, ordered_suites
 
-__all__ = ["evaluation_report", "failed_robots_lines", "leaderboard_markdown",
+__all__ = ["evaluation_report", "leaderboard_markdown",
            "ranked_lines", "terminal_table", "write_evaluation", "write_leaderboard"]
 
 
@@ -109,11 +109,10 @@ def _tests_table(tests: pd.DataFrame) -> pd.DataFrame:
                                        "gain (points) [95% CI]", "p", "p (Holm)", "p computed"])
 
 
-def failed_robots_lines(episodes: pd.DataFrame, method: str, *, limit: int = 50,
-                        replay: str = "") -> list[str]:
-    """Markdown lines listing ``method``'s failed robots (env, map, robot, cause), at most
-    ``limit``, and how to make a replay of any of them on demand (``replay``: the command with
-    ``TASK`` to fill in)."""
+def _reference_failures(episodes: pd.DataFrame, method: str, *, limit: int) -> list[str]:
+    """Markdown lines listing ``method``'s failed robots of a suite's reference rows (env, map,
+    robot, cause, the task to replay), at most ``limit``: the references keep no recording, so
+    no time or place (:func:`fftnav.report.failures.failed_robots` has them for a run)."""
     failed = episodes[(episodes["policy"] == method) & ~episodes["arrived"].astype(bool)]
     if not len(failed):
         return [f"No robot of {method} failed."]
@@ -124,10 +123,6 @@ def failed_robots_lines(episodes: pd.DataFrame, method: str, *, limit: int = 50,
     lines = markdown_table(pd.DataFrame(rows, columns=["env", "map", "robot", "cause", "task"]))
     if len(failed) > limit:
         lines.append(f"\n... and {len(failed) - limit} more robots.")
-    if replay:
-        lines += ["", f"A replay of any of them, made on demand (the episode rerun, its rows "
-                      f"checked first): `{replay}` (the HTML page opens at the failure with "
-                      "`#robot=R&t=T`)."]
     return lines
 
 
@@ -252,7 +247,7 @@ def _suite_failures(suite: Suite, rows: pd.DataFrame, episodes: pd.DataFrame) ->
              "at the failure with `#robot=R&t=T`.", ""]
     for method in rows["method"]:
         lines += [f'<a id="{html.escape(method)}"></a>', "", f"## {method}", "",
-                  *failed_robots_lines(episodes, method, limit=30), ""]
+                  *_reference_failures(episodes, method, limit=30), ""]
     return "\n".join(lines)
 
 

@@ -51,7 +51,7 @@ from fftnav.world import world_parameters
 
 __all__ = ["HOME_VARIABLE", "SUITES", "ReferenceError", "Suite", "builtin_methods", "find_suite",
            "maps_of", "ordered_suites", "pins_path", "read_references", "reference_lines",
-           "references_folder", "rerun_task", "resolve_suites", "suite_from_toml",
+           "references_folder", "rerun_task", "resolve_suites", "rows_csv", "suite_from_toml",
            "write_references"]
 
 #: Environment variable naming a folder laid out like the package's suites (``defs/``,
@@ -290,8 +290,7 @@ def write_references(suite: Suite, episodes: pd.DataFrame, timing: pd.DataFrame,
         old.unlink()
     sums = []
     for method, rows in episodes.groupby("policy", sort=True):
-        rows = rows.sort_values(["env", "map_seed", "robot"])[list(CSV_COLUMNS)]
-        text = _csv_text(rows)
+        text = rows_csv(rows)
         write_atomic(out / f"{method}.csv", text)
         sums.append((f"{method}.csv", hashlib.sha256(text.encode()).hexdigest()))
     text = timing[list(TIMING_COLUMNS)].sort_values(["policy", "env", "map_seed"]).to_csv(
@@ -302,11 +301,14 @@ def write_references(suite: Suite, episodes: pd.DataFrame, timing: pd.DataFrame,
     return out
 
 
-def _csv_text(rows: pd.DataFrame) -> str:
-    """Rows as the runner writes them (booleans ``true``/``false``, floats fixed)."""
+def rows_csv(rows: pd.DataFrame) -> str:
+    """Episode rows as the runner writes them (its columns, booleans ``true``/``false``, floats
+    fixed), with a header, sorted by env, map seed and robot: the text of a method's
+    reference or submitted rows, and what their hashes are taken of."""
     from fftnav.episode.record import episode_csv
 
-    return episode_csv(rows.to_dict("records"), columns=CSV_COLUMNS)
+    ordered = rows.sort_values(["env", "map_seed", "robot"])[list(CSV_COLUMNS)]
+    return episode_csv(ordered.to_dict("records"), columns=CSV_COLUMNS)
 
 
 def _verified(folder: Path) -> dict[str, bytes]:

@@ -167,9 +167,9 @@ def check_references(suite: Suite, *, method: str, sample: int = 2,
         if result.compute is not None:
             seconds += result.compute[0]
             ticks += result.compute[1]
-    rows = timing[(timing["policy"] == builtin)
-                  & timing.apply(lambda r: f"{r['env']}-{r['map_seed']}-{builtin}" in names,
-                                 axis=1)]
+    rerun = {(t.env, t.map_seed) for t in _sample_tasks(config, builtin, sample)}
+    keys = zip(timing["env"], timing["map_seed"], strict=True)
+    rows = timing[(timing["policy"] == builtin).to_numpy() & np.array([k in rerun for k in keys])]
     shipped_ms = (1000 * rows["compute_s"].sum() / rows["robot_ticks"].sum()
                   if len(rows) and rows["robot_ticks"].sum() else float("nan"))
     return ReferenceCheck(suite.name, builtin, tuple(names), True,

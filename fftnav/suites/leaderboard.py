@@ -19,7 +19,7 @@ import hashlib
 import json
 import re
 import shutil
-from collections.abc import Iterable, Sequence
+from collections.abc import Iterable, Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -29,12 +29,21 @@ import pandas as pd
 from fftnav.errors import FftnavError
 from fftnav.metrics import MEASURES
 from fftnav.plugins import file_sha256, plugin_sources
-from fftnav.runner.run import CSV_COLUMNS, read_episodes, read_timing
+from fftnav.runner.run import read_episodes, read_timing
 from fftnav.runner.summary import holm, paired_gain, summarize
-from fftnav.suites import SUITES, Suite, find_suite, ordered_suites, pins_path, read_references
+from fftnav.suites import (
+    SUITES,
+    Suite,
+    find_suite,
+    ordered_suites,
+    pins_path,
+    read_references,
+    rows_csv,
+)
 
 __all__ = ["LEADERBOARD_COLUMNS", "add_submission", "build_leaderboard", "leaderboard_columns",
-           "leaderboard_episodes", "method_sha256", "ranking", "rows_sha256", "submissions"]
+           "leaderboard_episodes", "method_sha256", "rank_suites", "ranking", "rows_sha256",
+           "submissions"]
 
 #: The leading columns of ``leaderboard.csv``; then one ``failures_<cause>`` per registered
 #: failure cause (:func:`leaderboard_columns`), then ``p_holm``.
@@ -117,11 +126,7 @@ def rows_sha256(rows: pd.DataFrame) -> str:
     """SHA-256 of a method's rows as the runner writes them (CSV, fixed float format, sorted
     by env, map seed and robot): what ``fftnav leaderboard add`` recomputes to detect rows
     changed after the evaluation."""
-    from fftnav.episode.record import episode_csv
-
-    ordered = rows.sort_values(["env", "map_seed", "robot"])[list(CSV_COLUMNS)]
-    text = episode_csv(ordered.to_dict("records"), columns=CSV_COLUMNS)
-    return hashlib.sha256(text.encode()).hexdigest()
+    return hashlib.sha256(rows_csv(rows).encode()).hexdigest()
 
 
 def method_sha256(resolved: Any) -> str:
@@ -189,9 +194,13 @@ def leaderboard_episodes(folder: str | Path | None = None, *,
 def build_leaderboard(folder: str | Path | None = None, *, suites: Sequence[str] | None = None,
                       references: str | Path | None = None) -> pd.DataFrame:
     """Every built-in on every suite (the shipped references), plus the submissions kept in
-    ``folder``, ranked per suite (:func:`ranking`): the table of ``leaderboard.csv``. A
-    submission's compute is not kept (it was measured on another machine): NaN."""
-    found = leaderboard_episodes(folder, suites=suites, references=references)
+    ``folder``, ranked per suite: the table of ``leaderboard.csv``
+    (:func:`rank_suites` of :func:`leaderboard_episodes`)."""
+    return rank_suites(leaderboard_episodes(folder, suites=suites, references=references))
+
+
+def rank_suites(found: Mapping[str, tuple[pd.DataFrame, pd.DataFrame]]) -> pd.DataFrame:
+    """Each suite's ``(rows, timing)`` ranked (:func:`ranking`), one table in their order."""
     return pd.concat([ranking(episodes, timing, suite=name)
                       for name, (episodes, timing) in found.items()], ignore_index=True)
 
@@ -241,12 +250,8 @@ def add_submission(evaluation_dir: str | Path, folder: str | Path) -> str:
     if dest.exists():
         shutil.rmtree(dest)
     dest.mkdir(parents=True)
-    from fftnav.episode.record import episode_csv
-
     for name, rows in rows_by_suite.items():
-        ordered = rows.sort_values(["env", "map_seed", "robot"])[list(CSV_COLUMNS)]
-        write_atomic(dest / f"{name}.csv",
-                     episode_csv(ordered.to_dict("records"), columns=CSV_COLUMNS))
+        write_atomic(dest / f"{name}.csv", rows_csv(rows))
         timing = pd.concat([read_timing(src / "runs" / p.name) for p in SUITES[name].parts],
                            ignore_index=True)
         write_atomic(dest / f"{name}.timing.csv",
