@@ -5,8 +5,8 @@ VENV := .venv
 BIN := $(VENV)/bin
 STAMP := $(VENV)/.installed
 
-.PHONY: install install-browser test lint benchmark bench figures collab drift replays \
-	leaderboard references evaluate-time clean
+.PHONY: install install-browser install-learn test lint benchmark bench figures collab drift \
+	replays leaderboard references evaluate-time learn clean
 
 install: $(STAMP)
 
@@ -15,6 +15,20 @@ $(STAMP): pyproject.toml
 	$(BIN)/python -m pip install --quiet --upgrade pip
 	$(BIN)/python -m pip install --quiet -e '.[test,marl,fast,video,ros]'
 	touch $(STAMP)
+
+# The extra `learn` (fftnav learn: Stable-Baselines3 and torch) for `make learn`, not for `make
+# install` or `make test`. Torch comes from PyTorch's CPU index first (PyPI's default wheel
+# brings several GB of CUDA libraries this CPU-only training never uses); where that index
+# cannot be reached, name a CPU wheel: make learn TORCH=/path/to/torch-X+cpu-....whl
+TORCH ?= torch --index-url https://download.pytorch.org/whl/cpu
+LEARN_STAMP := $(VENV)/.learn-installed
+
+install-learn: $(LEARN_STAMP)
+
+$(LEARN_STAMP): $(STAMP)
+	$(BIN)/python -m pip install --quiet $(TORCH)
+	$(BIN)/python -m pip install --quiet -e '.[learn]'
+	touch $(LEARN_STAMP)
 
 # Headless Chromium from Debian's package, for the HTML replay player's browser test
 # (tests/report/test_replay_browser.py; skipped without it, except in CI); sudo unless root.
@@ -67,6 +81,12 @@ drift: $(STAMP)
 	$(BIN)/fftnav figure sweep experiments/drift/fresh.toml
 	$(BIN)/fftnav figure drift experiments/drift/table1.toml experiments/drift/fresh.toml \
 		--exact results/baselines results/collab/table1 results/collab/fresh --out results/drift
+
+# learn: the reference training of docs/learning.md (three controller observations and the
+# decider, three seeds each, two at a time; about 80 min on a 2-core machine), then the
+# trained networks on Table I's maps beside the built-ins, into results/learned/; resumes.
+learn: $(LEARN_STAMP)
+	$(BIN)/python experiments/learn/reference.py --workers 2
 
 bench: $(STAMP)
 	$(BIN)/fftnav bench pipeline --csv results/pipeline_latency.csv

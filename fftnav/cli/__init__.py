@@ -25,6 +25,7 @@ from typing import Any
 
 #: Subcommand modules, in the order ``fftnav --help`` lists them.
 _MODULES = ("scan", "scan3d", "fly3d", "world", "episode", "replay", "run", "suites", "evaluate",
+            "learn",
             "leaderboard", "figure", "bench")
 
 EXIT_USAGE = 2

@@ -77,6 +77,24 @@ def cmd_figure_failures(args: argparse.Namespace) -> int:
     return 0
 
 
+def cmd_figure_learning(args: argparse.Namespace) -> int:
+    """Learning curves over seeds and the learned methods beside the built-ins
+    (:mod:`fftnav.report.learning`)."""
+    from fftnav.files import check_input
+    from fftnav.report.learning import write_learning_report
+
+    for folder in args.runs:
+        for name in ("config.json", "curve.csv", "run.json"):
+            check_input(f"{folder}/{name}")
+    if args.table1 is not None:
+        check_input(f"{args.table1}/episodes.csv")
+    if not 0 < args.threshold <= 1:
+        raise ValueError(f"--threshold must be in (0, 1], got --threshold={args.threshold}")
+    print(write_learning_report(args.runs, args.out, table1=args.table1,
+                                threshold=args.threshold, order=args.policies))
+    return 0
+
+
 def register(sub: argparse._SubParsersAction) -> None:
     p = sub.add_parser("figure", help="draw the paper's figures")
     figs = p.add_subparsers(dest="figure", metavar="FIGURE", parser_class=type(p))
@@ -113,3 +131,14 @@ def register(sub: argparse._SubParsersAction) -> None:
     x.add_argument("--policy", required=True)
     x.add_argument("--out", required=True, metavar="PNG")
     x.set_defaults(func=cmd_figure_failures)
+    lr = figs.add_parser("learning", help="learning curves over seeds and the learned methods "
+                         "on Table I's maps (docs/learning.md)")
+    lr.add_argument("runs", nargs="+", metavar="RUN", help="training folders of fftnav learn")
+    lr.add_argument("--table1", metavar="DIR",
+                    help="results folder of the learned methods and the built-ins")
+    lr.add_argument("--policies", nargs="+", metavar="NAME",
+                    help="the methods of --table1 shown, in this order (default: all)")
+    lr.add_argument("--threshold", type=float, default=0.8,
+                    help="validation AR whose first crossing is reported (default 0.8)")
+    lr.add_argument("--out", required=True, metavar="DIR", help="output folder")
+    lr.set_defaults(func=cmd_figure_learning)

@@ -35,9 +35,11 @@ Observations (each a float64 vector of fixed length for a given config; ``R`` is
 
 Action: the network's 2 outputs ``(a_v, a_w)`` are clipped to ``[-1, 1]`` and scaled to the
 robot's limits, ``v = a_v v_max`` (m/s, in ``[-v_max, v_max]``: reversing is allowed, as in
-``SwarmNavEnv``'s action space) and ``w = a_w w_max`` (rad/s). Before the forward pass the
-observation is standardised, ``(x - mean) / std``, if ``meta`` holds ``obs_mean`` and
-``obs_std`` (lists of ``n_in`` numbers, ``std > 0``).
+``SwarmNavEnv``'s action space) and ``w = a_w w_max`` (rad/s); a network whose meta holds
+``v_range = [lo, hi]`` (fractions of ``v_max``) drives forward speeds
+``v = (lo + (a_v + 1) (hi - lo) / 2) v_max`` instead (``[0, 1]``: never reversing). Before
+the forward pass the observation is standardised, ``(x - mean) / std``, if ``meta`` holds
+``obs_mean`` and ``obs_std`` (lists of ``n_in`` numbers, ``std > 0``).
 
 >>> from fftnav.config import SwarmConfig
 >>> [OBSERVATIONS[n].size(SwarmConfig()) for n in OBSERVATIONS]
@@ -78,11 +80,13 @@ __all__ = [
     "NEIGHBOURS",
     "OBSERVATIONS",
     "LearnedController",
+    "action_commands",
     "ObservationSpec",
     "extrema_slots",
     "learned_controller",
     "register_observation",
     "untrained",
+    "v_range",
 ]
 
 #: The prefix of a learned controller's reference: ``learned:PATH.npz``.
@@ -231,6 +235,40 @@ def neighbours_observation(obs: RobotObservation, config: SwarmConfig) -> np.nda
                            _neighbour_slots(obs.pose, obs.inbox, config)])
 
 
+def v_range(value: Any, *, where: str = "v_range") -> tuple[float, float]:
+    """A checked forward-speed range ``(lo, hi)``, fractions of ``v_max``, ``-1 <= lo < hi <= 1``.
+
+    >>> v_range([0, 1])
+    (0.0, 1.0)
+    >>> v_range([0.5, 0.2])
+    Traceback (most recent call last):
+    ...
+    fftnav.errors.FftnavError: v_range must be [lo, hi] with -1 <= lo < hi <= 1, got [0.5, 0.2]
+    """
+    ok = (isinstance(value, (list, tuple)) and len(value) == 2
+          and all(isinstance(v, (int, float)) and not isinstance(v, bool) for v in value))
+    if not ok or not -1.0 <= value[0] < value[1] <= 1.0:
+        raise FftnavError(f"{where} must be [lo, hi] with -1 <= lo < hi <= 1, got {value!r:.80}")
+    return float(value[0]), float(value[1])
+
+
+def action_commands(a: np.ndarray, *, v_max_mps: float, w_max_radps: float,
+                    speeds: tuple[float, float] | None = None) -> np.ndarray:
+    """Commands ``(B, 2)`` (m/s, rad/s) of network outputs ``a`` ``(B, 2)``: clipped to
+    [-1, 1]; ``w = a_w w_max``; ``v = a_v v_max``, or with ``speeds = (lo, hi)`` (meta
+    ``v_range``) ``v = (lo + (a_v + 1) (hi - lo) / 2) v_max``.
+
+    >>> action_commands(np.array([[-1.0, 0.5], [3.0, -2.0]]), v_max_mps=0.5, w_max_radps=1.5,
+    ...                 speeds=(0.0, 1.0)).tolist()
+    [[0.0, 0.75], [0.5, -1.5]]
+    """
+    a = np.clip(np.asarray(a, dtype=np.float64), -1.0, 1.0)
+    if speeds is not None:
+        lo, hi = speeds
+        a[:, 0] = lo + (a[:, 0] + 1.0) * (0.5 * (hi - lo))
+    return a * np.array([v_max_mps, w_max_radps])
+
+
 def _check_controller_net(net: MLP, where: str) -> ObservationSpec:
     """The observation of a controller network, or FftnavError naming ``where`` (the file)."""
     if net.meta.get("kind") != "controller":
@@ -253,6 +291,8 @@ def _check_controller_net(net: MLP, where: str) -> ObservationSpec:
                 raise FftnavError(f"{where}: meta[{key!r}] must be {net.n_in} finite numbers"
                                   f"{' > 0' if key == 'obs_std' else ''}, got "
                                   f"{str(net.meta[key])[:80]}")
+    if "v_range" in net.meta:
+        v_range(net.meta["v_range"], where=f"{where}: meta['v_range']")
     if ("obs_mean" in net.meta) != ("obs_std" in net.meta):
         raise FftnavError(f"{where}: meta must hold both obs_mean and obs_std, or neither")
     return OBSERVATIONS[name]
@@ -285,12 +325,14 @@ class LearnedController(Controller):
         meta = self.net.meta
         self._mean = np.asarray(meta.get("obs_mean", np.zeros(size)), dtype=np.float64)
         self._std = np.asarray(meta.get("obs_std", np.ones(size)), dtype=np.float64)
-        self._scale = np.array([self.v_max_mps, self.w_max_radps])
+        speeds = meta.get("v_range")
+        self._speeds = None if speeds is None else v_range(speeds)
 
     def commands(self, x: np.ndarray) -> np.ndarray:
         """Commands ``(B, 2)`` (m/s, rad/s) for observations ``x`` of shape ``(B, n_in)``."""
         a = self.net((np.asarray(x, np.float64) - self._mean) / self._std)
-        return np.clip(a, -1.0, 1.0) * self._scale
+        return action_commands(a, v_max_mps=self.v_max_mps, w_max_radps=self.w_max_radps,
+                               speeds=self._speeds)
 
     def act(self, obs: RobotObservation) -> Action:
         """One robot's command (and its message, with a messaging observation)."""

@@ -172,7 +172,6 @@ def _wrap(obj: object, reference: str, default_name: str, file: Path | None) -> 
                       f"function, got {type(obj).__name__}")
 
 
-@functools.lru_cache(maxsize=64)
 def resolve(reference: str) -> Resolved:
     """The decision policy or controller that ``reference`` names.
 
@@ -196,10 +195,7 @@ def resolve(reference: str) -> Resolved:
     """
     if not isinstance(reference, str) or not reference:
         raise PluginError(f"a policy or controller must be a non-empty string, got {reference!r}")
-    if reference in POLICIES:
-        return Resolved(reference, reference, policy=POLICIES[reference])
-    if reference in CONTROLLERS:
-        return Resolved(reference, reference, controller=CONTROLLERS[reference].factory)
+    # a network's file is read every time (it may have been retrained under the same name)
     if reference.startswith(DECIDER_PREFIX):
         path = reference[len(DECIDER_PREFIX):]
         policy = learned_decider_policy(path)
@@ -207,6 +203,16 @@ def resolve(reference: str) -> Resolved:
     if reference.startswith(LEARNED_PREFIX):
         name, cls, path = learned_controller(reference)
         return Resolved(name, reference, controller=cls, file=path)
+    return _resolve_named(reference)
+
+
+@functools.lru_cache(maxsize=64)
+def _resolve_named(reference: str) -> Resolved:
+    """:func:`resolve` of everything but a network's file, cached."""
+    if reference in POLICIES:
+        return Resolved(reference, reference, policy=POLICIES[reference])
+    if reference in CONTROLLERS:
+        return Resolved(reference, reference, controller=CONTROLLERS[reference].factory)
     if is_reference(reference):
         obj = load_reference(reference)
         file = reference_file(reference)

@@ -13,6 +13,7 @@ family (:func:`holm`, :func:`sweep_table`).
 
 from __future__ import annotations
 
+import math
 import warnings
 from collections.abc import Iterable, Iterator, Sequence
 from dataclasses import dataclass
@@ -29,7 +30,7 @@ from fftnav.validate import check_choice, check_integer, check_number
 __all__ = ["EXACT", "NORMAL_APPROX", "PAIRED_COLUMNS", "SWEEP_COLUMNS", "WILCOXON_EXACT_MAX",
            "SignedRankTest", "bootstrap_ratio_ci", "gain_table", "holm", "in_order",
            "noninferiority_p", "paired_gain", "paired_tests", "signed_rank_test", "summarize",
-           "summary_columns", "sweep_table", "wilcoxon_method"]
+           "summary_columns", "sweep_table", "t_interval", "wilcoxon_method"]
 
 #: Columns of a summary before the measures: the group and its size.
 _KEYS: tuple[str, ...] = ("env", "policy", "episodes", "robots")
@@ -393,6 +394,26 @@ def sweep_table(tables: Iterable[pd.DataFrame]) -> pd.DataFrame:
         return pd.DataFrame(columns=list(SWEEP_COLUMNS))
     table = pd.concat(parts, ignore_index=True)
     return table.assign(p_holm=holm(table["p_value"].to_numpy(dtype=float)))
+
+
+def t_interval(values: Sequence[float] | np.ndarray, *,
+               confidence: float = 0.95) -> tuple[float, float, float]:
+    """Mean of ``values`` (NaN ignored) and its Student-t interval, ``mean +- t s / sqrt(n)``
+    with ``n - 1`` degrees of freedom (NaN bounds with fewer than 2 values): for a few seeds.
+
+    >>> [round(v, 3) for v in t_interval([1.0, 2.0, 3.0])]
+    [2.0, -0.484, 4.484]
+    """
+    x = np.asarray(values, dtype=float)
+    x = x[~np.isnan(x)]
+    if len(x) == 0:
+        return math.nan, math.nan, math.nan
+    mean = float(x.mean())
+    if len(x) < 2:
+        return mean, math.nan, math.nan
+    half = float(stats.t.ppf(0.5 + confidence / 2, len(x) - 1) * x.std(ddof=1)
+                 / math.sqrt(len(x)))
+    return mean, mean - half, mean + half
 
 
 def _mean_ci(diff: np.ndarray) -> tuple[float, float]:

@@ -1,5 +1,6 @@
-"""``fftnav episode --policy learned:PATH.npz`` as a subprocess: it runs with numpy alone (torch,
-jax and the RL libraries made unimportable), records, and refuses a bad file in one line."""
+"""``fftnav episode --policy learned:PATH.npz`` (and ``learned-decider:PATH.npz``) as a
+subprocess: it runs with numpy alone (torch, jax, the RL libraries and Gymnasium/PettingZoo made
+unimportable), records, and refuses a bad file in one line."""
 
 from __future__ import annotations
 
@@ -12,6 +13,7 @@ import numpy as np
 import pandas as pd
 
 from fftnav.navigation.learned import untrained
+from fftnav.navigation.learned_decider import untrained_decider
 from fftnav.world import World, save_world
 
 UP = math.pi / 2
@@ -20,7 +22,9 @@ BLOCK = """
 import sys
 class _Refuse:
     def find_spec(self, name, path=None, target=None):
-        if name.split(".")[0] in {"torch", "jax", "stable_baselines3", "skrl", "torchrl"}:
+        if name.split(".")[0] in {"torch", "jax", "jaxlib", "flax", "stable_baselines3", "skrl",
+                                  "torchrl", "tensordict", "supersuit", "gymnasium",
+                                  "pettingzoo"}:
             raise ImportError(f"{name} is blocked by the test")
         return None
 sys.meta_path.insert(0, _Refuse())
@@ -50,6 +54,11 @@ def test_episode_runs_a_learned_net_without_torch_or_jax(tmp_path):
     rows = pd.read_csv(tmp_path / "e.csv")
     assert rows.policy.tolist() == ["learned-net", "learned-net"]
     assert (tmp_path / "r.npz").stat().st_size > 0
+    untrained_decider(0).save(tmp_path / "d.npz")
+    proc = fftnav("episode", "--world", "w.json", "--policy", "learned-decider:d.npz", "--out",
+                  "d.csv", "--set", "time_limit_s=1", cwd=tmp_path)
+    assert proc.returncode == 0, proc.stderr
+    assert pd.read_csv(tmp_path / "d.csv").policy.tolist() == ["learned-decider-d"] * 2
     # the prelude does block them
     blocked = subprocess.run([sys.executable, "-c", BLOCK.split("import runpy")[0]
                               + "import torch"], capture_output=True, text=True)

@@ -273,3 +273,12 @@ def test_trained_networks_in_a_config_are_taken_from_its_folder(tmp_path):
     assert list(found) == ["learned-c", "learned-decider-d"]
     assert found["learned-c"].controller is not None and found["learned-c"].policy is None
     assert found["learned-decider-d"].policy is not None
+
+
+def test_a_network_retrained_under_the_same_path_is_read_again(tmp_path):
+    path = tmp_path / "net.npz"
+    untrained("extrema", seed=1).save(path)
+    first = resolve(f"learned:{path}").controller.net
+    untrained("extrema", seed=2).save(path)
+    second = resolve(f"learned:{path}").controller.net
+    assert first == untrained("extrema", seed=1) and second == untrained("extrema", seed=2)
