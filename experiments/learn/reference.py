@@ -41,7 +41,7 @@ ORDER = ["bug-left", "bug-right", "random", "own-only", "fusion", "learned-decid
          "learned-ppo-ranges-untrained", "learned-ppo-safe-untrained",
          "learned-ppo-extrema-untrained"]
 #: Validation AR whose first crossing the report gives, per observation.
-THRESHOLD = 0.5
+THRESHOLD = 0.8
 
 
 def _train(config: Path, seed: int) -> tuple[str, float]:

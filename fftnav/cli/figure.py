@@ -80,6 +80,7 @@ def cmd_figure_failures(args: argparse.Namespace) -> int:
 def cmd_figure_learning(args: argparse.Namespace) -> int:
     """Learning curves over seeds and the learned methods beside the built-ins
     (:mod:`fftnav.report.learning`)."""
+    from fftnav.cli import CliError
     from fftnav.files import check_input
     from fftnav.report.learning import write_learning_report
 
@@ -89,7 +90,7 @@ def cmd_figure_learning(args: argparse.Namespace) -> int:
     if args.table1 is not None:
         check_input(f"{args.table1}/episodes.csv")
     if not 0 < args.threshold <= 1:
-        raise ValueError(f"--threshold must be in (0, 1], got --threshold={args.threshold}")
+        raise CliError(f"--threshold must be in (0, 1], got --threshold={args.threshold}")
     print(write_learning_report(args.runs, args.out, table1=args.table1,
                                 threshold=args.threshold, order=args.policies))
     return 0

@@ -14,7 +14,7 @@ def cmd_learn(args: argparse.Namespace) -> int:
     130/143 when interrupted (the last checkpoint stays; rerun the same command to resume)."""
     import dataclasses
 
-    from fftnav.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, Terminated
+    from fftnav.cli import EXIT_INTERRUPTED, EXIT_TERMINATED, CliError, Terminated
     from fftnav.learn import load_learn_config
     from fftnav.learn.progress import ProgressBar
     from fftnav.learn.train import check_extra, train
@@ -22,11 +22,11 @@ def cmd_learn(args: argparse.Namespace) -> int:
     config = load_learn_config(args.config)
     if args.seed is not None:
         if args.seed < 0:
-            raise ValueError(f"--seed must be an integer >= 0, got --seed={args.seed}")
+            raise CliError(f"--seed must be an integer >= 0, got --seed={args.seed}")
         config = dataclasses.replace(config, seed=args.seed)
     if args.agent_steps is not None:
         if args.agent_steps < 1:
-            raise ValueError(f"--agent-steps must be an integer >= 1, got "
+            raise CliError(f"--agent-steps must be an integer >= 1, got "
                              f"--agent-steps={args.agent_steps}")
         config = dataclasses.replace(config, agent_steps=args.agent_steps)
     out = Path(args.out or Path("learned") / f"{Path(args.config).stem}-s{config.seed}")

@@ -81,8 +81,8 @@ def training_table(curves: pd.DataFrame, folders: Sequence[str | Path], *,
 
 
 def curve_figure(curves: pd.DataFrame, path: str | Path, *, threshold: float) -> Path:
-    """Validation AR and SPL against learner samples: each group's mean over its seeds and the
-    95 % t-interval band; the AR threshold dashed."""
+    """Validation AR and SPL against learner samples: each group's mean over its seeds, each
+    seed thin, the 95 % t-interval band of the mean; the AR threshold dashed."""
     fig = new_figure(figsize=(10, 4), dpi=110)
     axes = fig.subplots(1, 2)
     for group, table in curves.groupby("group", sort=False):
@@ -94,7 +94,10 @@ def curve_figure(curves: pd.DataFrame, path: str | Path, *, threshold: float) ->
             bands = np.array([t_interval(row.to_numpy(float)) for _, row in grid.iterrows()])
             line = ax.plot(x, bands[:, 0], label=f"{group} ({grid.shape[1]} seeds)")[0]
             ax.fill_between(x, np.clip(bands[:, 1], 0, 1), np.clip(bands[:, 2], 0, 1),
-                            color=line.get_color(), alpha=0.2, linewidth=0)
+                            color=line.get_color(), alpha=0.15, linewidth=0)
+            for seed in grid.columns:  # each seed, thin
+                ax.plot(x, grid[seed].to_numpy(float), color=line.get_color(), alpha=0.35,
+                        linewidth=0.6)
     axes[0].axhline(threshold, color="grey", linestyle="--", linewidth=0.8)
     for ax, title in zip(axes, ("validation AR", "validation SPL"), strict=True):
         ax.set_xlabel("learner samples (millions; one robot-step each)")
@@ -102,7 +105,8 @@ def curve_figure(curves: pd.DataFrame, path: str | Path, *, threshold: float) ->
         ax.set_ylim(-0.02, 1.02)
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=7, loc="upper left")
-    fig.suptitle("Learning curves: mean over seeds, 95 % t-interval band", fontsize=10)
+    fig.suptitle("Learning curves on the validation maps: mean over seeds (thick), each seed "
+                 "(thin), 95 % t-interval of the mean (band)", fontsize=10)
     fig.tight_layout()
     return save_figure(fig, path)
 
