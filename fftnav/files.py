@@ -21,7 +21,7 @@ import stat
 import sys
 import zipfile
 import zlib
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -36,10 +36,10 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["atomic_path", "atomic_writer", "check_input", "check_target", "iter_csv_rows",
-           "iter_npy_rows", "json_depth", "load_npy", "load_npz", "parse_json", "read_csv_floats",
-           "read_json", "read_lines", "read_text", "read_toml", "remove_pending_temporaries",
-           "write_atomic"]
+__all__ = ["atomic_path", "atomic_writer", "check_distinct", "check_input", "check_target",
+           "iter_csv_rows", "iter_npy_rows", "json_depth", "load_npy", "load_npz", "parse_json",
+           "read_csv_floats", "read_json", "read_lines", "read_text", "read_toml",
+           "remove_pending_temporaries", "write_atomic"]
 
 #: Exceptions of damaged compressed streams.
 _STREAM_ERRORS = (EOFError, zlib.error, gzip.BadGzipFile, zipfile.BadZipFile)
@@ -113,6 +113,30 @@ def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
     if not os.access(folder, os.W_OK | os.X_OK):
         raise FftnavError(f"{name} must be in a writable folder, got {given}")
     return target
+
+
+def check_distinct(outputs: Mapping[str, str | os.PathLike[str] | None], *,
+                   inputs: Mapping[str, str | os.PathLike[str] | None] | None = None) -> None:
+    """Refuse, before any work, two options naming the same file (the later write would replace
+    the earlier output, or an output its own input): paths compared after resolving links and
+    ``..``; options given None or ``""`` are not used.
+
+    >>> check_distinct({"--out": "e.csv", "--record": "./e.csv"})
+    Traceback (most recent call last):
+    ...
+    fftnav.errors.FftnavError: --out and --record name the same file, got --record='./e.csv': \
+give each its own path
+    >>> check_distinct({"--out": "e.csv"}, inputs={"--world": "w.json"})
+    """
+    seen: dict[str, str] = {}
+    for flag, path in [*(inputs or {}).items(), *outputs.items()]:
+        if not path:
+            continue
+        key = os.path.realpath(path)
+        if key in seen:
+            raise FftnavError(f"{seen[key]} and {flag} name the same file, got "
+                              f"{flag}={str(path)!r}: give each its own path")
+        seen[key] = flag
 
 
 @contextmanager
