@@ -47,6 +47,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
+from fftnav.episode.recording import read_recording
 from fftnav.errors import FftnavError
 from fftnav.files import atomic_writer, write_atomic
 from fftnav.runner.config import ExperimentConfig
@@ -442,8 +443,18 @@ def record_path(out: Path, task: Task) -> Path:
 
 def _recording_missing(out: Path, config: ExperimentConfig, task: Task, csv: Path) -> bool:
     """Whether ``[record] episodes`` wants a recording of this finished task that the folder
-    does not hold (the task is then rerun: its rows come out the same)."""
-    if config.record == "none" or record_path(out, task).exists():
+    does not hold, or holds damaged (empty, cut short, not readable: reported in one line on
+    stderr); the task is then rerun: its rows come out the same."""
+    if config.record == "none":
+        return False
+    path = record_path(out, task)
+    if path.exists():
+        try:
+            read_recording(path)
+        except ValueError as exc:
+            sys.stderr.write(f"fftnav run: rerunning {task.task_id}: its recording {path} "
+                             f"cannot be trusted ({str(exc).splitlines()[0]})\n")
+            return True
         return False
     if config.record == "all":
         return True

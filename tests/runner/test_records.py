@@ -75,6 +75,24 @@ def test_a_resume_reruns_only_the_task_whose_wanted_recording_is_missing(failure
     assert (outcome.completed, outcome.skipped) == (0, 4)
 
 
+@pytest.mark.parametrize("damage", ["empty", "cut", "garbage"])
+def test_a_resume_reruns_the_task_whose_recording_is_damaged(failures_run, tmp_path, capfd,
+                                                            damage):
+    out = tmp_path / "resumed"
+    shutil.copytree(failures_run, out)
+    damaged = sorted((out / "records").iterdir())[0]
+    good = damaged.read_bytes()
+    damaged.write_bytes({"empty": b"", "cut": good[:len(good) // 2],
+                         "garbage": b"PK\x03\x04" + b"\x00" * 64}[damage])
+    outcome = run_experiment(_config(), out, workers=1, progress=False)
+    assert (outcome.completed, outcome.skipped) == (1, 3)
+    assert damaged.read_bytes() == good  # the rerun episode records the same bytes
+    err = capfd.readouterr().err
+    assert f"rerunning {damaged.stem}: its recording {damaged} cannot be trusted (" in err
+    for name in CSVS:
+        assert (out / name).read_bytes() == (failures_run / name).read_bytes()
+
+
 def test_fresh_keeps_only_the_recordings_of_its_own_failures(failures_run, tmp_path):
     """A recording left by an earlier run of a task whose episode now has no failure (here: a
     run with every episode recorded) is removed by --fresh, not kept beside the new results."""
