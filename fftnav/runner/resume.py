@@ -121,7 +121,11 @@ class FolderLock:
             import fcntl
         except ImportError:  # pragma: no cover - Windows
             return self
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise FftnavError(f"{self.path.parent} cannot be written ({exc.strerror}): a "
+                              f"results folder must be writable") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:
