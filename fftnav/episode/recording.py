@@ -330,7 +330,7 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
             cols = {key: npz[key] for key in npz.files}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error) as exc:
         raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "
-                             f"({exc})") from None
+                             f"({_why_not(exc)})") from None
     meta = _read_meta(path, cols)
     try:
         _check_shapes(cols, meta)
@@ -343,6 +343,17 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
     except (TypeError, ValueError, IndexError) as exc:
         raise RecordingError(f"path must be a consistent fftnav recording, got "
                              f"path={str(path)!r} ({exc})") from None
+
+
+def _why_not(exc: Exception) -> str:
+    """What numpy's refusal to load a file means for a recording, in our words: numpy's advice to
+    load pickled data unsafely is never the way to a recording."""
+    text = str(exc).lower()
+    if "object arrays" in text:
+        return "an .npz of Python objects, not of an fftnav recording's arrays"
+    if "pickle" in text:
+        return "not an .npz archive of arrays: neither an fftnav recording nor numpy data"
+    return str(exc)
 
 
 #: The keys of a recording's ``meta`` that the reader needs.
@@ -410,6 +421,9 @@ def _read_meta(path: Any, cols: Mapping[str, np.ndarray]) -> dict[str, Any]:
         meta = json.loads(cols["meta"].tobytes().decode())
     except (KeyError, ValueError) as exc:
         raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "
+                             f"(no readable meta: an .npz without fftnav's meta member)"
+                             if isinstance(exc, KeyError) else
+                             f"path must be an fftnav recording, got path={str(path)!r} "
                              f"(no readable meta: {exc})") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "

@@ -228,7 +228,11 @@ def _meta(**fields):
 
 @pytest.mark.parametrize(("source", "match"), [
     (io.BytesIO(b"not a zip"), r"path must be an fftnav recording, got path="),
-    (_npz(x=np.zeros(3)), r"no readable meta"),
+    (io.BytesIO(b'{"format": "json"}'), r"\(not an \.npz archive of arrays: neither an fftnav "
+                                        r"recording nor numpy data\)$"),
+    (_npz(x=np.array([{"a": 1}], dtype=object)),
+     r"\(an \.npz of Python objects, not of an fftnav recording's arrays\)$"),
+    (_npz(x=np.zeros(3)), r"no readable meta: an \.npz without fftnav's meta member\)$"),
     (_npz(meta=_meta(format="other", version=1)), r"\(format 'other'\)"),
     (_npz(meta=_meta(format="fftnav-recording", version=VERSION + 1)),
      rf"path must be a recording of version <= {VERSION}, .*upgrade fftnav"),
@@ -236,8 +240,9 @@ def _meta(**fields):
      r"path must be a complete fftnav recording, .*\(no column "),
 ])
 def test_what_is_not_a_recording_is_refused_by_name(source, match):
-    with pytest.raises(RecordingError, match=match):
+    with pytest.raises(RecordingError, match=match) as caught:
         read_recording(source)
+    assert "allow_pickle" not in str(caught.value)  # never numpy's advice to load it unsafely
 
 
 def test_a_recording_is_written_atomically_into_a_new_folder(tmp_path, spied):
