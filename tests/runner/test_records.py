@@ -126,3 +126,15 @@ def test_the_report_places_each_failure_where_its_recording_ends(failures_run):
             with np.load(trajectory) as paths:
                 assert (r.x, r.y) == pytest.approx(tuple(paths[f"arr_{r.robot}"][-1, :2]),
                                                    abs=1e-5)
+
+
+@pytest.mark.parametrize("name", ["records", "episodes", "reference"])
+def test_a_file_where_a_results_folder_goes_is_refused_naming_it(tmp_path, name):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / name).write_text("not a folder")
+    with pytest.raises(ValueError, match=rf"^{out / name} must be a folder of the results, got a "
+                                         r"file by that name: move it away, or use another "
+                                         r"--out$"):
+        run_experiment(_config(), out, workers=1, progress=False)
+    assert (out / name).read_text() == "not a folder"
