@@ -11,6 +11,7 @@ standard library only.
 
 from __future__ import annotations
 
+import glob
 import gzip
 import io
 import json
@@ -39,7 +40,8 @@ else:  # pragma: no cover - Python 3.10
 __all__ = ["atomic_path", "atomic_writer", "check_distinct", "check_input", "check_target",
            "iter_csv_rows", "iter_npy_rows", "json_depth", "load_npy", "load_npz", "parse_json",
            "read_csv_floats", "read_json", "read_lines", "read_text", "read_toml",
-           "remove_pending_temporaries", "write_atomic"]
+           "is_temporary", "remove_pending_temporaries", "remove_stale_temporaries_of",
+           "write_atomic"]
 
 #: Exceptions of damaged compressed streams.
 _STREAM_ERRORS = (EOFError, zlib.error, gzip.BadGzipFile, zipfile.BadZipFile)
@@ -139,6 +141,45 @@ give each its own path
         seen[key] = flag
 
 
+#: A temporary file of :func:`atomic_path`: ``.NAME.PID.tmp``, or ``.NAME.PID.tmp.SUFFIX``.
+_TEMPORARY = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.tmp(\.[^./]+)?$")
+
+
+def is_temporary(path: Path) -> bool:
+    """Whether ``path`` is named as :func:`atomic_path`'s temporary files are."""
+    return _TEMPORARY.match(path.name) is not None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return pid > 0
+    return True
+
+
+def remove_stale_temporaries_of(target: Path) -> int:
+    """Delete the temporary files of ``target`` that a killed writer left beside it (named
+    ``.NAME.PID.tmp...`` with NAME ``target``'s and a PID no process has); return how many."""
+    count = 0
+    try:
+        siblings = list(target.parent.glob(f".{glob.escape(target.name)}.*.tmp*"))
+    except OSError:
+        return 0
+    for path in siblings:
+        match = _TEMPORARY.match(path.name)
+        if match and match["name"] == target.name and int(match["pid"]) != os.getpid() \
+                and not _alive(int(match["pid"])):
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path, ignore_errors=True)
+            else:
+                path.unlink(missing_ok=True)
+            count += 1
+    return count
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> Iterator[Path]:
     """A temporary path beside ``path`` (``.NAME.PID.tmp``, ending in ``path``'s suffix too with
@@ -148,6 +189,7 @@ def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> I
     is refused, naming ``path`` (:func:`check_target`). An OSError while writing (a full
     disk) names ``path``, never the temporary file."""
     target = check_target(path)
+    remove_stale_temporaries_of(target)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp"
                            + (target.suffix if keep_suffix else ""))
     _PENDING.add(tmp)
