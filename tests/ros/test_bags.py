@@ -126,7 +126,7 @@ def test_clockwise_full_circle_and_mixed_layouts_in_one_topic(tmp_path):
     full = np.array([r["safe_mask"] for r in rows[2::3]], dtype=bool)
     d = rep117(b.astype(np.float32).astype(float), 0.0, 10.0, 10.0)
     expected = oracle_mask(d, l_th=SIM_ROBOT.l_th_m, range_m=10.0,
-                           window=window(SIM_ROBOT, math.pi / 360), circular=False)
+                           window=window(SIM_ROBOT, math.pi / 360), circular=True)
     np.testing.assert_array_equal(full, expected)
 
 
@@ -234,7 +234,8 @@ def test_a_damaged_bag_folder_is_refused(tmp_path):
     [
         ({"angle_increment": math.pi / 90},
          "message 1: angle_increment disagrees with the angles and the count: angle_min + "
-         "(M - 1) * angle_increment = 4.71239 rad but angle_max = 1.5708 rad (M = 181"),
+         "(M - 1) * angle_increment = 4.71239 rad but angle_max = 1.5708 rad, more than one "
+         "increment away (M = 181"),
         ({"range_min": 5.0, "range_max": 5.0},
          "message 1: range_min and range_max must be finite with 0 <= range_min < range_max, "
          "got range_min=5.0, range_max=5.0"),
@@ -282,7 +283,8 @@ def test_out_bag_never_overwrites_the_input(tmp_path):
 def test_a_closing_beam_is_read_as_a_full_circle(tmp_path, clockwise):
     """361 beams from -pi to pi inclusive (the last points where the first does, as some
     drivers publish): the masks of the 360-beam full circle whose first reading is the nearer
-    of the two, against the sliding-window minimum, and the closing beam gets the first's."""
+    of the two, against the sliding-window minimum that wraps around, and the closing beam
+    gets the first's."""
     rng = np.random.default_rng(7)
     scans = lidar_scans(rng, 4, 361, 10.0)
     inc = 2 * math.pi / 360
@@ -296,7 +298,7 @@ def test_a_closing_beam_is_read_as_a_full_circle(tmp_path, clockwise):
     circle = d[:, :360].copy()
     circle[:, 0] = np.minimum(d[:, 0], d[:, 360])
     expected = oracle_mask(circle, l_th=SIM_ROBOT.l_th_m, range_m=10.0,
-                           window=window(SIM_ROBOT, inc), circular=False)
+                           window=window(SIM_ROBOT, inc), circular=True)
     np.testing.assert_array_equal(got[:, :360], expected)
     np.testing.assert_array_equal(got[:, 360], got[:, 0])
     assert 0.05 < expected.mean() < 0.95
