@@ -13,6 +13,7 @@ safe beam and a ``reason``. With ``out_bag`` it writes every input topic again p
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
 import json
 import math
@@ -193,6 +194,10 @@ def _topic(reader: Any, path: Path, topic: str | None) -> str:
     if topic is None:
         if len(found) == 1:
             return found[0]
+        if not found:
+            kinds = sorted({c.msgtype for c in reader.connections})
+            raise FftnavError(f"{path} holds no sensor_msgs/LaserScan topic to scan (its "
+                              f"topics' types: {', '.join(kinds) or 'none, an empty bag'})")
         raise FftnavError(f"{path}: pass --topic, one of the LaserScan topics: {listed}")
     if topic not in found:
         what = ("is not a LaserScan topic" if any(c.topic == topic for c in reader.connections)
@@ -483,9 +488,23 @@ class BagWriter:
 
     def __exit__(self, kind: Any, exc: Any, tb: Any) -> None:
         if kind is None:
-            self.file.close()
-        else:
-            self.file.discard()
+            try:
+                self.file.close()
+            except (sqlite3.Error, OSError) as err:
+                self.file.discard()
+                raise FftnavError(self._failure(err)) from None
+            return
+        self.file.discard()
+        if isinstance(exc, (sqlite3.Error, OSError)) and not isinstance(exc, FftnavError):
+            raise FftnavError(self._failure(exc)) from None  # sqlite's traceback as one line
+
+    def _failure(self, err: BaseException) -> str:
+        """Why the bag could not be written, in one line naming it (a full disk as such)."""
+        text = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        full = (getattr(err, "errno", None) == errno.ENOSPC or "disk is full" in text
+                or "No space left" in text)
+        return (f"{self.out}: the bag could not be written "
+                f"({'no space left on device' if full else text}); nothing was kept")
 
 
 class AnnotatedBag(BagWriter):

@@ -200,6 +200,38 @@ def test_missing_and_wrong_topics_list_the_laserscan_topics(tmp_path):
     refused("pass --topic, one of the LaserScan topics: /front, /rear", path)
     empty = write_bag(tmp_path / "e.bag", {"/chatter": items["/chatter"]})
     refused("e.bag has no topic '/scan'; its LaserScan topics: none", empty, topic="/scan")
+    refused("e.bag holds no sensor_msgs/LaserScan topic to scan (its topics' types: "
+            "std_msgs/msg/String)", empty)
+
+
+@pytest.mark.parametrize("kind", ["db3", "mcap"])
+def test_a_bag_that_cannot_be_written_is_one_line_and_leaves_nothing(tmp_path, kind,
+                                                                     monkeypatch):
+    """A full disk under the writer (sqlite's "database or disk is full", or ENOSPC): one
+    ValueError naming the output, and no bag under its name."""
+    import errno
+    import sqlite3
+
+    from fftnav.ros import bags
+
+    src = scans_bag(tmp_path / "in.mcap", np.full((5, 181), 5.0))
+    real = bags.AnnotatedBag.annotate
+    calls = []
+
+    def full(self, scan):
+        calls.append(1)
+        if len(calls) == 3:
+            raise (sqlite3.OperationalError("database or disk is full") if kind == "db3"
+                   else OSError(errno.ENOSPC, "No space left on device"))
+        return real(self, scan)
+
+    monkeypatch.setattr(bags.AnnotatedBag, "annotate", full)
+    out = tmp_path / f"out.{kind}"
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(out))}: the bag could not be written "
+                                         r"\(no space left on device\); nothing was kept$"):
+        run(src, out_bag=out)
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.mcap"]
 
 
 @pytest.mark.parametrize("kind", ["bag", "db3", "mcap"])
