@@ -264,17 +264,25 @@ def _damage(path: str | Path, what: str) -> Iterator[None]:
         raise FftnavError(f"{path}: damaged {what}: {exc or type(exc).__name__}") from None
 
 
-def read_lines(path: str | Path, *, encoding: str = "utf-8") -> Iterator[str]:
+def read_lines(path: str | Path, *, encoding: str = "utf-8",
+               max_chars: int | None = None) -> Iterator[str]:
     """Yield the lines of a text file (``.gz`` files decompressed on the fly); a damaged gzip
-    stream or bytes that are not ``encoding`` raise ValueError naming the file and line."""
+    stream or bytes that are not ``encoding`` raise ValueError naming the file and line, and so
+    does, with ``max_chars``, a line longer than that (read no further: memory stays bounded
+    for a file that is not the text it is named as)."""
     path = check_input(path)
     gz = path.name.lower().endswith(".gz")
     opener = gzip.open if gz else open
     lineno = 0
+    limit = -1 if max_chars is None else max_chars + 1
     with _damage(path, "gzip stream" if gz else "text"), \
             opener(path, "rt", encoding=encoding) as fh:
         try:
-            for lineno, line in enumerate(fh, 1):  # noqa: B007 - used in the message
+            while line := fh.readline(limit):
+                lineno += 1
+                if max_chars is not None and len(line) > max_chars:
+                    raise FftnavError(f"{path}:{lineno}: a line longer than {max_chars:,} "
+                                      f"characters: not a line-oriented text file")
                 yield line
         except UnicodeDecodeError as exc:
             raise FftnavError(f"{path}:{lineno + 1}: not {exc.encoding} text: byte "
