@@ -10,6 +10,7 @@ missing optional extra is a :class:`MissingExtraError` (an ``ImportError``) nami
 """
 
 from fftnav.errors import FftnavError, MissingExtraError
+from fftnav.moved import install as _install_moved
 from fftnav.observe.codec import MessageError, decode_message, decode_sigma, encode_sigma
 from fftnav.observe.filters import FilterBank
 from fftnav.observe.fusion import decide_turn
@@ -18,6 +19,8 @@ from fftnav.observe.pipeline import Pipeline, PipelineResult
 from fftnav.observe.safe import is_safe_direction, nearest_safe_headings
 
 __version__ = "0.2.0"
+
+_install_moved()  # the old import paths of moved modules, with a DeprecationWarning
 
 __all__ = [
     "RobotGeometry", "SIM_ROBOT", "REAL_ROBOT", "DRONE", "__version__",

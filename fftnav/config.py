@@ -245,12 +245,12 @@ class EpisodeConfig(_Section):
         ``(last departure + time_limit_s) x physics_hz`` must be at most
         :data:`~fftnav.limits.MAX_EPISODE_PHYSICS_STEPS` (FftnavError naming the key).
 
-        >>> EpisodeConfig(departure="staggered", stagger_s=3e5).check_departures(3)
+        >>> EpisodeConfig(departure="staggered", stagger_s=1e4).check_departures(3)
         Traceback (most recent call last):
         ...
         fftnav.errors.FftnavError: physics steps per episode \
-((last departure + time_limit_s) x physics_hz, 3 robots staggered by stagger_s=300000.0): \
-144,028,800 estimated, above the limit of 100,000,000; lower stagger_s
+((last departure + time_limit_s) x physics_hz, 3 robots staggered by stagger_s=10000.0): \
+4,828,800 estimated, above the limit of 3,000,000; lower stagger_s
         """
         key = {"waves": "wave_interval_s", "staggered": "stagger_s"}.get(self.departure)
         if key is None:

@@ -11,6 +11,7 @@ standard library only.
 
 from __future__ import annotations
 
+import glob
 import gzip
 import io
 import json
@@ -21,7 +22,7 @@ import stat
 import sys
 import zipfile
 import zlib
-from collections.abc import Iterator
+from collections.abc import Iterator, Mapping
 from contextlib import contextmanager
 from pathlib import Path
 from typing import Any, BinaryIO
@@ -36,9 +37,10 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["atomic_path", "atomic_writer", "check_input", "check_target", "iter_csv_rows",
-           "iter_npy_rows", "json_depth", "load_npy", "load_npz", "parse_json", "read_csv_floats",
-           "read_json", "read_lines", "read_text", "read_toml", "remove_pending_temporaries",
+__all__ = ["atomic_path", "atomic_writer", "check_distinct", "check_input", "check_target",
+           "iter_csv_rows", "iter_npy_rows", "json_depth", "load_npy", "load_npz", "parse_json",
+           "read_csv_floats", "read_json", "read_lines", "read_text", "read_toml",
+           "is_temporary", "remove_pending_temporaries", "remove_stale_temporaries_of",
            "write_atomic"]
 
 #: Exceptions of damaged compressed streams.
@@ -115,6 +117,69 @@ def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
     return target
 
 
+def check_distinct(outputs: Mapping[str, str | os.PathLike[str] | None], *,
+                   inputs: Mapping[str, str | os.PathLike[str] | None] | None = None) -> None:
+    """Refuse, before any work, two options naming the same file (the later write would replace
+    the earlier output, or an output its own input): paths compared after resolving links and
+    ``..``; options given None or ``""`` are not used.
+
+    >>> check_distinct({"--out": "e.csv", "--record": "./e.csv"})
+    Traceback (most recent call last):
+    ...
+    fftnav.errors.FftnavError: --out and --record name the same file, got --record='./e.csv': \
+give each its own path
+    >>> check_distinct({"--out": "e.csv"}, inputs={"--world": "w.json"})
+    """
+    seen: dict[str, str] = {}
+    for flag, path in [*(inputs or {}).items(), *outputs.items()]:
+        if not path:
+            continue
+        key = os.path.realpath(path)
+        if key in seen:
+            raise FftnavError(f"{seen[key]} and {flag} name the same file, got "
+                              f"{flag}={str(path)!r}: give each its own path")
+        seen[key] = flag
+
+
+#: A temporary file of :func:`atomic_path`: ``.NAME.PID.tmp``, or ``.NAME.PID.tmp.SUFFIX``.
+_TEMPORARY = re.compile(r"^\.(?P<name>.+)\.(?P<pid>\d+)\.tmp(\.[^./]+)?$")
+
+
+def is_temporary(path: Path) -> bool:
+    """Whether ``path`` is named as :func:`atomic_path`'s temporary files are."""
+    return _TEMPORARY.match(path.name) is not None
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except (PermissionError, OverflowError):
+        return pid > 0
+    return True
+
+
+def remove_stale_temporaries_of(target: Path) -> int:
+    """Delete the temporary files of ``target`` that a killed writer left beside it (named
+    ``.NAME.PID.tmp...`` with NAME ``target``'s and a PID no process has); return how many."""
+    count = 0
+    try:
+        siblings = list(target.parent.glob(f".{glob.escape(target.name)}.*.tmp*"))
+    except OSError:
+        return 0
+    for path in siblings:
+        match = _TEMPORARY.match(path.name)
+        if match and match["name"] == target.name and int(match["pid"]) != os.getpid() \
+                and not _alive(int(match["pid"])):
+            if path.is_dir() and not path.is_symlink():
+                shutil.rmtree(path, ignore_errors=True)
+            else:
+                path.unlink(missing_ok=True)
+            count += 1
+    return count
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> Iterator[Path]:
     """A temporary path beside ``path`` (``.NAME.PID.tmp``, ending in ``path``'s suffix too with
@@ -124,6 +189,7 @@ def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> I
     is refused, naming ``path`` (:func:`check_target`). An OSError while writing (a full
     disk) names ``path``, never the temporary file."""
     target = check_target(path)
+    remove_stale_temporaries_of(target)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp"
                            + (target.suffix if keep_suffix else ""))
     _PENDING.add(tmp)
@@ -198,17 +264,25 @@ def _damage(path: str | Path, what: str) -> Iterator[None]:
         raise FftnavError(f"{path}: damaged {what}: {exc or type(exc).__name__}") from None
 
 
-def read_lines(path: str | Path, *, encoding: str = "utf-8") -> Iterator[str]:
+def read_lines(path: str | Path, *, encoding: str = "utf-8",
+               max_chars: int | None = None) -> Iterator[str]:
     """Yield the lines of a text file (``.gz`` files decompressed on the fly); a damaged gzip
-    stream or bytes that are not ``encoding`` raise ValueError naming the file and line."""
+    stream or bytes that are not ``encoding`` raise ValueError naming the file and line, and so
+    does, with ``max_chars``, a line longer than that (read no further: memory stays bounded
+    for a file that is not the text it is named as)."""
     path = check_input(path)
     gz = path.name.lower().endswith(".gz")
     opener = gzip.open if gz else open
     lineno = 0
+    limit = -1 if max_chars is None else max_chars + 1
     with _damage(path, "gzip stream" if gz else "text"), \
             opener(path, "rt", encoding=encoding) as fh:
         try:
-            for lineno, line in enumerate(fh, 1):  # noqa: B007 - used in the message
+            while line := fh.readline(limit):
+                lineno += 1
+                if max_chars is not None and len(line) > max_chars:
+                    raise FftnavError(f"{path}:{lineno}: a line longer than {max_chars:,} "
+                                      f"characters: not a line-oriented text file")
                 yield line
         except UnicodeDecodeError as exc:
             raise FftnavError(f"{path}:{lineno + 1}: not {exc.encoding} text: byte "

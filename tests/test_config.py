@@ -14,20 +14,24 @@ from fftnav.limits import MAX_EPISODE_PHYSICS_STEPS
 from fftnav.sim.swarm import SimConfig
 
 
-def test_a_million_hz_physics_within_the_step_limit_is_accepted_by_config_and_simulator():
-    cfg = SwarmConfig().replace({"physics_hz": "1e6", "time_limit_s": "10"})
-    assert cfg.episode.time_limit_s * cfg.episode.physics_hz == 1e7 < MAX_EPISODE_PHYSICS_STEPS
-    assert SimConfig.for_swarm(cfg).substeps == 100_000
+def test_fast_physics_within_the_step_limit_is_accepted_by_config_and_simulator():
+    cfg = SwarmConfig().replace({"physics_hz": "2e5", "time_limit_s": "10"})
+    assert cfg.episode.time_limit_s * cfg.episode.physics_hz == 2e6 < MAX_EPISODE_PHYSICS_STEPS
+    assert SimConfig.for_swarm(cfg).substeps == 20_000
     from fftnav.runner import parse_config
 
     experiment = parse_config({"experiment": {"name": "fast", "envs": ["forest"], "maps": 1,
                                               "map_seed": 0, "robots": 15,
                                               "policies": ["fusion"]},
-                               "episode": {"physics_hz": 1e6, "time_limit_s": 10}})
+                               "episode": {"physics_hz": 2e5, "time_limit_s": 10}})
     assert experiment.swarm == cfg
     with pytest.raises(ValueError, match=r"physics steps per episode \(time_limit_s x "
                                          r"physics_hz\): 1,000,000,000 estimated"):
         SwarmConfig().replace({"physics_hz": "1e7", "time_limit_s": "100"})
+    # 1e8 steps: about 80 minutes of physics for 15 robots, refused before any work
+    with pytest.raises(ValueError, match=r"100,000,000 estimated, above the limit of 3,000,000; "
+                                         r"lower time_limit_s or physics_hz"):
+        SwarmConfig().replace({"physics_hz": "1e7", "time_limit_s": "10"})
 
 
 def test_at_least_one_control_tick_within_the_time_limit():
@@ -44,20 +48,20 @@ def test_at_least_one_control_tick_within_the_time_limit():
 def test_huge_departure_delays_are_refused_naming_the_key(departure, key):
     with pytest.raises(ValueError, match=rf"\(last departure \+ time_limit_s\) x physics_hz, "
                                          rf"2 robots .*2\.4e\+302 estimated, above the limit "
-                                         rf"of 100,000,000; lower {key}"):
+                                         rf"of 3,000,000; lower {key}"):
         SwarmConfig().replace({"departure": departure, key: "1e300"})
     # a delay that only matters with departure = together is harmless
     assert SwarmConfig().replace({key: "1e300"}).episode.departure_ticks(15) == [0] * 15
 
 
 def test_the_last_departure_is_checked_for_the_robots_there_are():
-    ep = EpisodeConfig(departure="staggered", stagger_s=3e5)  # fits two robots
-    assert ep.departure_ticks(2) == [0, 3_000_000]
-    with pytest.raises(ValueError, match=r"3 robots staggered by stagger_s=300000\.0\): "
-                                         r"144,028,800 estimated"):
+    ep = EpisodeConfig(departure="staggered", stagger_s=1e4)  # fits two robots
+    assert ep.departure_ticks(2) == [0, 100_000]
+    with pytest.raises(ValueError, match=r"3 robots staggered by stagger_s=10000\.0\): "
+                                         r"4,828,800 estimated"):  # (1,200 + 200,000) x 24
         ep.departure_ticks(3)
-    waves = EpisodeConfig(departure="waves", waves=3, wave_interval_s=3e5)
-    assert waves.last_departure_s(2) == 3e5 and waves.last_departure_s(15) == 6e5
+    waves = EpisodeConfig(departure="waves", waves=3, wave_interval_s=1e4)
+    assert waves.last_departure_s(2) == 1e4 and waves.last_departure_s(15) == 2e4
     with pytest.raises(ValueError, match=r"lower wave_interval_s"):
         waves.check_departures(15)
 
@@ -84,7 +88,7 @@ def test_fftnav_episode_with_two_beams_prints_no_warning(tmp_path):
 def test_fftnav_episode_refuses_huge_delays_before_the_episode(tmp_path):
     world = _world(tmp_path)
     for sets, match in ((["stagger_s=1e300"], "2 robots staggered by stagger_s=1e+300"),
-                        (["stagger_s=3e5"], "3 robots staggered by stagger_s=300000.0"),
+                        (["stagger_s=1e4"], "3 robots staggered by stagger_s=10000.0"),
                         (["control_hz=1e-6"], "at least one control tick")):
         argv = ["episode", "--world", str(world), "--policy", "fusion",
                 "--set", "departure=staggered", *(a for s in sets for a in ("--set", s))]

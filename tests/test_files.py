@@ -312,3 +312,24 @@ def test_an_input_missing_inside_a_write_keeps_its_own_error(tmp_path):
             tmp.write_text("x")
             (tmp_path / "in.csv").read_text()
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_writer_sweeps_the_temporaries_a_killed_writer_left_beside_its_target(tmp_path):
+    """SIGKILL skips every cleanup: the next write of the same path removes the dead process's
+    temporary files of that path (and of no other path, nor a live process's)."""
+    import subprocess
+    import sys
+
+    from fftnav.files import remove_stale_temporaries_of, write_atomic
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    stale = [tmp_path / f".r.gif.{dead}.tmp.gif", tmp_path / f".r.gif.{dead}.tmp"]
+    kept = [tmp_path / f".r.gif.{os.getpid()}.tmp.gif",  # this process: alive
+            tmp_path / f".other.gif.{dead}.tmp.gif", tmp_path / "r.gif.tmp"]
+    for path in (*stale, *kept):
+        path.write_text("x")
+    write_atomic(tmp_path / "r.gif", b"GIF89a")
+    assert [p.exists() for p in stale] == [False, False]
+    assert all(p.exists() for p in kept)
+    assert remove_stale_temporaries_of(tmp_path / "other.gif") == 1

@@ -20,6 +20,7 @@ import signal
 import sys
 import threading
 import time
+import warnings
 from collections.abc import Sequence
 from typing import Any
 
@@ -80,6 +81,12 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Entry point of the ``fftnav`` console script; returns the exit status."""
     parser = build_parser()
     args = parser.parse_args(argv)
+    # a plugin importing a moved module gets one line naming the new path (fftnav.moved)
+    warnings.filterwarnings("default", message=r"fftnav\.\S+ moved to ",
+                            category=DeprecationWarning)
+    if warnings.showwarning is not _one_line_warning:
+        _one_line_warning.shown_by = warnings.showwarning  # type: ignore[attr-defined]
+        warnings.showwarning = _one_line_warning
     try:
         status = args.func(args)
     except BrokenPipeError:  # e.g. `fftnav scan ... | head`
@@ -95,6 +102,17 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"fftnav {args.command}: error: {msg}\n")
         return EXIT_USAGE
     return int(status or 0)
+
+
+def _one_line_warning(message: Warning | str, category: type[Warning],  # noqa: PLR0917
+                      filename: str, lineno: int, file: Any = None,
+                      line: str | None = None) -> None:  # warnings.showwarning's signature
+    """A moved module's warning on stderr as one line, ``fftnav: DeprecationWarning: ...``;
+    any other warning as Python shows it."""
+    if issubclass(category, DeprecationWarning) and " moved to " in str(message):
+        sys.stderr.write(f"fftnav: {category.__name__}: {message}\n")
+    else:
+        _one_line_warning.shown_by(message, category, filename, lineno, file, line)
 
 
 def _exit_now(signum: int, frame: object) -> None:

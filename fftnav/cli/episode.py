@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
 from fftnav.cli import CliError
-from fftnav.files import check_target, write_atomic
+from fftnav.files import check_distinct, check_target, write_atomic
 from fftnav.navigation.resolve import registered_names, resolve
 
 if TYPE_CHECKING:
@@ -108,7 +108,10 @@ def cmd_episode(args: argparse.Namespace) -> int:
         from fftnav.ros.episode import EpisodeBag, check_episode_bag
 
         check_episode_bag(args.bag)
-    for flag in ("--out", "--record", "--trajectories", "--plot", "--bag"):  # before the episode
+    outputs = ("--out", "--record", "--trajectories", "--plot", "--bag")
+    check_distinct({flag: getattr(args, flag[2:]) for flag in outputs},
+                   inputs={"--world": args.world})
+    for flag in outputs:  # before the episode
         if getattr(args, flag[2:]):
             check_target(getattr(args, flag[2:]), flag=flag, make_folder=True,
                          image=flag == "--plot")

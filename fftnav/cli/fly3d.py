@@ -13,7 +13,7 @@ from fftnav.errors import FftnavError
 def cmd_fly3d(args: argparse.Namespace) -> int:
     """Fly seeds ``first .. first + seeds - 1``; write per-seed rows and print a JSON summary."""
     from fftnav.episode.flight3d import FLIGHT_COLUMNS, FlightConfig, fly, summarize
-    from fftnav.files import check_target, write_atomic
+    from fftnav.files import check_distinct, check_target, write_atomic
 
     if args.seeds < 1:
         raise FftnavError(f"--seeds must be an integer >= 1, got --seeds={args.seeds}")
@@ -24,6 +24,7 @@ def cmd_fly3d(args: argparse.Namespace) -> int:
         raise FftnavError(f"--plot-seed must be one of the flown seeds {seeds.start}.."
                           f"{seeds.stop - 1}, got --plot-seed={args.plot_seed}")
     config = FlightConfig(rows=args.rows, cols=args.cols)
+    check_distinct({"--out": args.out, "--plot": args.plot})
     for flag in ("--out", "--plot"):  # refused before any flight
         if getattr(args, flag[2:]):
             check_target(getattr(args, flag[2:]), flag=flag, make_folder=True,

@@ -25,12 +25,17 @@ CHUNK_SCANS = 4096
 
 def cmd_scan(args: argparse.Namespace) -> int:
     """Process the scans of ``args.file`` a chunk at a time (:func:`fftnav.observe.scanio.
-    iter_scans`: bounded memory at any file size) and print one JSON object per scan."""
+    iter_scans`: bounded memory at any file size) and print one JSON object per scan.
+
+    The rows are laid out as :meth:`fftnav.ros.laserscan.Layout.of_fov` says (a full circle
+    from -pi, filtered with wrap-around; a partial field of view centred on the heading); a
+    field of view narrower than the safety window gives every scan a line with no safe beam
+    and a ``reason`` (:class:`fftnav.ros.laserscan.LayoutPipelines`)."""
     from fftnav.limits import MAX_BEAMS, check_limit
     from fftnav.observe.geometry import REAL_ROBOT, SIM_ROBOT, RobotGeometry
-    from fftnav.observe.pipeline import Pipeline
     from fftnav.observe.scanio import iter_scans
     from fftnav.ros import is_bag
+    from fftnav.ros.laserscan import Layout, LayoutPipelines
 
     if is_bag(args.file):
         return _scan_bag(args)
@@ -50,33 +55,26 @@ def cmd_scan(args: argparse.Namespace) -> int:
         fov = math.radians(args.fov)
     else:
         fov = data.fov_rad if data.fov_rad is not None else 2.0 * math.pi
-    pipe = Pipeline(RobotGeometry(r0_m=r0, r_m=r), beams=beams, fov_rad=fov, range_m=range_m)
+    layout = Layout.of_fov(beams, fov)
+    pipe = LayoutPipelines(RobotGeometry(r0_m=r0, r_m=r)).get(layout, range_m)
     index = 0
     for chunk in itertools.chain([first], data.chunks):
-        sys.stdout.write("".join(_json_lines(pipe.process(chunk), fov, index)))
+        sys.stdout.write("".join(_json_lines(layout, pipe, chunk, index)))
         index += len(chunk)
     return 0
 
 
-def _json_lines(res: Any, fov: float, start: int) -> list[str]:
-    """One JSON line per scan of a pipeline result, numbered from ``start``."""
-    from fftnav.observe.safe import safe_sectors_rad
+def _json_lines(layout: Any, pipe: Any, chunk: np.ndarray, start: int) -> list[str]:
+    """One JSON line per scan of a chunk ``(k, M)`` through ``pipe`` (None: the layout is
+    narrower than the safety window), numbered from ``start``."""
+    from fftnav.ros.laserscan import LayoutPipelines
 
-    lines = []
-    for i, mask in enumerate(res.safe_mask):
-        sig = res.sigma[i]
-        sectors = np.degrees(safe_sectors_rad(mask, fov_rad=fov)).reshape(-1, 2)
-        row = {
-            "index": start + i,
-            "safe_mask": mask.astype(np.uint8).tolist(),
-            "safe_sectors_deg": np.round(sectors, 3).tolist(),
-            "extrema": np.round(np.column_stack([np.degrees(sig[:, 0]), sig[:, 1]]), 4).tolist(),
-            "extrema_is_min": res.is_min[i].tolist(),
-            "message_bytes": len(res.messages[i]),
-            "p_left": round(float(res.p_s[i]), 6),
-        }
-        lines.append(json.dumps(row, separators=(",", ":")) + "\n")
-    return lines
+    if pipe is None:
+        narrow = json.dumps(LayoutPipelines.narrow(layout).fields(), separators=(",", ":"))
+        return [f'{{"index":{start + i},{narrow[1:]}\n' for i in range(len(chunk))]
+    res = pipe.process(chunk)
+    return [json.dumps({"index": start + i, **LayoutPipelines.result(layout, pipe, res, i)
+                        .fields()}, separators=(",", ":")) + "\n" for i in range(len(chunk))]
 
 
 def _scan_bag(args: argparse.Namespace) -> int:

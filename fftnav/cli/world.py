@@ -11,7 +11,7 @@ import math
 import numpy as np
 
 from fftnav.errors import FftnavError
-from fftnav.files import check_target
+from fftnav.files import check_distinct, check_target
 from fftnav.world.kinds import world_kinds
 from fftnav.world.model import BOUNDARIES
 
@@ -43,6 +43,7 @@ def cmd_render(args: argparse.Namespace) -> int:
     from fftnav.report.world_plot import render_world
     from fftnav.world import load_world
 
+    check_distinct({"--out": args.out}, inputs={"WORLD": args.world})
     check_target(args.out, flag="--out", image=True)
     world = load_world(args.world)
     render_world(world, args.out)  # written atomically
@@ -56,10 +57,12 @@ def cmd_grid(args: argparse.Namespace) -> int:
     from fftnav.world import load_world
     from fftnav.world.grid import occupancy_grid, write_ros_map
 
+    ros = {f"--ros-map ({suffix})": args.ros_map + suffix
+           for suffix in (".pgm", ".yaml")} if args.ros_map else {}
+    check_distinct({"--out": args.out, **ros}, inputs={"WORLD": args.world})
     out = check_target(args.out, flag="--out")
-    if args.ros_map:
-        for suffix in (".pgm", ".yaml"):
-            check_target(args.ros_map + suffix, flag="--ros-map")
+    for path in ros.values():
+        check_target(path, flag="--ros-map")
     og = occupancy_grid(load_world(args.world), resolution_m=args.resolution,
                         inflate_m=args.inflate)
     buffer = io.BytesIO()
@@ -79,6 +82,7 @@ def cmd_import(args: argparse.Namespace) -> int:
     from fftnav.world import save_world
     from fftnav.world.rosmap import import_ros_map, map_extent_text, read_robots_toml
 
+    check_distinct({"--out": args.out}, inputs={"MAP.yaml": args.map, "--robots": args.robots})
     check_target(args.out, flag="--out")
     starts, goals = list(args.start or []), list(args.goal or [])
     if args.robots:

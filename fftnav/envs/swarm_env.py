@@ -127,6 +127,15 @@ class Observations(Checked):
         return bool(self.safe_mask or self.max_neighbours)
 
 
+def _real(values: Any) -> np.ndarray | None:
+    """``values`` as float64 if they are real numbers (integers or floats), else None (complex,
+    boolean, text and objects are not actions; numpy would cast complex with a warning)."""
+    raw = np.asarray(values)
+    if raw.dtype.kind not in "iuf":
+        return None
+    return raw.astype(np.float64)
+
+
 def _is_config_key(key: Any) -> bool:
     try:
         SwarmConfig.locate(key)
@@ -346,7 +355,7 @@ class SwarmNavEnv(ParallelEnv):
         # every action checked at once; anything wrong is found and named agent by agent below
         try:
             idx = np.array([self._index[agent] for agent in actions], dtype=np.intp)
-            values = np.array(list(actions.values()), dtype=np.float64)
+            values = _real(list(actions.values()))
         except (KeyError, TypeError, ValueError):
             values = None
         if values is not None and values.shape == (len(idx), 2) and np.isfinite(values).all():
@@ -356,9 +365,12 @@ class SwarmNavEnv(ParallelEnv):
         for agent, action in actions.items():
             i = self.index(agent)
             try:
-                value = np.asarray(action, dtype=np.float64)
+                value = _real(action)
             except (TypeError, ValueError):
                 value = None
+            if value is None and np.iscomplexobj(action):
+                raise FftnavError(f"actions[{agent!r}] must be real numbers (v_mps, w_radps), "
+                                  f"got complex values: {action!r:.80}")
             if value is None or value.shape != (2,):
                 shape = "no number array" if value is None else f"shape {value.shape}"
                 raise FftnavError(f"actions[{agent!r}] must be an array (v_mps, w_radps) of "

@@ -319,7 +319,9 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
     ------
     RecordingError
         ``path`` is not a recording (not an ``.npz``, damaged data, no ``meta``, another format
-        or a newer version, a missing column or meta key, columns whose shapes disagree).
+        or a newer version, a missing column or meta key, columns whose shapes disagree, times
+        that are not finite or do not increase, poses that are not finite, status or mode codes
+        that do not exist), naming the column and the tick.
     """
     if isinstance(path, (str, os.PathLike)):
         check_input(path)  # a FIFO or device refused by stat, never opened
@@ -328,10 +330,11 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
             cols = {key: npz[key] for key in npz.files}
     except (OSError, ValueError, zipfile.BadZipFile, EOFError, zlib.error) as exc:
         raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "
-                             f"({exc})") from None
+                             f"({_why_not(exc)})") from None
     meta = _read_meta(path, cols)
     try:
         _check_shapes(cols, meta)
+        _check_values(cols)
         return _decode(cols, meta)
     except KeyError as exc:
         where = "meta key" if exc.args and exc.args[0] in _META_KEYS else "column"
@@ -340,6 +343,17 @@ def read_recording(path: str | os.PathLike[str]) -> Recording:
     except (TypeError, ValueError, IndexError) as exc:
         raise RecordingError(f"path must be a consistent fftnav recording, got "
                              f"path={str(path)!r} ({exc})") from None
+
+
+def _why_not(exc: Exception) -> str:
+    """What numpy's refusal to load a file means for a recording, in our words: numpy's advice to
+    load pickled data unsafely is never the way to a recording."""
+    text = str(exc).lower()
+    if "object arrays" in text:
+        return "an .npz of Python objects, not of an fftnav recording's arrays"
+    if "pickle" in text:
+        return "not an .npz archive of arrays: neither an fftnav recording nor numpy data"
+    return str(exc)
 
 
 #: The keys of a recording's ``meta`` that the reader needs.
@@ -369,11 +383,47 @@ def _check_shapes(cols: Mapping[str, np.ndarray], meta: dict[str, Any]) -> None:
                           f"{len(meta['rows'])} rows for {m} beams and {n} robots")
 
 
+def _check_values(cols: Mapping[str, np.ndarray]) -> None:
+    """What a player relies on: times finite and increasing, poses (and estimates) finite,
+    every status a :class:`~fftnav.states.Status` code and every ``state/mode`` a
+    :class:`~fftnav.states.State` code (or NaN: absent); ValueError naming the first
+    column that breaks it and where."""
+    time_s = cols["time_s"].astype(np.float64)
+    bad = np.flatnonzero(~np.isfinite(time_s))
+    if bad.size:
+        raise FftnavError(f"column time_s is not finite at tick {bad[0]} ({time_s[bad[0]]})")
+    bad = np.flatnonzero(np.diff(time_s) <= 0)
+    if bad.size:
+        t = bad[0] + 1
+        raise FftnavError(f"column time_s does not increase at tick {t} ({time_s[t - 1]} s, "
+                          f"then {time_s[t]} s)")
+    for key in ("pose", "command"):  # estimates: NaN where a tick has none
+        if key in cols:
+            bad = np.argwhere(~np.isfinite(cols[key].astype(np.float64)))
+            if bad.size:
+                raise FftnavError(f"column {key} is not finite at tick {bad[0][0]}, robot "
+                                  f"{bad[0][1]}")
+    for key, codes in (("status", Status), ("state/mode", State)):
+        if key not in cols:
+            continue
+        values = cols[key].astype(np.float64)
+        valid = np.isin(values, [int(c) for c in codes]) | (np.isnan(values) & (key != "status"))
+        bad = np.argwhere(~valid)
+        if bad.size:
+            i, j = bad[0]
+            known = ", ".join(f"{int(c)} {c.name.lower()}" for c in codes)
+            raise FftnavError(f"column {key} holds {values[i, j]:g} at tick {i}, robot {j}: not "
+                              f"a {codes.__name__} code ({known})")
+
+
 def _read_meta(path: Any, cols: Mapping[str, np.ndarray]) -> dict[str, Any]:
     try:
         meta = json.loads(cols["meta"].tobytes().decode())
     except (KeyError, ValueError) as exc:
         raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "
+                             f"(no readable meta: an .npz without fftnav's meta member)"
+                             if isinstance(exc, KeyError) else
+                             f"path must be an fftnav recording, got path={str(path)!r} "
                              f"(no readable meta: {exc})") from None
     if not isinstance(meta, dict) or meta.get("format") != FORMAT:
         raise RecordingError(f"path must be an fftnav recording, got path={str(path)!r} "

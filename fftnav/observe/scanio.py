@@ -82,38 +82,66 @@ def detect_format(path: Path) -> str:
     )
 
 
+#: Characters of one CARMEN log line: a FLASER line of MAX_BEAMS readings of up to 16
+#: characters each, with room to spare.
+MAX_LOG_LINE = 20 * MAX_BEAMS
+
+
 def _read_carmen(path: Path) -> np.ndarray:
-    rows: list[np.ndarray] = []
+    """Every FLASER scan of a CARMEN log, ``(K, M)``."""
+    chunks, size = [], 0
+    for chunk in _iter_carmen(path, rows=4096):
+        size += chunk.size
+        check_limit(f"{path}: ranges (bytes)", 8.0 * size, MAX_INPUT_BYTES)
+        chunks.append(chunk)
+    return np.concatenate(chunks)
+
+
+def _iter_carmen(path: Path, *, rows: int) -> Iterator[np.ndarray]:
+    """The FLASER scans of a CARMEN log, ``rows`` at a time, read line by line (lines longer
+    than :data:`MAX_LOG_LINE` refused). Readings at or beyond the laser's maximum range (the
+    ``PARAM robot_front_laser_max`` lines before them, at most 81.91 m) read ``inf``."""
+    chunk: list[np.ndarray] = []
+    width = None
     no_return = CARMEN_NO_RETURN_M
-    for lineno, line in enumerate(read_lines(path, encoding="latin-1"), 1):
+    for lineno, line in enumerate(read_lines(path, encoding="latin-1",
+                                             max_chars=MAX_LOG_LINE), 1):
         if line.startswith("FLASER "):
-            parts = line.split()
-            try:
-                n = int(parts[1])
-            except (IndexError, ValueError):
-                raise FftnavError(f"{path}:{lineno}: bad FLASER line (no beam count)") from None
-            if n < 1 or len(parts) < n + 2:
-                raise FftnavError(f"{path}:{lineno}: FLASER line with fewer than n={n} ranges")
-            check_limit(f"{path}:{lineno}: FLASER beams", n, MAX_BEAMS)
-            if rows and n != len(rows[0]):
+            row = _flaser(line, f"{path}:{lineno}")
+            if width is not None and len(row) != width:
                 raise FftnavError(
-                    f"{path}:{lineno}: FLASER with n={n} beams, "
-                    f"earlier scans had {len(rows[0])}"
+                    f"{path}:{lineno}: FLASER with n={len(row)} beams, "
+                    f"earlier scans had {width}"
                 )
-            try:
-                rows.append(np.array(parts[2 : n + 2], dtype=np.float64))
-            except ValueError:
-                bad = next(v for v in parts[2 : n + 2] if not _is_number(v))
-                raise FftnavError(f"{path}:{lineno}: FLASER range is not a number, got "
-                                  f"{bad[:40]!r}") from None
-            check_limit(f"{path}: ranges (bytes)", 8.0 * n * len(rows), MAX_INPUT_BYTES)
+            width = len(row)
+            row[row >= no_return] = np.inf
+            chunk.append(row)
+            if len(chunk) == rows:
+                yield np.array(chunk)
+                chunk = []
         elif line.startswith("PARAM robot_front_laser_max"):
             no_return = min(no_return, _laser_max(line, f"{path}:{lineno}"))
-    if not rows:
+    if chunk:
+        yield np.array(chunk)
+    elif width is None:
         raise FftnavError(f"no FLASER scan in {str(path)!r}")
-    ranges = np.array(rows)
-    ranges[ranges >= no_return] = np.inf
-    return ranges
+
+
+def _flaser(line: str, where: str) -> np.ndarray:
+    """The ranges of one FLASER line."""
+    parts = line.split()
+    try:
+        n = int(parts[1])
+    except (IndexError, ValueError):
+        raise FftnavError(f"{where}: bad FLASER line (no beam count)") from None
+    if n < 1 or len(parts) < n + 2:
+        raise FftnavError(f"{where}: FLASER line with fewer than n={n} ranges")
+    check_limit(f"{where}: FLASER beams", n, MAX_BEAMS)
+    try:
+        return np.array(parts[2 : n + 2], dtype=np.float64)
+    except ValueError:
+        bad = next(v for v in parts[2 : n + 2] if not _is_number(v))
+        raise FftnavError(f"{where}: FLASER range is not a number, got {bad[:40]!r}") from None
 
 
 def _is_number(text: str) -> bool:
@@ -175,15 +203,13 @@ def read_scans(path: str | Path, *, format: str = "auto") -> ScanFile:
 def iter_scans(path: str | Path, *, format: str = "auto", rows: int = 4096) -> ScanStream:
     """Read the scans of a file a chunk at a time: at most ``rows`` scans and 4096 x 360
     readings per chunk (so very wide scans come fewer per chunk, at least one), so that memory
-    stays bounded whatever the file's size. ``.npy`` and ``.csv`` are streamed from the file;
-    CARMEN logs (small) are read whole and handed out in chunks. The same checks and messages
-    as :func:`read_scans`, raised when the chunk that holds the damage is read."""
+    stays bounded whatever the file's size: every format is streamed from the file. The same
+    checks and messages as :func:`read_scans`, raised when the chunk that holds the damage is
+    read."""
     check_choice("format", format, FORMATS)
     path = Path(path)
     fmt = detect_format(path) if format == "auto" else format
     if fmt == "carmen":
-        ranges = _read_carmen(path)
-        return ScanStream(iter(np.array_split(ranges, range(rows, len(ranges), rows))),
-                          math.pi, fmt)
+        return ScanStream(_iter_carmen(path, rows=rows), math.pi, fmt)
     reader = iter_npy_rows if fmt == "npy" else iter_csv_rows
     return ScanStream(reader(path, rows=rows), None, fmt)

@@ -33,7 +33,7 @@ from matplotlib.figure import Figure
 
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow
 from fftnav.errors import FftnavError
-from fftnav.files import write_atomic
+from fftnav.files import read_json, read_text, write_atomic
 from fftnav.report import save_figure
 from fftnav.report.difficulty import difficulty_lines
 from fftnav.report.failures import failure_lines
@@ -43,9 +43,9 @@ from fftnav.report.trajectories import plot_failures
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.maps import maps_current, write_maps_csv
 from fftnav.runner.resume import FolderLock, canonical_config, config_changes
-from fftnav.runner.run import CSV_COLUMNS
+from fftnav.runner.run import CSV_COLUMNS, read_episodes
 from fftnav.runner.summary import EXACT, NORMAL_APPROX, WILCOXON_EXACT_MAX, in_order
-from fftnav.runner.tasks import task_world
+from fftnav.runner.tasks import task_count, task_world
 from fftnav.suites import find_suite
 
 __all__ = ["PAPER_NAMES", "PAPER_TABLE1", "is_paper_protocol", "p_method_lines",
@@ -156,20 +156,47 @@ def report_folder(config: ExperimentConfig, out_dir: str | Path, *,
         If the folder has no ``episodes.csv`` or holds another experiment, naming what differs.
     """
     out = Path(out_dir)
-    if not (out / "episodes.csv").is_file():
-        raise FftnavError(f"--out must be a results folder with an episodes.csv, got "
-                          f"--out={str(out)!r}")
-    canonical = canonical_config(config, CSV_COLUMNS)
-    stored = (out / "config.json").read_text() if (out / "config.json").is_file() else "{}"
-    if stored != canonical:
-        changes = config_changes(json.loads(stored), json.loads(canonical))
-        raise FftnavError(f"--out must hold results of {config.name!r} as configured, got "
-                          f"--out={str(out)!r} whose config.json differs: "
-                          f"{', '.join(changes) or 'the layout of config.json'}")
+    _check_folder(config, out)
     with FolderLock(out):
         if not maps_current(out, config):
             write_maps_csv(out, config, workers=workers)
         return write_report(config, out)
+
+
+#: What a finished results folder holds, each read by the report.
+_FOLDER_FILES = ("episodes.csv", "summary.csv", "paired_tests.csv", "run_info.json",
+                 "config.json")
+
+
+def _check_folder(config: ExperimentConfig, out: Path) -> None:
+    """Refuse, in one line naming the file, a folder that is not a finished results folder of
+    ``config``: a file missing or damaged, another experiment's ``config.json``, or an
+    ``episodes.csv`` without every robot of every task (a run still going, or killed)."""
+    given = f"--out={str(out)!r}"
+    for name in _FOLDER_FILES:
+        if not (out / name).is_file():
+            raise FftnavError(f"--out must be a finished results folder of fftnav run, got "
+                              f"{given} without {name}")
+    stored = read_json(out / "config.json")
+    read_json(out / "run_info.json")
+    canonical = canonical_config(config, CSV_COLUMNS)
+    if stored != json.loads(canonical):
+        changes = config_changes(stored if isinstance(stored, dict) else {},
+                                 json.loads(canonical))
+        raise FftnavError(f"--out must hold results of {config.name!r} as configured, got "
+                          f"{given} whose config.json differs: "
+                          f"{', '.join(changes) or 'the layout of config.json'}")
+    text = read_text(out / "episodes.csv")
+    rows = text.count("\n") - 1
+    expected = task_count(config) * config.robots
+    if not text.endswith("\n") or rows != expected:
+        cut = "" if text.endswith("\n") else ", its last row cut short"
+        raise FftnavError(f"{out / 'episodes.csv'} holds {max(rows, 0)} robot rows{cut}, "
+                          f"expected {expected} ({task_count(config)} episodes x "
+                          f"{config.robots} robots): the run has not finished; run "
+                          f"`fftnav run` again to finish it")
+    for name in ("episodes.csv", "summary.csv", "paired_tests.csv"):
+        read_episodes(out / name)  # a CSV that does not parse: one line naming it
 
 
 def _report_lines(config: ExperimentConfig, *, info: dict[str, Any], summary: pd.DataFrame,

@@ -15,6 +15,7 @@ limit (:func:`limit_s`), the picked robot's state in words, a scale bar and the 
 
 from __future__ import annotations
 
+import errno
 import itertools
 from collections.abc import Sequence
 from pathlib import Path
@@ -318,11 +319,45 @@ def write_video(rec: Recording, path: str | Path, *, robot: int | None = None,
     panels = _Panels([rec, *beside], robot, width_px)
     path.parent.mkdir(parents=True, exist_ok=True)
     frames = (panels.pixels(float(rec.time_s[g])) for g in ticks)
-    if suffix == ".gif":
-        _write_gif(path, frames, FPS)
-    else:
-        _write_mp4(imageio_ffmpeg, path, frames, FPS)
+    try:
+        if suffix == ".gif":
+            _write_gif(path, frames, FPS)
+        else:
+            _write_mp4(imageio_ffmpeg, path, frames, FPS)
+    except OSError as exc:  # ffmpeg's many lines, or the file system's refusal, as one line
+        raise FftnavError(f"{path}: the {suffix[1:].upper()} could not be written "
+                          f"({_write_failure(exc)})") from None
+    _check_decodes(path, len(ticks), imageio_ffmpeg if suffix == ".mp4" else None)
     return path
+
+
+def _write_failure(exc: OSError) -> str:
+    """The cause of a failed video write in a few words (a full disk named as such)."""
+    text = str(exc)
+    if exc.errno == errno.ENOSPC or "No space left on device" in text:
+        return "no space left on device"
+    lines = [line.strip() for line in text.splitlines() if line.strip()]
+    return lines[-1] if lines else type(exc).__name__
+
+
+def _check_decodes(path: Path, frames: int, imageio_ffmpeg: Any | None) -> None:
+    """Read the written GIF (Pillow) or MP4 (ffmpeg) back: it must decode to ``frames``
+    frames, else FftnavError (a file cut short, e.g. by a full disk, is not a video)."""
+    try:
+        if imageio_ffmpeg is None:
+            from PIL import Image
+
+            with Image.open(path) as image:
+                decoded = image.n_frames
+        else:
+            decoded, _ = imageio_ffmpeg.count_frames_and_secs(str(path))
+    except (OSError, RuntimeError, ValueError, SyntaxError) as exc:
+        raise FftnavError(f"{path}: the written video does not decode "
+                          f"({str(exc).strip().splitlines()[-1] if str(exc).strip() else exc!r})"
+                          f"; is the disk full?") from None
+    if decoded != frames:
+        raise FftnavError(f"{path}: the written video decodes to {decoded} frames, not "
+                          f"{frames}; is the disk full?")
 
 
 #: The GIF palette's index that no colour takes: the pixels of a frame that have not changed

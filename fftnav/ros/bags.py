@@ -2,15 +2,18 @@
 
 :func:`scan_bag` reads a ROS 1 ``.bag``, a ROS 2 bag folder, or a single ``.db3`` or ``.mcap``
 file with rosbags, message by message: the scans are processed a batch at a time (at most
-:data:`BATCH_READINGS` readings; each distinct beam layout and range of the topic gets a
-:class:`~fftnav.observe.pipeline.Pipeline` of its own), so memory stays bounded whatever the
-bag's size. With ``out_bag`` it writes every input topic again plus ``/fftnav/safe_scan`` and
-``/fftnav/safe_directions`` (:class:`AnnotatedBag`).
+:data:`BATCH_READINGS` readings; each distinct beam count, field of view and range of the topic
+gets a :class:`~fftnav.observe.pipeline.Pipeline` of its own,
+:class:`~fftnav.ros.laserscan.LayoutPipelines`), so memory stays bounded whatever the bag's
+size. Every message is answered: a scan narrower than the safety window gets a line with no
+safe beam and a ``reason``. With ``out_bag`` it writes every input topic again plus
+``/fftnav/safe_scan`` and ``/fftnav/safe_directions`` (:class:`AnnotatedBag`).
 """
 
 from __future__ import annotations
 
 import contextlib
+import errno
 import io
 import json
 import math
@@ -30,11 +33,9 @@ from fftnav.errors import FftnavError
 from fftnav.files import track_temporary
 from fftnav.limits import MAX_BEAMS, check_limit
 from fftnav.observe.geometry import RobotGeometry
-from fftnav.observe.pipeline import Pipeline
-from fftnav.observe.safe import safe_sectors_rad
 from fftnav.ros import check_not_special, require_rosbags
 from fftnav.ros import messages as rosmsg
-from fftnav.ros.laserscan import Layout, layout_of, rep117_ranges
+from fftnav.ros.laserscan import Layout, LayoutPipelines, ScanResult, layout_of, rep117_ranges
 
 __all__ = ["BATCH_READINGS", "LASERSCAN", "AnnotatedBag", "BagFile", "BagWriter", "check_bag",
            "check_out_bag", "deserialize", "messages", "open_bag", "scan_bag"]
@@ -193,6 +194,10 @@ def _topic(reader: Any, path: Path, topic: str | None) -> str:
     if topic is None:
         if len(found) == 1:
             return found[0]
+        if not found:
+            kinds = sorted({c.msgtype for c in reader.connections})
+            raise FftnavError(f"{path} holds no sensor_msgs/LaserScan topic to scan (its "
+                              f"topics' types: {', '.join(kinds) or 'none, an empty bag'})")
         raise FftnavError(f"{path}: pass --topic, one of the LaserScan topics: {listed}")
     if topic not in found:
         what = ("is not a LaserScan topic" if any(c.topic == topic for c in reader.connections)
@@ -211,8 +216,7 @@ class _Scan:
     layout: Layout
     range_m: float
     ranges: np.ndarray  # metres in [0, R], pipeline beam order
-    result: Any = None
-    row: int = 0
+    out: ScanResult | None = None  # the results, message order and frame
 
 
 def _read_scan(msg: Any, index: int, timestamp: int, path: Path, range_m: float | None
@@ -235,35 +239,29 @@ def _read_scan(msg: Any, index: int, timestamp: int, path: Path, range_m: float 
 
 
 def _row(scan: _Scan, topic: str) -> dict[str, Any]:
-    """The JSON line of a processed scan: ``fftnav scan``'s fields and the message's own."""
-    res, j, lay = scan.result, scan.row, scan.layout
-    mask = res.safe_mask[j]
-    sig = res.sigma[j]
-    sectors = lay.angles_rad(np.asarray(safe_sectors_rad(mask, fov_rad=lay.fov_rad)))
+    """The JSON line of a processed scan: ``fftnav scan``'s fields, the message's own, then
+    ``angle_max_corrected`` (rad) when the message's ``angle_max`` was one increment off and
+    ``reason`` when the scan has no safe beam or no P_s for a known cause."""
+    fields = scan.out.fields()
+    reason = fields.pop("reason", None)
     header = scan.msg.header
-    return {
-        "index": scan.index,
-        "safe_mask": lay.from_pipeline(mask).astype(np.uint8).tolist(),
-        "safe_sectors_deg": np.round(np.degrees(sectors).reshape(-1, 2), 3).tolist(),
-        "extrema": np.round(np.column_stack([np.degrees(lay.angles_rad(sig[:, 0])), sig[:, 1]]),
-                            4).tolist(),
-        "extrema_is_min": res.is_min[j].tolist(),
-        "message_bytes": len(res.messages[j]),
-        "p_left": round(float(res.p_s[j]), 6),
-        "topic": topic,
-        "stamp_sec": int(header.stamp.sec),
-        "stamp_nanosec": int(header.stamp.nanosec),
-        "frame_id": str(header.frame_id),
-    }
+    row = {"index": scan.index, **fields, "topic": topic, "stamp_sec": int(header.stamp.sec),
+           "stamp_nanosec": int(header.stamp.nanosec), "frame_id": str(header.frame_id)}
+    if scan.layout.angle_max_corrected is not None:
+        row["angle_max_corrected"] = scan.layout.angle_max_corrected
+    if reason is not None:
+        row["reason"] = reason
+    return row
 
 
 class _Batch:
     """Messages in bag order until a batch is full: the scans (processed together, one
-    pipeline per layout and range) and, for the annotated bag, the other topics' messages."""
+    pipeline per beam count, field of view and range) and, for the annotated bag, the other
+    topics' messages."""
 
     def __init__(self, geometry: RobotGeometry, path: Path) -> None:
-        self.geometry, self.path = geometry, path
-        self.pipes: dict[tuple, Pipeline] = {}
+        self.path = path
+        self.pipes = LayoutPipelines(geometry)
         self.items: list[tuple[Any, int, bytes, _Scan | None]] = []
         self.readings = self.bytes = 0
 
@@ -274,35 +272,28 @@ class _Batch:
         self.bytes += len(raw)
         return self.readings >= BATCH_READINGS or self.bytes >= BATCH_BYTES
 
-    def _pipeline(self, scan: _Scan) -> Pipeline:
-        """The pipeline of a scan's layout and range, made on first use."""
-        lay = scan.layout
-        key = (lay.pipeline_beams, lay.fov_rad, scan.range_m)
-        if key not in self.pipes:
-            try:
-                self.pipes[key] = Pipeline(self.geometry, beams=key[0], fov_rad=key[1],
-                                           range_m=key[2])
-            except ValueError as exc:
-                raise FftnavError(f"{self.path}: message {scan.index}: {exc}") from None
-        return self.pipes[key]
-
     def process(self) -> tuple[list[tuple[Any, int, bytes, _Scan | None]], ValueError | None]:
         """Run the pipeline on the held scans; return and forget the held messages. A scan no
-        pipeline can take ends the batch before it: (the messages before it, its error)."""
-        groups: dict[int, list[_Scan]] = {}
+        pipeline can take ends the batch before it: (the messages before it, its error). A
+        scan narrower than the safety window gets its all-unsafe result."""
+        groups: dict[int, tuple[Any, list[_Scan]]] = {}
         error = None
         for k, (*_, scan) in enumerate(self.items):
             if scan is not None:
                 try:
-                    pipe = self._pipeline(scan)
+                    pipe = self.pipes.get(scan.layout, scan.range_m)
                 except ValueError as exc:
-                    error, self.items = exc, self.items[:k]
+                    error = FftnavError(f"{self.path}: message {scan.index}: {exc}")
+                    self.items = self.items[:k]
                     break
-                groups.setdefault(id(pipe), []).append(scan)
-        for scans in groups.values():
-            res = self._pipeline(scans[0]).process(np.stack([s.ranges for s in scans]))
+                if pipe is None:
+                    scan.out = LayoutPipelines.narrow(scan.layout)
+                else:
+                    groups.setdefault(id(pipe), (pipe, []))[1].append(scan)
+        for pipe, scans in groups.values():
+            res = pipe.process(np.stack([s.ranges for s in scans]))
             for j, scan in enumerate(scans):
-                scan.result, scan.row = res, j
+                scan.out = LayoutPipelines.result(scan.layout, pipe, res, j)
         items, self.items, self.readings, self.bytes = self.items, [], 0, 0
         return items, error
 
@@ -497,9 +488,23 @@ class BagWriter:
 
     def __exit__(self, kind: Any, exc: Any, tb: Any) -> None:
         if kind is None:
-            self.file.close()
-        else:
-            self.file.discard()
+            try:
+                self.file.close()
+            except (sqlite3.Error, OSError) as err:
+                self.file.discard()
+                raise FftnavError(self._failure(err)) from None
+            return
+        self.file.discard()
+        if isinstance(exc, (sqlite3.Error, OSError)) and not isinstance(exc, FftnavError):
+            raise FftnavError(self._failure(exc)) from None  # sqlite's traceback as one line
+
+    def _failure(self, err: BaseException) -> str:
+        """Why the bag could not be written, in one line naming it (a full disk as such)."""
+        text = str(err).strip().splitlines()[0] if str(err).strip() else type(err).__name__
+        full = (getattr(err, "errno", None) == errno.ENOSPC or "disk is full" in text
+                or "No space left" in text)
+        return (f"{self.out}: the bag could not be written "
+                f"({'no space left on device' if full else text}); nothing was kept")
 
 
 class AnnotatedBag(BagWriter):
@@ -538,17 +543,19 @@ class AnnotatedBag(BagWriter):
         self.file.writer.write(self.connmap[(conn.id, conn.owner)], timestamp, converted)
 
     def annotate(self, scan: _Scan) -> None:
-        """Write a processed scan's ``/fftnav/safe_scan`` and ``/fftnav/safe_directions``."""
+        """Write a processed scan's ``/fftnav/safe_scan`` and ``/fftnav/safe_directions``, in
+        the message's beam order and frame (its ``angle_max`` the last beam's angle)."""
         s, msg, lay = self.store, scan.msg, scan.layout
-        mask = lay.from_pipeline(scan.result.safe_mask[scan.row])
-        length = lay.from_pipeline(scan.result.y1[scan.row]) * scan.range_m
+        mask, length = scan.out.safe_mask, scan.out.y1 * scan.range_m
+        angle_max = (float(msg.angle_max) if lay.angle_max_corrected is None
+                     else lay.angle_max_corrected)
         head = rosmsg.header(s, rosmsg.make(s, "builtin_interfaces/msg/Time",
                                             sec=int(msg.header.stamp.sec),
                                             nanosec=int(msg.header.stamp.nanosec)),
                              str(msg.header.frame_id))
         ranges = np.where(mask, length, np.nan).astype(np.float32)
         safe = rosmsg.make(s, LASERSCAN, header=head, angle_min=float(msg.angle_min),
-                           angle_max=float(msg.angle_max),
+                           angle_max=angle_max,
                            angle_increment=float(msg.angle_increment),
                            time_increment=float(msg.time_increment),
                            scan_time=float(msg.scan_time), range_min=0.0,

@@ -22,7 +22,7 @@ from typing import Any
 import fftnav
 from fftnav.config import LocalizationConfig, PlannerConfig
 from fftnav.errors import FftnavError
-from fftnav.files import load_npz, write_atomic
+from fftnav.files import is_temporary, load_npz, write_atomic
 from fftnav.plugins import file_sha256, plugin_sources
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import Task
@@ -94,14 +94,18 @@ def _trajectories_problem(npz_path: Path, robots: int) -> str | None:
 
 
 def remove_stale_temporaries(out: Path) -> int:
-    """Delete the ``.NAME.PID.tmp`` files a killed writer left in ``out`` and its result
-    folders (safe under the folder lock: no other writer is alive); return how many."""
+    """Delete the temporary files a killed writer left in ``out``, its result folders and its
+    figures (``.NAME.PID.tmp``, and ``.NAME.PID.tmp.png`` of an image, at any depth below
+    them; safe under the folder lock: no other writer is alive); return how many."""
     count = 0
-    for folder in (out, out / "episodes", out / "trajectories", out / "figures"):
-        if folder.is_dir():
-            for path in folder.glob(".*.tmp"):
-                path.unlink(missing_ok=True)
-                count += 1
+    found = list(out.glob(".*.tmp*")) if out.is_dir() else []
+    for name in (*RESULT_FOLDERS, "figures"):
+        if (out / name).is_dir():
+            found += (out / name).rglob(".*.tmp*")
+    for path in found:
+        if is_temporary(path) and path.is_file():
+            path.unlink(missing_ok=True)
+            count += 1
     return count
 
 
@@ -121,7 +125,11 @@ class FolderLock:
             import fcntl
         except ImportError:  # pragma: no cover - Windows
             return self
-        fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        try:
+            fd = os.open(self.path, os.O_RDWR | os.O_CREAT, 0o644)
+        except OSError as exc:
+            raise FftnavError(f"{self.path.parent} cannot be written ({exc.strerror}): a "
+                              f"results folder must be writable") from None
         try:
             fcntl.flock(fd, fcntl.LOCK_EX | fcntl.LOCK_NB)
         except OSError:

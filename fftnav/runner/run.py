@@ -47,6 +47,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from fftnav.episode.record import EPISODE_COLUMNS, EpisodeRow, episode_csv
+from fftnav.episode.recording import read_recording
 from fftnav.errors import FftnavError
 from fftnav.files import atomic_writer, write_atomic
 from fftnav.runner.config import ExperimentConfig
@@ -185,7 +186,7 @@ def _run_tasks(config: ExperimentConfig, out: Path, *, options: dict[str, object
     lengths are computed just before its episodes. ``episodes.csv`` is rebuilt now and then
     (at most ~5 % of the time) and at the end, even on interruption."""
     for sub in ("episodes", "trajectories", "records", "timing"):
-        (out / sub).mkdir(parents=True, exist_ok=True)
+        _result_folder(out / sub)
     write_atomic(out / "config.toml", config.source)
     real = task_fn is run_task  # real episodes: each map's reference lengths computed once
     if real:
@@ -387,9 +388,18 @@ def _reference_path(out: Path, env: str, map_seed: int) -> Path:
 def _reference_folder(out: Path, *, fresh: bool) -> None:
     """Make ``reference/`` (emptied first if ``fresh``: every length is computed again)."""
     folder = out / "reference"
-    if fresh and folder.exists():
+    if fresh and folder.is_dir():
         shutil.rmtree(folder)
-    folder.mkdir(exist_ok=True)
+    _result_folder(folder)
+
+
+def _result_folder(folder: Path) -> None:
+    """Make one of a results folder's folders; something else by its name is refused in one
+    line naming it (not ``[Errno 17] File exists``)."""
+    if folder.exists() and not folder.is_dir():
+        raise FftnavError(f"{folder} must be a folder of the results, got a file by that name: "
+                          f"move it away, or use another --out")
+    folder.mkdir(parents=True, exist_ok=True)
 
 
 def _compute_references(config: ExperimentConfig, out: Path, tasks: list[Task],
@@ -442,8 +452,18 @@ def record_path(out: Path, task: Task) -> Path:
 
 def _recording_missing(out: Path, config: ExperimentConfig, task: Task, csv: Path) -> bool:
     """Whether ``[record] episodes`` wants a recording of this finished task that the folder
-    does not hold (the task is then rerun: its rows come out the same)."""
-    if config.record == "none" or record_path(out, task).exists():
+    does not hold, or holds damaged (empty, cut short, not readable: reported in one line on
+    stderr); the task is then rerun: its rows come out the same."""
+    if config.record == "none":
+        return False
+    path = record_path(out, task)
+    if path.exists():
+        try:
+            read_recording(path)
+        except ValueError as exc:
+            sys.stderr.write(f"fftnav run: rerunning {task.task_id}: its recording {path} "
+                             f"cannot be trusted ({str(exc).splitlines()[0]})\n")
+            return True
         return False
     if config.record == "all":
         return True

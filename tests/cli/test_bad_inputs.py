@@ -233,3 +233,26 @@ def test_a_failed_write_leaves_no_temporary_file(tmp_path):
     with pytest.raises(OSError, match="No space left"):
         write_atomic(tmp_path / "x.csv", FullDisk("data"))
     assert list(tmp_path.iterdir()) == []
+
+
+@pytest.mark.parametrize("argv, match", [
+    (["episode", "--world", "w.json", "--policy", "fusion", "--out", "x.csv", "--record",
+      "x.csv"], r"--out and --record name the same file, got --record='x.csv'"),
+    (["episode", "--world", "w.json", "--policy", "fusion", "--trajectories", "t.npz", "--record",
+      "./t.npz"], r"--record and --trajectories name the same file"),
+    (["episode", "--world", "w.json", "--policy", "fusion", "--out", "w.json"],
+     r"--world and --out name the same file, got --out='w.json'"),
+    (["world", "render", "w.json", "--out", "w.json"], r"WORLD and --out name the same file"),
+])
+def test_one_file_named_by_two_options_is_refused_before_any_work(tmp_path, argv, match):
+    import re
+
+    from fftnav.world import generate_world, save_world
+
+    save_world(generate_world("forest", 1, robots=2), tmp_path / "w.json")
+    before = sorted((p.name, p.stat().st_mtime_ns) for p in tmp_path.iterdir())
+    res = subprocess.run([sys.executable, "-m", "fftnav", *argv], cwd=tmp_path,
+                         capture_output=True, text=True, timeout=60)
+    assert res.returncode == 2 and re.search(match, res.stderr), res.stderr
+    assert len(res.stderr.strip().splitlines()) == 1
+    assert sorted((p.name, p.stat().st_mtime_ns) for p in tmp_path.iterdir()) == before

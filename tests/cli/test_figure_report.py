@@ -77,8 +77,8 @@ def test_figure_report_writes_maps_csv_and_the_report_and_nothing_else(folder):
 def test_figure_report_refuses_a_folder_without_results_or_of_another_config(folder, tmp_path):
     proc = figure_report(str(folder.parent / "c.toml"), "--out", str(tmp_path / "empty"))
     assert proc.returncode == 2
-    assert proc.stderr == (f"fftnav figure: error: --out must be a results folder with an "
-                           f"episodes.csv, got --out='{tmp_path / 'empty'}'\n")
+    assert proc.stderr == (f"fftnav figure: error: --out must be a finished results folder of "
+                           f"fftnav run, got --out='{tmp_path / 'empty'}' without episodes.csv\n")
     (tmp_path / "d.toml").write_text(TOML.replace("maps = 2", "maps = 3"))
     proc = figure_report(str(tmp_path / "d.toml"), "--out", str(folder))
     assert proc.returncode == 2 and proc.stderr.count("\n") == 1
@@ -86,3 +86,56 @@ def test_figure_report_refuses_a_folder_without_results_or_of_another_config(fol
     assert not (folder / "maps.csv").exists()
     proc = figure_report(str(folder.parent / "c.toml"), "--out", str(folder), "--workers", "0")
     assert proc.returncode == 2 and "--workers" in proc.stderr
+
+
+def _damaged(folder, name, change):
+    path = folder / name
+    if change is None:
+        path.unlink()
+    else:
+        path.write_bytes(change(path.read_bytes()))
+
+
+@pytest.mark.parametrize("name, change, message", [
+    ("episodes.csv", lambda b: b[:b.rindex(b"\n", 0, len(b) - 1) + 12],
+     r"episodes\.csv holds 11 robot rows, its last row cut short, expected 12 \(4 episodes x 3 "
+     r"robots\): the run has not finished"),
+    ("episodes.csv", lambda b: b[:b.rindex(b"\n", 0, len(b) - 1) + 1],
+     r"episodes\.csv holds 11 robot rows, expected 12"),
+    ("config.json", None, r"without config\.json$"),
+    ("config.json", lambda b: b[:20], r"config\.json"),
+    ("run_info.json", lambda b: b"{", r"run_info\.json"),
+    ("summary.csv", None, r"without summary\.csv$"),
+    ("paired_tests.csv", lambda b: b'"a\n', r"paired_tests\.csv: damaged CSV"),
+])
+def test_figure_report_refuses_a_damaged_or_partial_folder_naming_the_file(folder, name, change,
+                                                                           message):
+    import re
+
+    _damaged(folder, name, change)
+    before = sorted(p.name for p in folder.rglob("*"))
+    proc = figure_report(str(folder.parent / "c.toml"), "--out", str(folder))
+    assert proc.returncode == 2 and proc.stderr.count("\n") == 1, proc.stderr
+    assert re.search(message, proc.stderr.strip()), proc.stderr
+    assert sorted(p.name for p in folder.rglob("*")) == before  # nothing written
+
+
+def test_a_folder_that_cannot_be_locked_is_named_not_its_lock_file(tmp_path, monkeypatch):
+    import os
+    import re
+
+    from fftnav.runner.resume import FolderLock
+
+    real = os.open
+
+    def refuse(path, *args, **kwargs):  # what a read-only folder does to a non-root user
+        if str(path).endswith(".lock"):
+            raise PermissionError(13, "Permission denied", str(path))
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "open", refuse)
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(tmp_path))} cannot be written "
+                                         r"\(Permission denied\): a results folder must be "
+                                         r"writable$"):
+        with FolderLock(tmp_path):
+            pass

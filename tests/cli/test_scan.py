@@ -57,16 +57,73 @@ def test_every_radish_scan_matches_the_oracle(log):
             assert -90.0 <= lo <= hi <= 90.0
 
 
-def test_npy_defaults_are_the_simulated_robot(tmp_path):
+def test_npy_defaults_are_the_simulated_robot_on_a_full_turn(tmp_path):
+    """360 beams from -180 degrees, r0 = 0.15 m, r = 0.3 m (l_th = 0.6 m, a 61-beam window),
+    R = 3 m: the turn wraps around, so an open scan is safe everywhere, and 20 beams at 0.5 m
+    ahead (170..189) block the 80 beams 140..219 whose windows reach them."""
     scan = np.full((2, 360), np.inf)
     scan[1, 170:190] = 0.5
     np.save(tmp_path / "s.npy", scan)
     proc = run(tmp_path / "s.npy")
     assert proc.returncode == 0, proc.stderr
     a, b = (json.loads(line) for line in proc.stdout.splitlines())
-    assert sum(a["safe_mask"]) == 300  # 360 minus 30 beams at each zero-padded end
-    assert b["safe_mask"][180] == 0 and sum(b["safe_mask"]) == 300 - 80
-    assert a["safe_sectors_deg"] == [[-150.0, 149.0]]
+    assert sum(a["safe_mask"]) == 360 and a["safe_sectors_deg"] == [[-180.0, 179.0]]
+    blocked = np.flatnonzero(np.array(b["safe_mask"]) == 0)
+    np.testing.assert_array_equal(blocked, np.arange(140, 220))
+    assert b["safe_sectors_deg"] == [[40.0, -41.0]]  # through the back
+
+
+def wrap_oracle(ranges, *, l_th, range_m, window):
+    """The sliding-window minimum around the circle (scipy's, an independent code)."""
+    from scipy.ndimage import minimum_filter1d
+
+    d = np.where(np.isnan(ranges) | (ranges < 0), 0.0, np.minimum(ranges, range_m))
+    return minimum_filter1d(d, window, axis=1, mode="wrap") >= l_th
+
+
+@pytest.mark.parametrize(("suffix", "beams", "fov"), [(".npy", 360, []), (".csv", 720, ["360"]),
+                                                      (".npy", 719, ["--fov", "360"])])
+def test_a_full_turn_wraps_around(tmp_path, suffix, beams, fov):
+    from tests.observe.test_safe import piecewise_scan
+
+    rng = np.random.default_rng(beams)
+    scans = np.array([piecewise_scan(rng, beams, 3.0) for _ in range(6)])
+    scans[:3, : beams // 8] = scans[:3, -beams // 8 :] = np.inf  # open behind
+    path = tmp_path / f"s{suffix}"
+    if suffix == ".npy":
+        np.save(path, scans)
+    else:
+        path.write_text("\n".join(",".join(repr(float(v)) for v in row) for row in scans))
+    proc = run(path, *(["--fov", *fov] if fov == ["360"] else fov))
+    assert proc.returncode == 0, proc.stderr
+    got = np.array([json.loads(line)["safe_mask"] for line in proc.stdout.splitlines()], bool)
+    tc = math.ceil(math.radians(60.0) / (2 * math.pi / beams) - 1e-9)
+    expected = wrap_oracle(scans, l_th=0.6, range_m=3.0, window=tc + 1 - tc % 2)
+    np.testing.assert_array_equal(got, expected)
+    assert 0.05 < expected.mean() < 0.95
+    assert (expected[:, 0] | expected[:, -1]).any()  # some window through the back is safe
+
+
+def test_a_field_of_view_narrower_than_the_window_answers_every_scan(tmp_path):
+    """A 20-degree segment of 21 beams: the simulated robot's window there is 61 beams, so no
+    beam is safe; every scan gets its line, with the reason, and the command exits 0."""
+    np.save(tmp_path / "seg.npy", np.full((3, 21), np.inf))
+    proc = run(tmp_path / "seg.npy", "--fov", "20")
+    assert proc.returncode == 0, proc.stderr
+    rows = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert [r["index"] for r in rows] == [0, 1, 2]
+    for r in rows:
+        assert r == {"index": r["index"], "safe_mask": [0] * 21, "safe_sectors_deg": [],
+                     "extrema": [], "extrema_is_min": [], "message_bytes": 4, "p_left": None,
+                     "reason": "segment narrower than the safety window"}
+    # alpha = 2 asin(r0 / r) = 9.6 deg: an 11-beam window fits
+    wide = run(tmp_path / "seg.npy", "--fov", "20", "--r0", "0.05", "--r", "0.6", "--range", "10")
+    assert wide.returncode == 0 and "reason" not in wide.stdout
+    assert all(sum(json.loads(line)["safe_mask"]) == 11 for line in wide.stdout.splitlines())
+    refused = run(tmp_path / "seg.npy", "--fov", "20", "--range", "0.5")
+    assert refused.returncode == 2 and refused.stdout == ""
+    assert refused.stderr.strip().endswith(
+        "range_m must be finite and >= l_th_m=0.6, got range_m=0.5"), refused.stderr
 
 
 @pytest.mark.parametrize(
@@ -102,11 +159,12 @@ def _whole_file_lines(path, fov=2 * math.pi):
     """The JSON lines of every scan processed in one batch (the whole-file path)."""
     from fftnav.cli.scan import _json_lines
     from fftnav.observe.geometry import SIM_ROBOT
-    from fftnav.observe.pipeline import Pipeline
+    from fftnav.ros.laserscan import Layout, LayoutPipelines
 
     ranges = read_scans(path).ranges
-    pipe = Pipeline(SIM_ROBOT, beams=ranges.shape[1], fov_rad=fov, range_m=3.0)
-    return "".join(_json_lines(pipe.process(ranges), fov, 0))
+    layout = Layout.of_fov(ranges.shape[1], fov)
+    pipe = LayoutPipelines(SIM_ROBOT).get(layout, 3.0)
+    return "".join(_json_lines(layout, pipe, ranges, 0))
 
 
 def _random_scans(k, m=360, seed=0):

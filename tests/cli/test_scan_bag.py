@@ -132,3 +132,47 @@ def test_radish_logs_as_bags_give_the_masks_of_the_log(tmp_path, log):
         got = [json.loads(line)["safe_mask"] for line in proc.stdout.splitlines()]
         assert len(got) == len(want) == len(scans.ranges)
         assert got == want, name
+
+
+def test_every_convention_in_one_topic_is_answered(tmp_path):
+    """One topic mixing what real drivers publish: a TurtleBot3 full turn from 0, a YDLidar
+    turn of 719 beams whose angle_max = +pi is one increment off, a 25-degree Pilz segment
+    narrower than the window, and a centred 180-degree scan: exit 0, a line per message, the
+    masks of the sliding-window minimum in each message's frame (wrapping for the turns), the
+    correction and the reason in the lines, and the annotated bag written."""
+    from fftnav.observe.geometry import REAL_ROBOT
+    from tests.ros.bagmaker import LASERSCAN, scan_msg, write_bag
+    from tests.ros.test_bags import lidar_scans
+    from tests.ros.test_scan_layouts import oracle
+
+    geometry = REAL_ROBOT
+    rng = np.random.default_rng(41)
+    turn = 2 * math.pi
+    lds = lidar_scans(rng, 1, 360, 10.0)[0]
+    lds[:45] = lds[-45:] = np.inf  # open ahead, around message angle 0
+    cases = [  # (readings, angle_min, angle_increment, angle_max, full)
+        (lds, 0.0, turn / 360, 359 * turn / 360, True),
+        (lidar_scans(rng, 1, 719, 10.0)[0], -math.pi, turn / 719, math.pi, True),
+        (np.full(51, 6.0), 0.3, math.radians(0.5), 0.3 + math.radians(25), False),
+        (lidar_scans(rng, 1, 181, 10.0)[0], -math.pi / 2, math.pi / 180, math.pi / 2, False),
+    ]
+    items = [(LASERSCAN, lambda s, c=c, i=i: scan_msg(
+        s, c[0], i=i, angle_min=c[1], angle_increment=c[2], angle_max=c[3], range_min=0.0,
+        range_max=10.0)) for i, c in enumerate(cases)]
+    src = write_bag(tmp_path / "mixed.bag", {"/scan": items})
+    proc = run(src, "--out-bag", tmp_path / "mixed.mcap")
+    assert proc.returncode == 0 and proc.stderr == "", proc.stderr
+    rows = [json.loads(line) for line in proc.stdout.splitlines()]
+    assert [r["index"] for r in rows] == [0, 1, 2, 3]
+    for row, (d, _, inc, _, full) in zip(rows, cases, strict=True):
+        want = oracle(d[None], geometry=geometry, inc=inc, full=full)[0]
+        np.testing.assert_array_equal(np.array(row["safe_mask"], bool), want)
+    assert [k for k in rows[1] if k not in rows[0]] == ["angle_max_corrected"]
+    assert rows[1]["angle_max_corrected"] == pytest.approx(math.pi - turn / 719, abs=1e-5)
+    assert rows[2]["reason"] == "segment narrower than the safety window"
+    assert "reason" not in rows[0] and "reason" not in rows[3]
+    assert rows[0]["safe_mask"][0] == 1  # straight ahead is safe
+    again = run(tmp_path / "mixed.mcap", "--topic", "/fftnav/safe_scan", "--range", "10")
+    assert again.returncode == 0 and again.stdout.count("\n") == 4, again.stderr
+    (corrected,) = [json.loads(line) for line in again.stdout.splitlines()][1:2]
+    assert "angle_max_corrected" not in corrected  # the annotated scan's angle_max is exact

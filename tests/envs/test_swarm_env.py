@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import math
+import warnings
 
 import numpy as np
 import pytest
@@ -163,12 +164,20 @@ def test_rewards_are_floats_and_a_step_names_an_unknown_agent():
     ({"robot_3": [0.1, 0.0, 0.0]}, r"actions\['robot_3'\] .* got shape \(3,\)"),
     ({"robot_0": 0.1}, r"actions\['robot_0'\] .* got shape \(\)"),
     ({"robot_0": {"v": 0.1}}, r"actions\['robot_0'\] .* got no number array: \{'v': 0\.1\}"),
+    ({"robot_0": np.array([0.1 + 1j, 0.0])},
+     r"actions\['robot_0'\] must be real numbers \(v_mps, w_radps\), got complex values"),
+    ({"robot_1": [0.1, 0.0], "robot_2": [0.1 + 0j, 0.0]},
+     r"actions\['robot_2'\] must be real numbers .* got complex values: \[\(0\.1\+0j\), 0\.0\]"),
+    ({"robot_0": [True, False]}, r"actions\['robot_0'\] .* got no number array: \[True, False\]"),
+    ({"robot_0": ["0.1", "0"]}, r"actions\['robot_0'\] .* got no number array"),
 ])
 def test_bad_actions_are_refused_naming_the_agent(actions, match):
     env = _small()
     env.reset(seed=1)
-    with pytest.raises(ValueError, match=match):
-        env.step(actions)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")  # refused, not cast with numpy's ComplexWarning
+        with pytest.raises(ValueError, match=match):
+            env.step(actions)
     env.close()
 
 

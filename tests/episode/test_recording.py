@@ -228,7 +228,11 @@ def _meta(**fields):
 
 @pytest.mark.parametrize(("source", "match"), [
     (io.BytesIO(b"not a zip"), r"path must be an fftnav recording, got path="),
-    (_npz(x=np.zeros(3)), r"no readable meta"),
+    (io.BytesIO(b'{"format": "json"}'), r"\(not an \.npz archive of arrays: neither an fftnav "
+                                        r"recording nor numpy data\)$"),
+    (_npz(x=np.array([{"a": 1}], dtype=object)),
+     r"\(an \.npz of Python objects, not of an fftnav recording's arrays\)$"),
+    (_npz(x=np.zeros(3)), r"no readable meta: an \.npz without fftnav's meta member\)$"),
     (_npz(meta=_meta(format="other", version=1)), r"\(format 'other'\)"),
     (_npz(meta=_meta(format="fftnav-recording", version=VERSION + 1)),
      rf"path must be a recording of version <= {VERSION}, .*upgrade fftnav"),
@@ -236,8 +240,9 @@ def _meta(**fields):
      r"path must be a complete fftnav recording, .*\(no column "),
 ])
 def test_what_is_not_a_recording_is_refused_by_name(source, match):
-    with pytest.raises(RecordingError, match=match):
+    with pytest.raises(RecordingError, match=match) as caught:
         read_recording(source)
+    assert "allow_pickle" not in str(caught.value)  # never numpy's advice to load it unsafely
 
 
 def test_a_recording_is_written_atomically_into_a_new_folder(tmp_path, spied):
@@ -285,6 +290,32 @@ def test_damaged_or_inconsistent_recordings_are_refused_by_name(spied):
         read_recording(_rewritten(data, meta={k: v for k, v in meta.items() if k != "seed"}))
     with pytest.raises(RecordingError, match=r"sent_offset does not index sent_bytes"):
         read_recording(_rewritten(data, sent_bytes=np.zeros(3, np.uint8)))
+    # values a player cannot draw: NaN poses, time that stands still or runs back, unknown codes
+    pose = rec.pose.astype(np.float32)
+    pose[3, 1, 0] = np.nan
+    with pytest.raises(RecordingError, match=r"consistent fftnav recording, got path=.*\(column "
+                                             r"pose is not finite at tick 3, robot 1\)"):
+        read_recording(_rewritten(data, pose=pose))
+    for k, change in ((4, 0.0), (4, -0.05)):
+        time_s = rec.time_s.copy()
+        time_s[k] = time_s[k - 1] + change
+        with pytest.raises(RecordingError, match=rf"column time_s does not increase at tick {k} "):
+            read_recording(_rewritten(data, time_s=time_s))
+    time_s = rec.time_s.copy()
+    time_s[-1] = np.inf
+    with pytest.raises(RecordingError, match=r"column time_s is not finite at tick"):
+        read_recording(_rewritten(data, time_s=time_s))
+    status = rec.status.copy()
+    status[2, 0] = 9
+    with pytest.raises(RecordingError, match=r"column status holds 9 at tick 2, robot 0: not a "
+                                             r"Status code \(0 waiting, 1 moving"):
+        read_recording(_rewritten(data, status=status))
+    mode = np.zeros(rec.status.shape, np.float32)  # a Bug controller's mode column
+    mode[0, 0] = np.nan  # absent: allowed
+    mode[1, 1] = 7
+    with pytest.raises(RecordingError, match=r"column state/mode holds 7 at tick 1, robot 1: "
+                                             r"not a State code \(0 goal"):
+        read_recording(_rewritten(data, **{"state/mode": mode}))
     # deflate data damaged inside the zip: the archive opens, the column does not
     raw = bytearray(data)
     with zipfile.ZipFile(io.BytesIO(data)) as z:

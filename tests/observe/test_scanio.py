@@ -60,3 +60,38 @@ def test_bad_files(tmp_path, name, content, kwargs, match):
 def test_missing_file_is_oserror(tmp_path):
     with pytest.raises(OSError):
         read_scans(tmp_path / "none.npy")
+
+
+def test_a_log_that_is_not_text_lines_is_refused_reading_one_bounded_line(tmp_path):
+    """A file of zeros named .log: refused at its first line, which is read no further than
+    MAX_LOG_LINE characters (memory stays bounded, as for .csv)."""
+    import tracemalloc
+
+    from fftnav.observe.scanio import MAX_LOG_LINE, iter_scans, read_scans
+
+    path = tmp_path / "zeros.log"
+    path.write_bytes(b"\x00" * (8 * MAX_LOG_LINE))
+    for read in (read_scans, lambda p: next(iter_scans(p).chunks)):
+        tracemalloc.start()
+        with pytest.raises(ValueError, match=rf"zeros\.log:1: a line longer than "
+                                             rf"{MAX_LOG_LINE:,} characters"):
+            read(path)
+        peak = tracemalloc.get_traced_memory()[1]
+        tracemalloc.stop()
+        assert peak < 24 * MAX_LOG_LINE  # the line's characters, not the file's
+
+
+def test_a_log_streams_in_chunks_equal_to_the_whole(tmp_path):
+    from fftnav.observe.scanio import iter_scans, read_scans
+
+    lines = ["PARAM robot_front_laser_max 5.0\n"]
+    rng = np.random.default_rng(0)
+    scans = rng.uniform(0.1, 6.0, (10, 7)).round(3)
+    lines += [f"FLASER 7 {' '.join(map(str, row))} 0 0 0 0 0 0 0 host 0\n" for row in scans]
+    path = tmp_path / "s.log"
+    path.write_text("".join(lines))
+    chunks = list(iter_scans(path, rows=3).chunks)
+    assert [len(c) for c in chunks] == [3, 3, 3, 1]
+    whole = read_scans(path).ranges
+    np.testing.assert_array_equal(np.concatenate(chunks), whole)
+    np.testing.assert_array_equal(whole, np.where(scans >= 5.0, np.inf, scans))

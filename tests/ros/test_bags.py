@@ -126,7 +126,7 @@ def test_clockwise_full_circle_and_mixed_layouts_in_one_topic(tmp_path):
     full = np.array([r["safe_mask"] for r in rows[2::3]], dtype=bool)
     d = rep117(b.astype(np.float32).astype(float), 0.0, 10.0, 10.0)
     expected = oracle_mask(d, l_th=SIM_ROBOT.l_th_m, range_m=10.0,
-                           window=window(SIM_ROBOT, math.pi / 360), circular=False)
+                           window=window(SIM_ROBOT, math.pi / 360), circular=True)
     np.testing.assert_array_equal(full, expected)
 
 
@@ -200,6 +200,38 @@ def test_missing_and_wrong_topics_list_the_laserscan_topics(tmp_path):
     refused("pass --topic, one of the LaserScan topics: /front, /rear", path)
     empty = write_bag(tmp_path / "e.bag", {"/chatter": items["/chatter"]})
     refused("e.bag has no topic '/scan'; its LaserScan topics: none", empty, topic="/scan")
+    refused("e.bag holds no sensor_msgs/LaserScan topic to scan (its topics' types: "
+            "std_msgs/msg/String)", empty)
+
+
+@pytest.mark.parametrize("kind", ["db3", "mcap"])
+def test_a_bag_that_cannot_be_written_is_one_line_and_leaves_nothing(tmp_path, kind,
+                                                                     monkeypatch):
+    """A full disk under the writer (sqlite's "database or disk is full", or ENOSPC): one
+    ValueError naming the output, and no bag under its name."""
+    import errno
+    import sqlite3
+
+    from fftnav.ros import bags
+
+    src = scans_bag(tmp_path / "in.mcap", np.full((5, 181), 5.0))
+    real = bags.AnnotatedBag.annotate
+    calls = []
+
+    def full(self, scan):
+        calls.append(1)
+        if len(calls) == 3:
+            raise (sqlite3.OperationalError("database or disk is full") if kind == "db3"
+                   else OSError(errno.ENOSPC, "No space left on device"))
+        return real(self, scan)
+
+    monkeypatch.setattr(bags.AnnotatedBag, "annotate", full)
+    out = tmp_path / f"out.{kind}"
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(out))}: the bag could not be written "
+                                         r"\(no space left on device\); nothing was kept$"):
+        run(src, out_bag=out)
+    assert not out.exists()
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["in.mcap"]
 
 
 @pytest.mark.parametrize("kind", ["bag", "db3", "mcap"])
@@ -234,7 +266,8 @@ def test_a_damaged_bag_folder_is_refused(tmp_path):
     [
         ({"angle_increment": math.pi / 90},
          "message 1: angle_increment disagrees with the angles and the count: angle_min + "
-         "(M - 1) * angle_increment = 4.71239 rad but angle_max = 1.5708 rad (M = 181"),
+         "(M - 1) * angle_increment = 4.71239 rad but angle_max = 1.5708 rad, more than one "
+         "increment away (M = 181"),
         ({"range_min": 5.0, "range_max": 5.0},
          "message 1: range_min and range_max must be finite with 0 <= range_min < range_max, "
          "got range_min=5.0, range_max=5.0"),
@@ -282,7 +315,8 @@ def test_out_bag_never_overwrites_the_input(tmp_path):
 def test_a_closing_beam_is_read_as_a_full_circle(tmp_path, clockwise):
     """361 beams from -pi to pi inclusive (the last points where the first does, as some
     drivers publish): the masks of the 360-beam full circle whose first reading is the nearer
-    of the two, against the sliding-window minimum, and the closing beam gets the first's."""
+    of the two, against the sliding-window minimum that wraps around, and the closing beam
+    gets the first's."""
     rng = np.random.default_rng(7)
     scans = lidar_scans(rng, 4, 361, 10.0)
     inc = 2 * math.pi / 360
@@ -296,7 +330,7 @@ def test_a_closing_beam_is_read_as_a_full_circle(tmp_path, clockwise):
     circle = d[:, :360].copy()
     circle[:, 0] = np.minimum(d[:, 0], d[:, 360])
     expected = oracle_mask(circle, l_th=SIM_ROBOT.l_th_m, range_m=10.0,
-                           window=window(SIM_ROBOT, inc), circular=False)
+                           window=window(SIM_ROBOT, inc), circular=True)
     np.testing.assert_array_equal(got[:, :360], expected)
     np.testing.assert_array_equal(got[:, 360], got[:, 0])
     assert 0.05 < expected.mean() < 0.95

@@ -75,6 +75,24 @@ def test_a_resume_reruns_only_the_task_whose_wanted_recording_is_missing(failure
     assert (outcome.completed, outcome.skipped) == (0, 4)
 
 
+@pytest.mark.parametrize("damage", ["empty", "cut", "garbage"])
+def test_a_resume_reruns_the_task_whose_recording_is_damaged(failures_run, tmp_path, capfd,
+                                                            damage):
+    out = tmp_path / "resumed"
+    shutil.copytree(failures_run, out)
+    damaged = sorted((out / "records").iterdir())[0]
+    good = damaged.read_bytes()
+    damaged.write_bytes({"empty": b"", "cut": good[:len(good) // 2],
+                         "garbage": b"PK\x03\x04" + b"\x00" * 64}[damage])
+    outcome = run_experiment(_config(), out, workers=1, progress=False)
+    assert (outcome.completed, outcome.skipped) == (1, 3)
+    assert damaged.read_bytes() == good  # the rerun episode records the same bytes
+    err = capfd.readouterr().err
+    assert f"rerunning {damaged.stem}: its recording {damaged} cannot be trusted (" in err
+    for name in CSVS:
+        assert (out / name).read_bytes() == (failures_run / name).read_bytes()
+
+
 def test_fresh_keeps_only_the_recordings_of_its_own_failures(failures_run, tmp_path):
     """A recording left by an earlier run of a task whose episode now has no failure (here: a
     run with every episode recorded) is removed by --fresh, not kept beside the new results."""
@@ -108,3 +126,15 @@ def test_the_report_places_each_failure_where_its_recording_ends(failures_run):
             with np.load(trajectory) as paths:
                 assert (r.x, r.y) == pytest.approx(tuple(paths[f"arr_{r.robot}"][-1, :2]),
                                                    abs=1e-5)
+
+
+@pytest.mark.parametrize("name", ["records", "episodes", "reference"])
+def test_a_file_where_a_results_folder_goes_is_refused_naming_it(tmp_path, name):
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / name).write_text("not a folder")
+    with pytest.raises(ValueError, match=rf"^{out / name} must be a folder of the results, got a "
+                                         r"file by that name: move it away, or use another "
+                                         r"--out$"):
+        run_experiment(_config(), out, workers=1, progress=False)
+    assert (out / name).read_text() == "not a folder"

@@ -84,10 +84,16 @@ def test_one_run_per_folder(tmp_path):
 
 
 def test_stale_temporaries_are_removed_and_none_is_left(full, tmp_path):
-    for sub in ("", "episodes", "trajectories"):
+    for sub in ("", "episodes", "trajectories", "records", "timing"):
+        (full / sub).mkdir(exist_ok=True)
         (full / sub / ".x.csv.123.tmp").write_text("half")
+    (full / "figures" / "failures").mkdir(parents=True, exist_ok=True)
+    (full / "figures" / ".spl_apl.png.4567.tmp.png").write_text("half an image")
+    (full / "figures" / "failures" / ".f.png.4567.tmp.png").write_text("half an image")
+    (full / "figures" / "notes.tmp").write_text("a user's file, not ours")
     run_experiment(CONFIG, full, workers=1, task_fn=fake_task, progress=False)
-    assert not list(full.rglob("*.tmp"))
+    assert not [p for p in full.rglob(".*.tmp*")]
+    assert (full / "figures" / "notes.tmp").exists()
     with pytest.raises(KeyboardInterrupt):
         run_experiment(CONFIG, tmp_path / "i", workers=1, task_fn=Interrupt(3), progress=False)
     assert not list((tmp_path / "i").rglob("*.tmp"))
