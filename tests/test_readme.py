@@ -226,3 +226,43 @@ def test_the_evaluate_time_is_the_measured_one_and_within_a_third_of_the_benchma
     assert same(found[2], evaluate["wall_s"]) and same(found[4], benchmark["wall_s"])
     assert same(found[3], evaluate["wall_s"] / benchmark["wall_s"])
     assert evaluate["wall_s"] <= benchmark["wall_s"] / 3
+
+
+def test_the_readme_learned_table_is_the_committed_rows():
+    """The README's learned-methods table: each method's AR and SPL per world (percent) and
+    failed robots by cause, recomputed from results/learned/table1 and results/table1 (the
+    rows the learned report reads); the untrained row from the three untrained networks."""
+    section = re.search(r"\n## Learned methods[^\n]*\n(.*?)\n## ", README.read_text(), re.S)[1]
+    lines = [line.strip().strip("|").split("|") for line in section.splitlines()
+             if line.startswith("|")]
+    header = [cell.strip() for cell in lines[0]]
+    rows = [dict(zip(header, (c.strip() for c in row), strict=True)) for row in lines[2:]]
+    episodes = pd.concat([pd.read_csv(ROOT / "results" / d / "episodes.csv",
+                                      keep_default_na=False)
+                          for d in ("learned/table1", "table1")])
+
+    def causes(table):
+        failed = table.loc[~table["arrived"], "failure"].value_counts()
+        return failed
+
+    for row in rows:
+        name = re.search(r"`([\w-]+)`", row["method"])
+        policies = ([name[1]] if name else
+                    sorted(p for p in episodes.policy.unique() if p.endswith("-untrained")))
+        table = episodes[episodes.policy.isin(policies)]
+        for env in ("forest", "rocky"):
+            per = [table[(table.env == env) & (table.policy == p)] for p in policies]
+            for measure, col in (("AR", "arrived"), ("SPL", "spl")):
+                values = sorted(f"{100 * t[col].astype(float).mean():.1f}" for t in per)
+                cell = row[f"{env} {measure} %"]
+                expected = (values[0] if values[0] == values[-1]
+                            else f"{values[0]}-{values[-1]}")
+                assert cell == expected, (row["method"], env, measure, cell, expected)
+        failed = causes(table)
+        cell = row["failed robots by cause (both)"]
+        if cell == "none":
+            assert failed.empty, row["method"]
+        for cause, count in re.findall(r"(\w+) ([\d,]+)", re.sub(r" of [\d,]+", "", cell)):
+            assert int(count.replace(",", "")) == failed[cause], (row["method"], cause)
+        if "of" in cell:
+            assert re.search(rf"of {len(table):,}", cell), row["method"]

@@ -12,8 +12,9 @@ the trained networks on Table I's maps beside the built-ins, and the report.
    ``ppo-<observation>.npz`` (its best checkpoint) and ``ppo-<observation>-untrained.npz``
    (the same network before training) for a controller, ``ppo.npz`` for the decider
    (``learned-decider:ppo.npz``, rows named ``learned-decider-ppo``).
-3. ``fftnav run experiments/learned.toml`` (Table I's 40 maps: the learned methods, the
-   untrained networks, the Bug baselines, ``fusion``, ``own-only``, ``random``).
+3. ``fftnav run experiments/learned.toml`` (Table I's 40 maps: the learned methods and the
+   untrained networks); the built-ins' rows on the same maps are ``results/table1``'s
+   (``make benchmark``: the Bug baselines, ``fusion``, ``own-only``, ``random``).
 4. ``fftnav figure learning`` -> ``results/learned/learning.md``, ``curves.png``,
    ``curves.csv``, ``training.csv``, ``paired_tests.csv``.
 
@@ -96,11 +97,12 @@ def main(argv: list[str] | None = None) -> None:
             shutil.copyfile(best / "best.npz", nets / f"ppo-{obs}.npz")
             shutil.copyfile(best / "untrained.npz", nets / f"ppo-{obs}-untrained.npz")
         print(f"{config.stem}: best seed {best.name}", flush=True)
-    subprocess.run([*FFTNAV, "run", str(ROOT / "experiments" / "learned.toml"), "--workers",
-                    str(args.workers)], check=True)
+    # --fresh: the networks were just written (a folder of earlier ones is not resumed)
+    subprocess.run([*FFTNAV, "run", str(ROOT / "experiments" / "learned.toml"), "--fresh",
+                    "--workers", str(args.workers)], check=True)
     subprocess.run([*FFTNAV, "figure", "learning", *map(str, folders), "--table1",
-                    str(OUT / "table1"), "--policies", *ORDER, "--threshold", str(THRESHOLD),
-                    "--out", str(OUT)], check=True)
+                    str(OUT / "table1"), str(ROOT / "results" / "table1"), "--policies", *ORDER,
+                    "--threshold", str(THRESHOLD), "--out", str(OUT)], check=True)
 
 
 if __name__ == "__main__":

@@ -87,8 +87,8 @@ def cmd_figure_learning(args: argparse.Namespace) -> int:
     for folder in args.runs:
         for name in ("config.json", "curve.csv", "run.json"):
             check_input(f"{folder}/{name}")
-    if args.table1 is not None:
-        check_input(f"{args.table1}/episodes.csv")
+    for folder in args.table1 or []:
+        check_input(f"{folder}/episodes.csv")
     if not 0 < args.threshold <= 1:
         raise CliError(f"--threshold must be in (0, 1], got --threshold={args.threshold}")
     print(write_learning_report(args.runs, args.out, table1=args.table1,
@@ -135,8 +135,9 @@ def register(sub: argparse._SubParsersAction) -> None:
     lr = figs.add_parser("learning", help="learning curves over seeds and the learned methods "
                          "on Table I's maps (docs/learning.md)")
     lr.add_argument("runs", nargs="+", metavar="RUN", help="training folders of fftnav learn")
-    lr.add_argument("--table1", metavar="DIR",
-                    help="results folder of the learned methods and the built-ins")
+    lr.add_argument("--table1", nargs="+", metavar="DIR",
+                    help="results folders of the same maps: the learned methods' and the "
+                    "built-ins' rows (each method in one of them)")
     lr.add_argument("--policies", nargs="+", metavar="NAME",
                     help="the methods of --table1 shown, in this order (default: all)")
     lr.add_argument("--threshold", type=float, default=0.8,

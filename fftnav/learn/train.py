@@ -83,6 +83,8 @@ def _vec_env_base() -> type:
     from stable_baselines3.common.vec_env import VecEnv
 
     class Base(VecEnv):
+        render_mode = None  # nothing to render (SB3 warns when the attribute is missing)
+
         def get_attr(self, attr_name: str, indices: Any = None) -> list[Any]:
             return [getattr(self, attr_name)] * len(self._get_indices(indices))
 

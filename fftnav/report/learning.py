@@ -17,6 +17,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
+from fftnav.errors import FftnavError
 from fftnav.files import read_json, write_atomic
 from fftnav.metrics import FAILURE_CAUSES
 from fftnav.report import new_figure, save_figure
@@ -25,7 +26,7 @@ from fftnav.runner.run import read_episodes
 from fftnav.runner.summary import paired_gain, t_interval, wilcoxon_method
 
 __all__ = ["comparison_pairs", "curve_figure", "paired_rows", "read_curves", "steps_to_ar",
-           "training_table", "write_learning_report"]
+           "table1_episodes", "training_table", "write_learning_report"]
 
 
 def _group(config: dict) -> str:
@@ -80,31 +81,46 @@ def training_table(curves: pd.DataFrame, folders: Sequence[str | Path], *,
     return pd.DataFrame(rows)
 
 
+def _draw_group(ax, table: pd.DataFrame, measure: str, label: str) -> None:
+    """One group's mean over its seeds (thick), each seed (thin) and the mean's 95 %
+    t-interval (band) of ``measure`` against learner samples."""
+    grid = table.pivot_table(index="samples", columns="seed", values=measure)
+    grid = grid.interpolate(limit_area="inside")
+    x = grid.index.to_numpy()
+    bands = np.array([t_interval(row.to_numpy(float)) for _, row in grid.iterrows()])
+    line = ax.plot(x, bands[:, 0], label=f"{label} ({grid.shape[1]} seeds)")[0]
+    ax.fill_between(x, np.clip(bands[:, 1], 0, 1), np.clip(bands[:, 2], 0, 1),
+                    color=line.get_color(), alpha=0.15, linewidth=0)
+    for seed in grid.columns:
+        ax.plot(x, grid[seed].to_numpy(float), color=line.get_color(), alpha=0.35,
+                linewidth=0.6)
+
+
 def curve_figure(curves: pd.DataFrame, path: str | Path, *, threshold: float) -> Path:
-    """Validation AR and SPL against learner samples: each group's mean over its seeds, each
-    seed thin, the 95 % t-interval band of the mean; the AR threshold dashed."""
-    fig = new_figure(figsize=(10, 4), dpi=110)
-    axes = fig.subplots(1, 2)
-    for group, table in curves.groupby("group", sort=False):
-        pivot = {m: table.pivot_table(index="samples", columns="seed", values=m)
-                 for m in ("val_ar", "val_spl")}
-        for ax, measure in zip(axes, ("val_ar", "val_spl"), strict=True):
-            grid = pivot[measure].interpolate(limit_area="inside")
-            x = grid.index.to_numpy() / 1e6
-            bands = np.array([t_interval(row.to_numpy(float)) for _, row in grid.iterrows()])
-            line = ax.plot(x, bands[:, 0], label=f"{group} ({grid.shape[1]} seeds)")[0]
-            ax.fill_between(x, np.clip(bands[:, 1], 0, 1), np.clip(bands[:, 2], 0, 1),
-                            color=line.get_color(), alpha=0.15, linewidth=0)
-            for seed in grid.columns:  # each seed, thin
-                ax.plot(x, grid[seed].to_numpy(float), color=line.get_color(), alpha=0.35,
-                        linewidth=0.6)
+    """Validation AR and SPL of the controllers against learner samples (robot-steps), and the
+    deciders' validation SPL against decisions: each group's mean over its seeds, each seed
+    thin, the 95 % t-interval band of the mean; the AR threshold dashed."""
+    controllers = curves[curves["group"] != "decider"]
+    deciders = curves[curves["group"] == "decider"]
+    panels = 2 + (len(deciders) > 0)
+    fig = new_figure(figsize=(5 * panels, 4), dpi=110)
+    axes = fig.subplots(1, panels, squeeze=False)[0]
+    for group, table in controllers.groupby("group", sort=False):
+        for ax, measure in zip(axes[:2], ("val_ar", "val_spl"), strict=True):
+            _draw_group(ax, table, measure, group)
     axes[0].axhline(threshold, color="grey", linestyle="--", linewidth=0.8)
-    for ax, title in zip(axes, ("validation AR", "validation SPL"), strict=True):
-        ax.set_xlabel("learner samples (millions; one robot-step each)")
-        ax.set_title(title)
+    titles = ["controllers: validation AR", "controllers: validation SPL"]
+    for ax in axes[:2]:
+        ax.set_xlabel("learner samples (one robot-step each)")
+    if len(deciders):
+        _draw_group(axes[2], deciders, "val_spl", "decider")
+        axes[2].set_xlabel("learner samples (one decision each)")
+        titles.append("decider: validation SPL")
+    for ax, title in zip(axes, titles, strict=True):
+        ax.set_title(title, fontsize=10)
         ax.set_ylim(-0.02, 1.02)
         ax.grid(alpha=0.3)
-    axes[0].legend(fontsize=7, loc="upper left")
+        ax.legend(fontsize=7, loc="lower right")
     fig.suptitle("Learning curves on the validation maps: mean over seeds (thick), each seed "
                  "(thin), 95 % t-interval of the mean (band)", fontsize=10)
     fig.tight_layout()
@@ -175,12 +191,27 @@ def _fmt_steps(mean: float, low: float, high: float, reached: int, runs: int) ->
     return text
 
 
+def table1_episodes(folders: Sequence[Path]) -> pd.DataFrame:
+    """The rows of several results folders of the same maps as one table; a policy in two of
+    them must have the same rows (ValueError naming it)."""
+    tables = [read_episodes(f / "episodes.csv") for f in folders]
+    seen: dict[str, Path] = {}
+    for folder, table in zip(folders, tables, strict=True):
+        for policy in table["policy"].unique():
+            if policy in seen:
+                raise FftnavError(f"policy {policy!r} is in both {seen[policy]} and {folder}; "
+                                  f"give each method's rows once")
+            seen[policy] = folder
+    return pd.concat(tables, ignore_index=True)
+
+
 def write_learning_report(folders: Sequence[str | Path], out: str | Path, *,
-                          table1: str | Path | None = None, threshold: float = 0.8,
-                          order: Sequence[str] | None = None) -> Path:
+                          table1: str | Path | Sequence[str | Path] | None = None,
+                          threshold: float = 0.8, order: Sequence[str] | None = None) -> Path:
     """Write ``curves.csv``, ``training.csv``, ``curves.png`` and ``learning.md`` into ``out``
-    from the training ``folders`` and, with ``table1`` (a results folder), the methods' rows
-    on its maps (``order``: the policies shown, default all) and ``paired_tests.csv``."""
+    from the training ``folders`` and, with ``table1`` (results folders of the same maps, each
+    method's rows in one of them), the methods' rows (``order``: the policies shown, default
+    all) and ``paired_tests.csv``."""
     out = Path(out)
     out.mkdir(parents=True, exist_ok=True)
     curves = read_curves(folders)
@@ -205,11 +236,13 @@ def write_learning_report(folders: Sequence[str | Path], out: str | Path, *,
                      f"{_fmt_steps(mean, low, high, int((~np.isnan(reach)).sum()), len(table))} | "
                      f"{_ci_text(ar)} | {_ci_text(spl)} | "
                      f"{100 * table['best_val_spl'].max():.1f} |")
-    if table1 is not None:
-        episodes = read_episodes(Path(table1) / "episodes.csv")
+    if table1:
+        folders = [Path(table1)] if isinstance(table1, (str, Path)) else [Path(t) for t in table1]
+        episodes = table1_episodes(folders)
         policies = list(order) if order else sorted(episodes["policy"].unique())
-        lines += ["", f"## On Table I's maps (`{Path(table1).name}`: maps never trained or "
-                  "validated on)", "",
+        named = ", ".join(f"`{f}`" for f in folders)
+        lines += ["", f"## On Table I's maps (maps never trained or validated on; rows of "
+                  f"{named})", "",
                   *_md(["method", "env", "AR %", "SPL %", "APL (m)", "failed robots by cause"],
                        _method_rows(episodes, policies))]
         tests = paired_rows(episodes, comparison_pairs(policies))

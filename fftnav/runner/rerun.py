@@ -26,7 +26,8 @@ from pathlib import Path
 from fftnav.episode.record import episode_csv
 from fftnav.episode.recording import Recording, read_recording
 from fftnav.errors import FftnavError
-from fftnav.runner.config import ExperimentConfig, load_config
+from fftnav.files import read_json, read_toml
+from fftnav.runner.config import ExperimentConfig, load_config, parse_config
 from fftnav.runner.run import CSV_COLUMNS
 from fftnav.runner.tasks import Task, TaskResult, iter_tasks, run_task
 
@@ -101,7 +102,7 @@ def folder_config(results_dir: str | Path) -> ExperimentConfig:
     """
     results_dir = Path(results_dir)
     _check_folder(results_dir)
-    config = load_config(results_dir / "config.toml")
+    config = _load_folder_config(results_dir)
     if not config.cells:
         return config
     cells = dict(config.cells)
@@ -109,6 +110,27 @@ def folder_config(results_dir: str | Path) -> ExperimentConfig:
         raise FftnavError(f"results_dir must be a cell of the sweep {config.name!r} "
                           f"({', '.join(cells)}), got results_dir={str(results_dir)!r}")
     return cells[results_dir.name]
+
+
+def _load_folder_config(results_dir: Path) -> ExperimentConfig:
+    """The folder's ``config.toml``; where its relative policy files (``file.py:attr``,
+    ``learned:PATH``) were relative to the config's own folder, not to this copy's, the
+    policies the run resolved (``config.json``) are taken instead when those files exist."""
+    try:
+        return load_config(results_dir / "config.toml")
+    except FftnavError as first:
+        data, text = read_toml(results_dir / "config.toml")
+        stored = read_json(results_dir / "config.json") if (results_dir / "config.json").is_file() \
+            else {}
+        policies = stored.get("policies") if isinstance(stored, dict) else None
+        experiment = data.get("experiment")
+        if not isinstance(policies, list) or not isinstance(experiment, dict):
+            raise first from None
+        try:
+            return parse_config({**data, "experiment": {**experiment, "policies": policies}},
+                                source=text, base=results_dir)
+        except ValueError:
+            raise first from None
 
 
 def task_ids(results_dir: str | Path) -> list[str]:

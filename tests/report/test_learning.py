@@ -99,3 +99,21 @@ def test_the_report_lists_runs_methods_failures_and_tests(tmp_path):
         assert (tmp_path / "out" / name).stat().st_size > 0
     training = pd.read_csv(tmp_path / "out" / "training.csv")
     assert list(training["samples_to_ar"]) == [2000, 2000, 2000, 0]
+
+
+def test_the_table1_rows_may_come_from_several_folders_each_method_once(tmp_path):
+    rng = np.random.default_rng(2)
+    a, b = tmp_path / "a", tmp_path / "b"
+    a.mkdir(), b.mkdir()
+    _episodes(rng, {"learned-e": 0.5, "learned-e-untrained": 0.0}).to_csv(a / "episodes.csv",
+                                                                          index=False)
+    _episodes(rng, {"random": 0.8, "fusion": 0.9}).to_csv(b / "episodes.csv", index=False)
+    runs = [_run(tmp_path / "r0")]
+    report = write_learning_report(runs, tmp_path / "out", table1=[a, b], threshold=0.5)
+    text = report.read_text()
+    assert f"rows of `{a}`, `{b}`" in text
+    assert "| fusion | forest |" in text and "| learned-e | learned-e-untrained | all | 24 |" in text
+    _episodes(rng, {"random": 0.7}).to_csv(a / "episodes.csv", index=False)
+    with pytest.raises(ValueError, match=r"policy 'random' is in both .*a and .*b; give each "
+                                         r"method's rows once"):
+        write_learning_report(runs, tmp_path / "out", table1=[a, b], threshold=0.5)

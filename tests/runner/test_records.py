@@ -138,3 +138,25 @@ def test_a_file_where_a_results_folder_goes_is_refused_naming_it(tmp_path, name)
                                          r"--out$"):
         run_experiment(_config(), out, workers=1, progress=False)
     assert (out / name).read_text() == "not a folder"
+
+
+def test_a_folder_whose_config_named_files_beside_it_reruns_from_config_json(tmp_path):
+    """A config in one folder naming a network by a path relative to it (``learned:``), run
+    into a results folder elsewhere: the folder's copy of the config does not resolve there,
+    so rerunning a task takes the networks the run resolved (config.json)."""
+    from fftnav.navigation.learned import untrained
+    from fftnav.runner import load_config
+    from fftnav.runner.rerun import rerun_task
+
+    (tmp_path / "experiments").mkdir()
+    (tmp_path / "nets").mkdir()
+    untrained("extrema", seed=0, hidden=(8,)).save(tmp_path / "nets" / "n.npz")
+    config_path = tmp_path / "experiments" / "c.toml"
+    config_path.write_text(
+        '[experiment]\nname = "rel"\nenvs = ["forest"]\nmaps = 1\nmap_seed = 7\nrobots = 2\n'
+        'policies = ["learned:../nets/n.npz"]\n'
+        '[world]\nsize_m = [8.0, 8.0]\ngoal_y_m = 7.0\n[episode]\ntime_limit_s = 3.0\n')
+    out = tmp_path / "results" / "deep" / "rel"
+    run_experiment(load_config(config_path), out, workers=1, progress=False)
+    rerun = rerun_task(out, "forest-7-learned-n")
+    assert rerun.task.policy == "learned-n"
