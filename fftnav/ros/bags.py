@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.errors import FftnavError
-from fftnav.files import track_temporary
+from fftnav.files import remove_stale_temporaries_of, track_temporary
 from fftnav.limits import MAX_BEAMS, check_limit
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.ros import check_not_special, require_rosbags
@@ -420,6 +420,7 @@ class BagFile:
         self.out = out.resolve() if out.is_symlink() else out
         self.ros1, self.storage, self.single = ros1, storage, single
         self.tmp = self.out.parent / f".{self.out.name}.{os.getpid()}.tmp"
+        remove_stale_temporaries_of(self.out)  # a killed writer's bag folder beside it
         shutil.rmtree(self.tmp, ignore_errors=True)
         self.tmp.mkdir(parents=True)
         track_temporary(self.tmp)  # removed by a second Ctrl-C's exit too

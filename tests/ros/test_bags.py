@@ -370,3 +370,16 @@ def test_other_types_on_the_scan_topic_are_copied_not_read_and_a_bad_copy_is_nam
     refused("in.mcap: damaged or unreadable bag: Invalid string length", src,
             topic="/scan", out_bag=tmp_path / "bad.mcap")
     assert not (tmp_path / "bad.mcap").exists() and not list(tmp_path.glob(".*tmp"))
+
+
+def test_a_killed_writers_bag_folder_is_swept_by_the_next_bag_of_that_name(tmp_path):
+    import subprocess
+    import sys
+
+    dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
+                          capture_output=True, text=True).stdout.strip()
+    src = scans_bag(tmp_path / "in.mcap", np.full((3, 181), 5.0))
+    stale = tmp_path / f".out.mcap.{dead}.tmp"
+    (stale / "out.mcap").mkdir(parents=True)
+    run(src, out_bag=tmp_path / "out.mcap")
+    assert (tmp_path / "out.mcap").is_file() and not stale.exists()
