@@ -1,4 +1,4 @@
-"""Choose the RL library of ``fftnav learn`` (issue 40) by measurement: PPO training throughput
+"""Choose the RL library of ``fftnav learn`` by measurement: PPO training throughput
 of each candidate on :class:`fftnav.envs.SwarmNavEnv`, side by side, and the environment alone.
 
 Run, after ``bash experiments/learn_libraries.sh ROOT`` has made one venv per candidate in

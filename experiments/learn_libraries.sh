@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# Install cost of each candidate RL library for `fftnav learn` (issue 40), measured on a fresh
+# Install cost of each candidate RL library for `fftnav learn`, measured on a fresh
 # venv per candidate, outside the repository:
 #
 #   bash experiments/learn_libraries.sh [ROOT]      # ROOT default /tmp/fftnav-learn-libraries

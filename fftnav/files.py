@@ -78,12 +78,13 @@ def check_input(path: str | os.PathLike[str]) -> Path:
 
 
 def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
-                 make_folder: bool = False, image: bool = False) -> Path:
+                 make_folder: bool = False, image: bool = False, sweep: bool = True) -> Path:
     """Refuse, before anything is computed, an output path that cannot be written: a folder,
     a FIFO, device or socket (a symbolic link is followed: its target is checked and written),
     a file in a folder that does not exist (made with ``make_folder``) or is not writable, and
     with ``image`` a name without a suffix (the image's type, which plotting libraries would
-    otherwise append to the name).
+    otherwise append to the name). With ``sweep``, the temporary files of this path that a
+    killed writer left beside it are removed (:func:`remove_stale_temporaries_of`).
 
     The message names the path as the user gave it (``--out='x'`` with ``flag="--out"``, else
     ``path='x'``).
@@ -114,6 +115,8 @@ def check_target(path: str | os.PathLike[str], *, flag: str | None = None,
                           f"{str(folder)!r})")
     if not os.access(folder, os.W_OK | os.X_OK):
         raise FftnavError(f"{name} must be in a writable folder, got {given}")
+    if sweep:
+        remove_stale_temporaries_of(target)
     return target
 
 
@@ -188,8 +191,9 @@ def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> I
     written through (its target is replaced, the link kept); a FIFO, device, socket or folder
     is refused, naming ``path`` (:func:`check_target`). An OSError while writing (a full
     disk) names ``path``, never the temporary file."""
-    target = check_target(path)
-    remove_stale_temporaries_of(target)
+    # no sweep of the folder per write (a run writes thousands into one folder): the command
+    # that names the output checks it first (check_target), a run sweeps when it resumes
+    target = check_target(path, sweep=False)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp"
                            + (target.suffix if keep_suffix else ""))
     _PENDING.add(tmp)

@@ -315,12 +315,13 @@ def test_an_input_missing_inside_a_write_keeps_its_own_error(tmp_path):
 
 
 def test_a_writer_sweeps_the_temporaries_a_killed_writer_left_beside_its_target(tmp_path):
-    """SIGKILL skips every cleanup: the next write of the same path removes the dead process's
-    temporary files of that path (and of no other path, nor a live process's)."""
+    """SIGKILL skips every cleanup: the next command naming the same output (check_target,
+    before its work) removes the dead process's temporary files of that path (and of no other
+    path, nor a live process's)."""
     import subprocess
     import sys
 
-    from fftnav.files import remove_stale_temporaries_of, write_atomic
+    from fftnav.files import check_target, remove_stale_temporaries_of, write_atomic
 
     dead = subprocess.run([sys.executable, "-c", "import os; print(os.getpid())"],
                           capture_output=True, text=True).stdout.strip()
@@ -329,6 +330,7 @@ def test_a_writer_sweeps_the_temporaries_a_killed_writer_left_beside_its_target(
             tmp_path / f".other.gif.{dead}.tmp.gif", tmp_path / "r.gif.tmp"]
     for path in (*stale, *kept):
         path.write_text("x")
+    check_target(tmp_path / "r.gif")
     write_atomic(tmp_path / "r.gif", b"GIF89a")
     assert [p.exists() for p in stale] == [False, False]
     assert all(p.exists() for p in kept)

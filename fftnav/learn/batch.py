@@ -35,7 +35,6 @@ class EpisodeTally:
 
     robots: int = 0
     arrived: int = 0
-    collided: int = 0
     episodes: int = 0
 
 
@@ -152,10 +151,8 @@ class SwarmBatch:
         if live and len(live) >= self.min_live:
             return obs, rewards, dones, truncated, False
         truncated[live] = True
-        status = np.array([int(s) for s in env.statuses()])
         self.tally.robots += self.n
-        self.tally.arrived += int((status == int(Status.ARRIVED)).sum())
-        self.tally.collided += int((status == int(Status.COLLIDED)).sum())
+        self.tally.arrived += int((core.status() == int(Status.ARRIVED)).sum())
         self.tally.episodes += 1
         dones[:] = True
         return obs, rewards, dones, truncated, True

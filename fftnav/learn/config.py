@@ -131,6 +131,12 @@ class LearnConfig:
     swarm: SwarmConfig
     source: str = field(default="", compare=False)
 
+    @property
+    def speeds(self) -> tuple[float, float] | None:
+        """``v_range`` as the learned controller's meta holds it: None for the default
+        ``[-1, 1]`` (``v = a_v v_max``)."""
+        return None if self.v_range == (-1.0, 1.0) else self.v_range
+
     def to_json(self) -> dict[str, Any]:
         """Everything that shapes the training (its ``config.json``; the source text aside)."""
         out = dataclasses.asdict(self)

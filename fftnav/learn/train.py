@@ -184,6 +184,7 @@ class _Credit:
         std = x.std(axis=0)
         self.std = np.where(std > 1e-6, std, 1.0)
         self.log.clear()
+        self.returns.clear()
 
     def features(self, obs: np.ndarray) -> np.ndarray:
         return ((obs - self.mean) / self.std).astype(np.float32)
@@ -261,7 +262,8 @@ def _credit_callback(credit: _Credit) -> Any:
                 adv[known] = (sel - sel.mean()) / (sel.std() + 1e-8)
             buf.advantages[:, 0] = adv
             buf.returns[:, 0] = np.where(known, returns, values)
-            del credit.log[:-n]
+            credit.log.clear()  # the next rollout's decisions are all new
+            credit.returns.clear()
 
     return Credit()
 
@@ -290,8 +292,8 @@ def export_policy(model: Any, config: LearnConfig,
                 "mean": standardisation[0].tolist(), "std": standardisation[1].tolist()}
     else:
         meta = {"kind": "controller", "observation": config.observation, "version": VERSION}
-        if config.v_range != (-1.0, 1.0):
-            meta["v_range"] = list(config.v_range)
+        if config.speeds is not None:
+            meta["v_range"] = list(config.speeds)
     meta["trained"] = {"library": "stable-baselines3 PPO", "seed": config.seed,
                        "samples": int(model.num_timesteps)}
     return MLP(weights=weights, biases=biases, activation="tanh", output="identity", meta=meta)
@@ -325,7 +327,7 @@ class _Run:
                 config.observation, schedule=config.train, robots=config.robots,
                 config=config.swarm, rewards=Rewards(progress=r.progress, arrival=r.arrival,
                                                      collision=r.collision, step=r.step),
-                rng=self.rng, speeds=None if config.v_range == (-1.0, 1.0) else config.v_range,
+                rng=self.rng, speeds=config.speeds,
                 min_live=max(1, math.ceil(config.min_live * config.robots)))
             self.venv = _swarm_vec_env(self.batch)
             arch["log_std_init"] = ppo.log_std_init
@@ -409,10 +411,12 @@ class _Run:
             c.mean, c.std = state["standardisation"]
         return state
 
-    def segment(self, samples: int) -> None:
-        """Train ``samples`` more learner samples, from new episodes."""
+    def segment(self, samples: int, *, progress: Any) -> None:
+        """Train ``samples`` more learner samples, from new episodes, ``progress`` (an SB3
+        callback) told after every rollout."""
         self.model._last_obs = None  # learn() starts new episodes: resuming is exact
-        self.model.learn(samples, reset_num_timesteps=False, callback=self.callback)
+        callbacks = [c for c in (self.callback, progress) if c is not None]
+        self.model.learn(samples, reset_num_timesteps=False, callback=callbacks)
 
     def close(self) -> None:
         self.venv.close()
@@ -506,8 +510,6 @@ def train(config: LearnConfig, out: str | Path, *, fresh: bool = False,
             state = run.load(out / "checkpoint")
             rows = _curve_rows(curve_path)[:state["rows"]]
             best, wall0 = tuple(state["best"]), state["wall_s"]
-        from stable_baselines3.common.callbacks import BaseCallback
-
         def validate() -> None:
             nonlocal best
             samples = int(run.model.num_timesteps)
@@ -530,14 +532,10 @@ def train(config: LearnConfig, out: str | Path, *, fresh: bool = False,
         if not rows:  # the untrained network: the curve's first point, kept as untrained.npz
             validate()
             shutil.copyfile(out / "policy.npz", out / "untrained.npz")
-        report = _progress_callback(BaseCallback, run, config, progress)
-        inner = run.callback
+        report = _progress_callback(run, config, progress)
         while run.model.num_timesteps < config.agent_steps:
-            samples = min(config.validate_every,
-                          config.agent_steps - int(run.model.num_timesteps))
-            run.callback = [inner, report] if inner is not None else report
-            run.segment(samples)
-            run.callback = inner
+            run.segment(min(config.validate_every,
+                            config.agent_steps - int(run.model.num_timesteps)), progress=report)
             validate()
     finally:
         run.close()
@@ -548,9 +546,11 @@ def train(config: LearnConfig, out: str | Path, *, fresh: bool = False,
     return TrainOutcome(out, int(run.model.num_timesteps), wall, best[0], best[1])
 
 
-def _progress_callback(base: type, run: _Run, config: LearnConfig,
+def _progress_callback(run: _Run, config: LearnConfig,
                        progress: Callable[[dict[str, Any]], None] | None) -> Any:
-    class Progress(base):  # type: ignore[misc, valid-type]
+    from stable_baselines3.common.callbacks import BaseCallback
+
+    class Progress(BaseCallback):
         def _on_step(self) -> bool:
             return True
 

@@ -9,7 +9,6 @@ group's band is the 95 % t-interval of the mean over its seeds at each validatio
 
 from __future__ import annotations
 
-import json
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -256,8 +255,6 @@ def write_learning_report(folders: Sequence[str | Path], out: str | Path, *,
                   *_md(["method", "against", "env", "maps", "SPL %", "against SPL %",
                         "gain (pts) [95 % CI]", "p", "p method"], rows)]
     write_atomic(out / "learning.md", "\n".join(lines) + "\n")
-    write_atomic(out / "learning.json", json.dumps({"threshold": threshold,
-                                                    "runs": [str(f) for f in folders]}, indent=1))
     return out / "learning.md"
 
 

@@ -3,8 +3,6 @@ against the sliding-window minimum computed in each message's own frame and beam
 around for a full turn, zero-padded for a partial field of view (so nothing is safe in a segment
 narrower than the window). Each case names the convention it builds."""
 
-import io
-import json
 import math
 
 import numpy as np
@@ -16,29 +14,13 @@ pytest.importorskip("rosbags")
 from fftnav.observe.compress import quadrant_areas  # noqa: E402
 from fftnav.observe.fusion import own_probability  # noqa: E402
 from fftnav.observe.geometry import REAL_ROBOT, RobotGeometry  # noqa: E402
-from fftnav.ros.bags import scan_bag  # noqa: E402
 from tests.ros.bagmaker import LASERSCAN, scan_msg, scans_bag, write_bag  # noqa: E402
-from tests.ros.test_bags import lidar_scans, rep117  # noqa: E402
+from tests.ros.test_bags import lidar_scans, masks, rep117, run, window  # noqa: E402
 
 TURN = 2 * math.pi
-#: The issue's two robots: masks from a full turn read as if it started at -pi agreed on 95 %
-#: and 82 % of beams with the wrapping oracle.
+#: Two robot geometries, wide and narrow: the safety windows whose wrap-around a full turn
+#: read from the wrong start gets wrong on the most beams.
 ROBOTS = [RobotGeometry(r0_m=0.2, r_m=0.5), RobotGeometry(r0_m=0.105, r_m=0.2)]
-
-
-def run(path, geometry=REAL_ROBOT, **kw):
-    out = io.StringIO()
-    scan_bag(path, topic=None, geometry=geometry, range_m=None, write=out.write, **kw)
-    return [json.loads(line) for line in out.getvalue().splitlines()]
-
-
-def masks(rows):
-    return np.array([r["safe_mask"] for r in rows], dtype=bool)
-
-
-def window(geometry, inc):
-    tc = math.ceil(geometry.alpha_rad / inc - 1e-9)
-    return tc + 1 - tc % 2
 
 
 def oracle(sent, *, geometry, inc, full, closing=False, range_max=10.0):
