@@ -11,6 +11,7 @@ standard library only.
 
 from __future__ import annotations
 
+import errno
 import glob
 import gzip
 import io
@@ -37,11 +38,11 @@ if sys.version_info >= (3, 11):
 else:  # pragma: no cover - Python 3.10
     import tomli as tomllib
 
-__all__ = ["atomic_path", "atomic_writer", "check_distinct", "check_input", "check_target",
-           "iter_csv_rows", "iter_npy_rows", "json_depth", "load_npy", "load_npz", "parse_json",
-           "read_csv_floats", "read_json", "read_lines", "read_text", "read_toml",
-           "is_temporary", "remove_pending_temporaries", "remove_stale_temporaries_of",
-           "write_atomic"]
+__all__ = ["atomic_path", "atomic_writer", "cannot_write", "check_distinct", "check_input",
+           "check_target", "iter_csv_rows", "iter_npy_rows", "json_depth", "load_npy",
+           "load_npz", "parse_json", "read_csv_floats", "read_json", "read_lines", "read_text",
+           "read_toml", "is_temporary", "remove_pending_temporaries",
+           "remove_stale_temporaries_of", "track_temporary", "write_atomic"]
 
 #: Exceptions of damaged compressed streams.
 _STREAM_ERRORS = (EOFError, zlib.error, gzip.BadGzipFile, zipfile.BadZipFile)
@@ -183,21 +184,52 @@ def remove_stale_temporaries_of(target: Path) -> int:
     return count
 
 
+def cannot_write(path: str | os.PathLike[str], exc: OSError, *,
+                 folder: str | os.PathLike[str]) -> FftnavError:
+    """The error of a temporary file or folder that could not be made in ``folder`` to write
+    ``path`` through: ``PATH: cannot write here (why)``, naming the user's path, never the
+    temporary's, and the cause in words (a folder that is not writable, a read-only file
+    system, a full disk). ``folder`` is named as its nearest existing folder, absolute.
+
+    >>> print(cannot_write("out.csv", PermissionError(13, "Permission denied", "/x/.out.csv.7.tmp"),
+    ...                    folder="/"))
+    out.csv: cannot write here (permission denied: the folder / is not writable)
+    """
+    where = Path(os.path.abspath(folder))
+    while not where.is_dir() and where != where.parent:
+        where = where.parent
+    reasons = {errno.EACCES: f"permission denied: the folder {where} is not writable",
+               errno.EPERM: f"permission denied: the folder {where} is not writable",
+               errno.EROFS: f"read-only file system: the folder {where} cannot be written",
+               errno.ENOSPC: f"no space left on the device of the folder {where}",
+               errno.EDQUOT: f"disk quota exceeded in the folder {where}"}
+    text = exc.strerror or str(exc) or type(exc).__name__
+    why = reasons.get(exc.errno, text[:1].lower() + text[1:])  # type: ignore[arg-type]
+    return FftnavError(f"{path}: cannot write here ({why})")
+
+
 @contextmanager
 def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> Iterator[Path]:
     """A temporary path beside ``path`` (``.NAME.PID.tmp``, ending in ``path``'s suffix too with
-    ``keep_suffix``, for writers that choose the format by it) to write ``path`` through:
-    renamed over it when the block ends, removed if the block raises. A symbolic link is
-    written through (its target is replaced, the link kept); a FIFO, device, socket or folder
-    is refused, naming ``path`` (:func:`check_target`). An OSError while writing (a full
-    disk) names ``path``, never the temporary file."""
+    ``keep_suffix``, for writers that choose the format by it) to write ``path`` through: made
+    (empty) before the block runs, renamed over ``path`` when the block ends, removed if the
+    block raises. A symbolic link is written through (its target is replaced, the link kept); a
+    FIFO, device, socket or folder is refused, naming ``path`` (:func:`check_target`). A
+    temporary file that cannot be made (a folder that is not writable, a read-only file system)
+    is one ValueError naming ``path`` and why (:func:`cannot_write`); an OSError while writing
+    (a full disk), and a ValueError of the block whose message names the temporary file (a
+    writer's own "could not be written"), name ``path`` instead."""
     # no sweep of the folder per write (a run writes thousands into one folder): the command
     # that names the output checks it first (check_target), a run sweeps when it resumes
     target = check_target(path, sweep=False)
     tmp = target.with_name(f".{target.name}.{os.getpid()}.tmp"
                            + (target.suffix if keep_suffix else ""))
-    _PENDING.add(tmp)
+    _PENDING.add(tmp)  # before the file exists: a second Ctrl-C's exit removes it too
     try:
+        try:
+            os.close(os.open(tmp, os.O_WRONLY | os.O_CREAT | os.O_TRUNC, 0o666))
+        except OSError as exc:
+            raise cannot_write(path, exc, folder=target.parent) from None
         yield tmp
         os.replace(tmp, target)
     except OSError as exc:
@@ -206,6 +238,11 @@ def atomic_path(path: str | os.PathLike[str], *, keep_suffix: bool = False) -> I
         if exc.errno is None or named not in (None, str(tmp), str(target)):
             raise  # not the write: e.g. an input the block read
         raise OSError(exc.errno, f"cannot write {str(path)!r}: {exc.strerror}") from None
+    except ValueError as exc:  # a writer's own message, e.g. a video that does not decode
+        tmp.unlink(missing_ok=True)
+        if exc.args and isinstance(exc.args[0], str) and str(tmp) in exc.args[0]:
+            exc.args = (exc.args[0].replace(str(tmp), str(path)), *exc.args[1:])
+        raise
     except BaseException:
         tmp.unlink(missing_ok=True)
         raise

@@ -6,6 +6,7 @@ from __future__ import annotations
 
 import errno
 import os
+import re
 import signal
 import subprocess
 import sys
@@ -335,3 +336,136 @@ def test_a_writer_sweeps_the_temporaries_a_killed_writer_left_beside_its_target(
     assert [p.exists() for p in stale] == [False, False]
     assert all(p.exists() for p in kept)
     assert remove_stale_temporaries_of(tmp_path / "other.gif") == 1
+
+
+# ------------------------------------------------- a temporary that cannot be made (read-only)
+
+
+def _refuse_temporaries(monkeypatch, code: int) -> None:
+    """Making a temporary file (``os.open``) or a bag's temporary folder (``Path.mkdir``) fails
+    with ``code``, as the kernel answers in a folder that is not writable (EACCES), on a
+    read-only file system (EROFS) or on a full disk (ENOSPC); everything else is made."""
+    from fftnav.files import is_temporary
+
+    real_open, real_mkdir = os.open, Path.mkdir
+
+    def refuse(path):
+        raise OSError(code, os.strerror(code), os.fspath(path))
+
+    def fake_open(path, flags, *args, **kwargs):
+        if is_temporary(Path(path)):
+            refuse(path)
+        return real_open(path, flags, *args, **kwargs)
+
+    def fake_mkdir(self, *args, **kwargs):
+        if is_temporary(self):
+            refuse(self)
+        return real_mkdir(self, *args, **kwargs)
+
+    monkeypatch.setattr("fftnav.files.os.open", fake_open)
+    monkeypatch.setattr(Path, "mkdir", fake_mkdir)
+
+
+#: What each refusal reads as, for the folder ``{f}``.
+_REASONS = {errno.EACCES: "permission denied: the folder {f} is not writable",
+            errno.EROFS: "read-only file system: the folder {f} cannot be written",
+            errno.ENOSPC: "no space left on the device of the folder {f}"}
+
+
+def _write_atomic(path):
+    write_atomic(path, "x")
+
+
+def _atomic_writer(path):
+    from fftnav.files import atomic_writer
+
+    with atomic_writer(path) as fh:
+        fh.write(b"x")
+
+
+def _atomic_path(path):
+    with atomic_path(path, keep_suffix=True) as tmp:
+        tmp.write_bytes(b"x")
+
+
+def _bag_file(path):
+    pytest.importorskip("rosbags")
+    from fftnav.ros.bags import BagWriter
+
+    with BagWriter(path, ros1=False, storage="mcap", single=True):
+        pass
+
+
+@pytest.mark.parametrize("code", list(_REASONS))
+@pytest.mark.parametrize("write", [_write_atomic, _atomic_writer, _atomic_path, _bag_file])
+def test_a_temporary_that_cannot_be_made_names_the_users_path_and_why(tmp_path, monkeypatch,
+                                                                        write, code):
+    _refuse_temporaries(monkeypatch, code)
+    monkeypatch.chdir(tmp_path)
+    reason = _REASONS[code].format(f=tmp_path)
+    with pytest.raises(ValueError, match=rf"^out\.csv: cannot write here "
+                                         rf"\({re.escape(reason)}\)$"):
+        write("out.csv")
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_bag_folder_in_missing_folders_names_the_nearest_existing_one(tmp_path, monkeypatch):
+    """mkdir(parents=True) makes the missing folders first: the folder that refused is the
+    nearest one that exists."""
+    _refuse_temporaries(monkeypatch, errno.EACCES)
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(tmp_path))}/a/b/x\.mcap: cannot "
+                                         rf"write here \(permission denied: the folder "
+                                         rf"{re.escape(str(tmp_path))} is not writable\)$"):
+        _bag_file(tmp_path / "a" / "b" / "x.mcap")
+
+
+def test_the_cli_says_so_in_one_line_exit_2(tmp_path, monkeypatch, capsys):
+    pytest.importorskip("rosbags")
+    from fftnav.cli import main
+    from tests.ros.bagmaker import scans_bag
+
+    bag = scans_bag(tmp_path / "b.mcap", np.full((2, 90), 5.0))
+    out = tmp_path / "out"
+    out.mkdir()
+    _refuse_temporaries(monkeypatch, errno.EACCES)
+    why = f"cannot write here (permission denied: the folder {out} is not writable)"
+    assert main(["world", "generate", "--env", "forest", "--seed", "3", "--size", "8", "8",
+                 "--out", str(out / "w.json")]) == 2
+    assert capsys.readouterr().err == f"fftnav world: error: {out / 'w.json'}: {why}\n"
+    assert main(["scan", str(bag), "--out-bag", str(out / "a.mcap")]) == 2
+    captured = capsys.readouterr()
+    assert captured.err == f"fftnav scan: error: {out / 'a.mcap'}: {why}\n"
+    assert list(out.iterdir()) == []
+
+
+def test_a_writers_own_message_names_the_users_path_not_the_temporary(tmp_path, monkeypatch,
+                                                                       capsys):
+    """A ValueError of the block that names the temporary file (a video writer's "could not be
+    written") names the user's path; one naming another file is left alone."""
+    from fftnav.cli import main
+    from fftnav.errors import FftnavError
+    from fftnav.report import replay
+    from tests.report.recordings import make_recording
+
+    with pytest.raises(ValueError, match=rf"^{re.escape(str(tmp_path))}/r\.gif: the GIF could "
+                                         r"not be written \(no space left on device\)$"):
+        with atomic_path(tmp_path / "r.gif", keep_suffix=True) as tmp:
+            raise FftnavError(f"{tmp}: the GIF could not be written (no space left on device)")
+    with pytest.raises(ValueError, match=r"^in\.csv: bad$"):
+        with atomic_path(tmp_path / "r.gif", keep_suffix=True):
+            raise FftnavError("in.csv: bad")
+    assert list(tmp_path.iterdir()) == []
+
+    def full_disk(path, frames, fps):
+        next(iter(frames))
+        Path(path).write_bytes(b"GIF89a")
+        raise OSError(errno.ENOSPC, os.strerror(errno.ENOSPC))
+
+    make_recording(tmp_path / "r.npz")
+    out = tmp_path / "out"
+    out.mkdir()
+    monkeypatch.setattr(replay, "_write_gif", full_disk)
+    assert main(["replay", str(tmp_path / "r.npz"), "--out", str(out / "r.gif")]) == 2
+    assert capsys.readouterr().err == (f"fftnav replay: error: {out / 'r.gif'}: the GIF could "
+                                       f"not be written (no space left on device)\n")
+    assert list(out.iterdir()) == []

@@ -98,6 +98,11 @@ def main(argv: Sequence[str] | None = None) -> int:
         sys.stderr.write(f"fftnav {args.command}: terminated\n")
         return EXIT_TERMINATED
     except (CliError, ValueError, OSError) as exc:
+        if _stopped_by is not None:  # the stop's exception, replaced by code that caught it
+            stopped = _stopped_by == signal.SIGTERM
+            sys.stderr.write(f"fftnav {args.command}: "
+                             f"{'terminated' if stopped else 'interrupted'}\n")
+            return EXIT_TERMINATED if stopped else EXIT_INTERRUPTED
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         sys.stderr.write(f"fftnav {args.command}: error: {msg}\n")
         return EXIT_USAGE
@@ -128,23 +133,27 @@ def _exit_now(signum: int, frame: object) -> None:
 
 #: Set by the first Ctrl-C or SIGTERM: the process is stopping.
 _stopping = False
+#: The first stop signal (SIGINT or SIGTERM) the process received; None while it runs. Code
+#: that catches the stop's exception and raises its own (matplotlib's C++ drawing turns an
+#: interrupt into a ValueError) still ends the command as stopped.
+_stopped_by: int | None = None
 
 
-def _stop() -> None:
+def _stop(signum: int) -> None:
     """A first Ctrl-C or SIGTERM: the process is stopping; the next one of either exits now."""
-    global _stopping
-    _stopping = True
+    global _stopping, _stopped_by
+    _stopping, _stopped_by = True, signum
     signal.signal(signal.SIGINT, _exit_now)
     signal.signal(signal.SIGTERM, _exit_now)
 
 
 def _on_sigint(signum: int, frame: object) -> None:
-    _stop()
+    _stop(signum)
     raise KeyboardInterrupt
 
 
 def _on_sigterm(signum: int, frame: object) -> None:
-    _stop()
+    _stop(signum)
     raise Terminated
 
 
@@ -189,6 +198,9 @@ def entry() -> None:
     install_signal_handlers()
     status = main()
     if status in (EXIT_INTERRUPTED, EXIT_TERMINATED):
+        from fftnav.files import remove_pending_temporaries
+
+        remove_pending_temporaries()  # any whose own cleanup the signal cut short
         # Already stopping and cleaned up: skip the interpreter's teardown (about half a second
         # with pandas and Dask loaded), during which a further Ctrl-C would kill the process by
         # signal instead of exiting with the status.

@@ -119,6 +119,8 @@ def cmd_episode(args: argparse.Namespace) -> int:
     with EpisodeBag(args.bag, world, config) if args.bag else contextlib.nullcontext() as bag:
         result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui,
                              record=bool(args.record), on_tick=bag)
+        if bag is not None:
+            bag.finish(result.rows, result.trajectories)
     text = episode_csv(result.rows)
     if args.out:
         write_atomic(args.out, text)

@@ -40,7 +40,8 @@ from fftnav.observe.safe import safe_tolerance
 from fftnav.observe.scan import sanitize_ranges
 from fftnav.validate import Checked, check_number, integer_field, number_field
 
-__all__ = ["SphericalGrid", "Band", "DiscFilterBank", "disc_footprint", "sanitize_depth"]
+__all__ = ["SphericalGrid", "Band", "DiscFilterBank", "disc_footprint", "narrow_reason",
+           "sanitize_depth"]
 
 
 
@@ -157,6 +158,39 @@ def disc_footprint(grid: SphericalGrid, elevation_rad: float, *, half_angle_rad:
     return fp[:, b_max - b: b_max + b + 1]
 
 
+def _check_range(range_m: float, geometry: RobotGeometry) -> None:
+    """Refuse a range that is not finite or not above the robot's l_th."""
+    l_th = geometry.l_th_m
+    if not (isinstance(range_m, (int, float)) and math.isfinite(range_m) and range_m > l_th):
+        raise FftnavError(
+            f"range_m must be finite and > l_th_m={l_th:.4g}, got range_m={range_m!r}")
+
+
+def narrow_reason(grid: SphericalGrid, *, geometry: RobotGeometry = DRONE,
+                  range_m: float = 10.0) -> str | None:
+    """Why an image on ``grid`` has no safe pixel whatever it holds, because it has fewer rows or
+    columns than the disc filter at the horizon (the 2D pipeline's segment narrower than the
+    safety window); None when the filter fits and :class:`DiscFilterBank` can be made.
+
+    ``range_m`` is checked as the bank checks it (ValueError).
+
+    >>> import math
+    >>> narrow_reason(SphericalGrid(5, 360, math.radians(10), 2 * math.pi))
+    'image narrower than the disc filter: 5 rows, its footprint for alpha=26.7 deg spans 11 rows'
+    """
+    _check_range(range_m, geometry)
+    need = disc_footprint(grid, 0.0, half_angle_rad=geometry.alpha_rad / 2).shape
+    short = [(name, have, n) for name, have, n in zip(("rows", "columns"),
+                                                       (grid.rows, grid.cols), need, strict=True)
+             if have < n]
+    if not short:
+        return None
+    have = " and ".join(f"{h} {name}" for name, h, _ in short)
+    spans = " and ".join(f"{n} {name}" for name, _, n in short)
+    return (f"image narrower than the disc filter: {have}, its footprint for "
+            f"alpha={geometry.alpha_deg:.1f} deg spans {spans}")
+
+
 class Band(NamedTuple):
     """Rows filtered together and their common footprint (see :class:`DiscFilterBank`)."""
 
@@ -189,17 +223,15 @@ class DiscFilterBank:
     ------
     ValueError
         If ``range_m`` is not above l_th, ``band_widening`` is not above 1 or the horizon's
-        disc footprint does not fit in the grid.
+        disc footprint does not fit in the grid (:func:`narrow_reason` tells that case apart).
     """
 
     def __init__(
         self, grid: SphericalGrid, *, geometry: RobotGeometry = DRONE, range_m: float = 10.0,
         band_widening: float = 1.1,
     ) -> None:
+        _check_range(range_m, geometry)
         l_th = geometry.l_th_m
-        if not (isinstance(range_m, (int, float)) and math.isfinite(range_m) and range_m > l_th):
-            raise FftnavError(
-                f"range_m must be finite and > l_th_m={l_th:.4g}, got range_m={range_m!r}")
         check_number("band_widening", band_widening, low=1, low_open=True)
         self.grid, self.geometry, self.range_m = grid, geometry, float(range_m)
         self.threshold = l_th / self.range_m

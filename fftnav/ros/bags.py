@@ -30,7 +30,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.errors import FftnavError
-from fftnav.files import remove_stale_temporaries_of, track_temporary
+from fftnav.files import cannot_write, remove_stale_temporaries_of, track_temporary
 from fftnav.limits import MAX_BEAMS, check_limit
 from fftnav.observe.geometry import RobotGeometry
 from fftnav.ros import check_not_special, require_rosbags
@@ -398,7 +398,10 @@ def _out_kind(out: Path, bag: Path) -> tuple[bool, str | None, bool]:
 
 class BagFile:
     """A bag written into a temporary folder beside ``out`` and moved to ``out`` whole when it
-    closes (:meth:`close`); :meth:`discard` leaves nothing behind.
+    closes (:meth:`close`), its chunks compressed (MCAP: zstd; ROS 1: LZ4). :meth:`discard`
+    leaves nothing behind, and so does an interrupt while it is being made. A temporary folder
+    that cannot be made (a folder that is not writable, a read-only file system) is one
+    ValueError naming ``out`` and why (:func:`fftnav.files.cannot_write`).
 
     Parameters
     ----------
@@ -414,28 +417,44 @@ class BagFile:
         from rosbags.rosbag1 import Writer as Writer1
         from rosbags.rosbag2 import StoragePlugin
         from rosbags.rosbag2 import Writer as Writer2
+        from rosbags.rosbag2.enums import CompressionFormat, CompressionMode
 
-        out = Path(out)
+        given = Path(out)
         # a symbolic link is written through, not replaced by the bag
-        self.out = out.resolve() if out.is_symlink() else out
+        self.out = given.resolve() if given.is_symlink() else given
         self.ros1, self.storage, self.single = ros1, storage, single
-        self.tmp = self.out.parent / f".{self.out.name}.{os.getpid()}.tmp"
-        remove_stale_temporaries_of(self.out)  # a killed writer's bag folder beside it
-        shutil.rmtree(self.tmp, ignore_errors=True)
-        self.tmp.mkdir(parents=True)
-        track_temporary(self.tmp)  # removed by a second Ctrl-C's exit too
-        target = self.tmp / self.out.name
-        try:
+        self.tmp = self.temporary(given)
+        self.writer: Any = None
+        track_temporary(self.tmp)  # before it exists: a second Ctrl-C's exit removes it too
+        try:  # everything after the folder is made inside: an interrupt anywhere removes it
+            remove_stale_temporaries_of(self.out)  # a killed writer's bag folder beside it
+            shutil.rmtree(self.tmp, ignore_errors=True)
+            try:
+                self.tmp.mkdir(parents=True)
+            except OSError as exc:
+                raise cannot_write(given, exc, folder=self.tmp.parent) from None
+            target = self.tmp / self.out.name
             if ros1:
-                self.writer: Any = Writer1(target)
+                self.writer = Writer1(target)
+                self.writer.set_compression(Writer1.CompressionFormat.LZ4)
             else:
                 plugin = StoragePlugin.MCAP if storage == "mcap" else StoragePlugin.SQLITE3
                 self.writer = Writer2(target, version=8, storage_plugin=plugin)
+                if storage == "mcap":  # zstd chunks, as ros2 bag record --storage mcap does
+                    self.writer.set_compression(CompressionMode.STORAGE, CompressionFormat.ZSTD)
             self.writer.open()
+            self.store = rosmsg.typestore(ros1=ros1)
         except BaseException:
             self.discard()
             raise
-        self.store = rosmsg.typestore(ros1=ros1)
+
+    @staticmethod
+    def temporary(out: str | Path) -> Path:
+        """The temporary folder a bag to ``out`` is written in: ``.NAME.PID.tmp`` beside it (beside
+        the target of a symbolic link)."""
+        out = Path(out)
+        out = out.resolve() if out.is_symlink() else out
+        return out.parent / f".{out.name}.{os.getpid()}.tmp"
 
     def add(self, topic: str, msgtype: str) -> Any:
         """A connection for ``topic`` with this bag's message definitions."""
@@ -460,15 +479,17 @@ class BagFile:
 
     def discard(self) -> None:
         """Drop the bag being written."""
-        with contextlib.suppress(Exception):
-            self.writer.close()
+        if self.writer is not None:
+            with contextlib.suppress(Exception):
+                self.writer.close()
         shutil.rmtree(self.tmp, ignore_errors=True)
         track_temporary(self.tmp, done=True)
 
 
 class BagWriter:
     """A bag written through a :class:`BagFile` in a ``with`` block: :meth:`setup` runs on
-    entry; the bag is moved into place when the block ends without error, dropped otherwise."""
+    entry; the bag is moved into place when the block ends without error, dropped otherwise
+    (an interrupt during the entry too)."""
 
     def __init__(self, out: str | Path, *, ros1: bool, storage: str | None,
                  single: bool) -> None:
@@ -478,12 +499,19 @@ class BagWriter:
         """Add the connections (and messages) the bag starts with."""
 
     def __enter__(self) -> Any:
-        self.file = BagFile(self.out, ros1=self.ros1, storage=self.storage, single=self.single)
-        self.store = self.file.store
+        self.file: BagFile | None = None
         try:
+            self.file = BagFile(self.out, ros1=self.ros1, storage=self.storage,
+                                single=self.single)
+            self.store = self.file.store
             self.setup()
         except BaseException:
-            self.file.discard()
+            if self.file is not None:
+                self.file.discard()
+            # an interrupt between the BagFile's return and its assignment: by its name
+            tmp = BagFile.temporary(self.out)
+            shutil.rmtree(tmp, ignore_errors=True)
+            track_temporary(tmp, done=True)
             raise
         return self
 
@@ -566,8 +594,10 @@ class AnnotatedBag(BagWriter):
                         rosmsg.make(s, MARKER_ARRAY, markers=[_wedges(s, msg, head, mask, length)]))
 
 
-def _wedges(s: Any, msg: Any, head: Any, mask: np.ndarray, length: np.ndarray) -> Any:
-    """One TRIANGLE_LIST marker: a wedge per safe beam (DELETE when no beam is safe)."""
+def _wedges(s: Any, msg: Any, head: Any, mask: np.ndarray, length: np.ndarray, *,
+            ns: str = "fftnav/safe_directions") -> Any:
+    """One TRIANGLE_LIST marker in namespace ``ns``: a wedge per safe beam of the LaserScan
+    ``msg``'s layout, ``length`` (m) long (DELETE when no beam is safe)."""
     inc = float(msg.angle_increment)
     beams = np.flatnonzero(mask)
     theta = float(msg.angle_min) + beams * inc
@@ -575,12 +605,13 @@ def _wedges(s: Any, msg: Any, head: Any, mask: np.ndarray, length: np.ndarray) -
     r = length[beams]
     x0, y0 = r * np.cos(theta - half), r * np.sin(theta - half)
     x1, y1 = r * np.cos(theta + half), r * np.sin(theta + half)
-    origin = rosmsg.point(s, 0.0, 0.0)
+    point = s.types["geometry_msgs/msg/Point"]
+    origin = point(0.0, 0.0, 0.0)
     points = []
     for a, b, c, d in zip(x0.tolist(), y0.tolist(), x1.tolist(), y1.tolist(), strict=True):
-        points += [origin, rosmsg.point(s, a, b), rosmsg.point(s, c, d)]
+        points += [origin, point(a, b, 0.0), point(c, d, 0.0)]
     return rosmsg.make(
-        s, "visualization_msgs/msg/Marker", header=head, ns="fftnav/safe_directions", id=0,
+        s, "visualization_msgs/msg/Marker", header=head, ns=ns, id=0,
         type=rosmsg.TRIANGLE_LIST, action=rosmsg.ADD if len(beams) else rosmsg.DELETE,
         pose=rosmsg.make(s, "geometry_msgs/msg/Pose",
                          orientation=rosmsg.yaw_quaternion(s, 0.0)),

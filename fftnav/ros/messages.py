@@ -8,6 +8,7 @@ The typestore comes from rosbags (:func:`typestore`); this module never imports 
 
 from __future__ import annotations
 
+import functools
 import math
 from typing import Any
 
@@ -19,7 +20,7 @@ from fftnav.ros import require_rosbags
 __all__ = ["make", "stamp", "typestore", "yaw_quaternion"]
 
 #: Marker types and actions used here (visualization_msgs/Marker constants).
-LINE_LIST, SPHERE_LIST, TRIANGLE_LIST = 5, 7, 11
+ARROW, SPHERE, CYLINDER, LINE_LIST, SPHERE_LIST, TEXT, TRIANGLE_LIST = 0, 2, 3, 5, 7, 9, 11
 ADD, DELETE = 0, 2
 
 
@@ -37,10 +38,16 @@ def typestore(ros1: bool) -> Any:
     return store
 
 
-def _zero(store: Any, node: tuple) -> Any:
+@functools.cache
+def _nodetype() -> Any:
     require_rosbags()
     from rosbags.typesys.base import Nodetype
 
+    return Nodetype
+
+
+def _zero(store: Any, node: tuple) -> Any:
+    Nodetype = _nodetype()  # noqa: N806 (rosbags' enum)
     kind, spec = node
     if kind == Nodetype.NAME:
         return make(store, spec)
@@ -92,6 +99,18 @@ def point(store: Any, x: float, y: float, z: float = 0.0) -> Any:
 def color(store: Any, r: float, g: float, b: float, a: float) -> Any:
     """A ``std_msgs/ColorRGBA``."""
     return store.types["std_msgs/msg/ColorRGBA"](float(r), float(g), float(b), float(a))
+
+
+def pose(store: Any, x: float = 0.0, y: float = 0.0, z: float = 0.0, yaw_rad: float = 0.0
+         ) -> Any:
+    """A ``geometry_msgs/Pose`` at ``(x, y, z)`` turned by ``yaw_rad`` about z."""
+    return make(store, "geometry_msgs/msg/Pose", position=point(store, x, y, z),
+                orientation=yaw_quaternion(store, yaw_rad))
+
+
+def vector(store: Any, x: float = 0.0, y: float = 0.0, z: float = 0.0) -> Any:
+    """A ``geometry_msgs/Vector3``."""
+    return make(store, "geometry_msgs/msg/Vector3", x=float(x), y=float(y), z=float(z))
 
 
 def serialize(store: Any, msg: Any, msgtype: str, ros1: bool) -> bytes:

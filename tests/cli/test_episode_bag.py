@@ -58,18 +58,27 @@ def test_round_trip_gives_the_episodes_own_masks_message_by_message(episode, rob
     assert 0.05 < got.mean() < 0.95
     times = np.array([r["stamp_sec"] + r["stamp_nanosec"] * 1e-9 for r in rows])
     np.testing.assert_allclose(times, rec.time_s[moving], atol=1e-9)
-    assert {r["frame_id"] for r in rows} == {f"robot_{robot}/base_link"}
+    assert {r["frame_id"] for r in rows} == {f"robot_{robot}/laser"}
 
 
 def test_the_bag_holds_world_tf_and_each_robots_topics(episode):
     bag, rec = episode
     types, msgs = read_bag(bag)
+    failed = [f"robot_{r['robot']}: {r['failure']}" for r in rec.rows if not r["arrived"]]
+    markers = "visualization_msgs/msg/MarkerArray"
     assert types == {
-        "/world": "visualization_msgs/msg/MarkerArray", "/tf": "tf2_msgs/msg/TFMessage",
+        "/world": markers, "/tf": "tf2_msgs/msg/TFMessage",
+        "/tf_static": "tf2_msgs/msg/TFMessage", "/fftnav/robots": markers,
+        **({"/fftnav/failures": markers} if failed else {}),
         **{f"/robot_{i}/{name}": kind for i in range(2) for name, kind in (
             ("scan", "sensor_msgs/msg/LaserScan"), ("odom", "nav_msgs/msg/Odometry"),
             ("cmd_vel", "geometry_msgs/msg/Twist"),
-            ("messages", "std_msgs/msg/UInt8MultiArray"))}}
+            ("messages", "std_msgs/msg/UInt8MultiArray"),
+            ("fftnav/safe_scan", "sensor_msgs/msg/LaserScan"),
+            ("fftnav/safe_directions", markers))}}
+    assert [m.text for _, a in msgs.get("/fftnav/failures", []) for m in a.markers
+            if m.ns.endswith("/cause")] == failed
+    assert failed  # the CLI writes the failures (EpisodeBag.finish)
     (_, world), = msgs["/world"]
     outline = world.markers[0]
     assert len(outline.points) == 2 * sum(len(o.outline()) for o in rec.world.solids)

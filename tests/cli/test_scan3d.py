@@ -98,7 +98,10 @@ def test_scan3d_options_change_the_filter(tmp_path) -> None:
         (np.ones((90, 360)), ("--range", "2"), r"range_m must be finite and > l_th_m=2.817"),
         (np.ones((90, 360)), ("--range", "x"), r"invalid float value: 'x'"),
         (np.ones((1, 360)), (), r"rows must be an integer >= 2, got rows=1"),
-        (np.ones((5, 360)), ("--fov-el", "10"), r"rows must be >= the disc footprint's 11 .*=5"),
+        # a narrow image is answered (below), but not with a bad option
+        (np.ones((5, 360)), ("--fov-el", "10", "--range", "2"),
+         r"range_m must be finite and > l_th_m=2.817"),
+        (np.ones((5, 360)), ("--fov-el", "10", "--r", "0.1"), r"r_m must be finite and > r0_m"),
     ],
 )
 def test_scan3d_bad_input_is_one_line_exit_2(tmp_path, content, args, match) -> None:
@@ -109,6 +112,93 @@ def test_scan3d_bad_input_is_one_line_exit_2(tmp_path, content, args, match) -> 
     lines = proc.stderr.strip().splitlines()
     assert len(lines) == 1 and "Traceback" not in proc.stderr
     assert re.search(match, lines[0]), lines[0]
+
+
+#: A grid of 1 degree steps (27 x 27 pixels over 26 x 26 degrees) and the paper's drone: alpha / 2 =
+#: asin(0.15 / 0.65) = 13.34 deg, so the horizon's disc reaches 13 rows and 13 columns from its
+#: centre and spans 27 x 27 pixels; every row's disc (|elevation| <= 13 deg) reaches 13 columns
+#: along its own row (14 needs an elevation of 17.6 deg or more), so the image has room for the
+#: disc of its centre pixel only. One pixel narrower, in either direction, it has none.
+NARROW = ("image narrower than the disc filter: {have}, its footprint for alpha=26.7 deg spans "
+          "{need}")
+
+
+def _open_image(rows: int, cols: int) -> np.ndarray:
+    return np.full((rows, cols), np.inf)  # no return anywhere: open
+
+
+@pytest.mark.parametrize(("rows", "cols", "have", "need"), [
+    (26, 27, "26 rows", "27 rows"),
+    (27, 26, "26 columns", "27 columns"),
+    (26, 26, "26 rows and 26 columns", "27 rows and 27 columns"),
+])
+def test_an_image_one_pixel_narrower_than_the_disc_is_all_unsafe_with_a_reason(
+        tmp_path, rows, cols, have, need) -> None:
+    path = tmp_path / "narrow.npy"
+    np.save(path, _open_image(rows, cols))
+    proc = _run("scan3d", str(path), "--fov-el", str(rows - 1), "--fov-az", str(cols - 1))
+    assert proc.returncode == 0 and proc.stderr == ""
+    out = json.loads(proc.stdout)
+    assert out["reason"] == NARROW.format(have=have, need=need)
+    assert np.array(out["safe_mask"]).shape == (rows, cols)
+    assert not np.array(out["safe_mask"]).any() and out["safe_fraction"] == 0.0
+    assert out["bands"] == [] and (out["rows"], out["cols"]) == (rows, cols)
+
+
+def test_an_image_just_wide_enough_gets_the_sliding_window_result(tmp_path) -> None:
+    """27 x 27 pixels: the centre pixel's disc is the whole image (open: safe); every other
+    pixel's reaches past an edge, where the zero padding blocks it (the paper's Tc < i < M - Tc)."""
+    path = tmp_path / "fits.npy"
+    np.save(path, _open_image(27, 27))
+    proc = _run("scan3d", str(path), "--fov-el", "26", "--fov-az", "26")
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    expected = np.zeros((27, 27), int)
+    expected[13, 13] = 1
+    assert "reason" not in out and len(out["bands"]) == 1
+    np.testing.assert_array_equal(out["safe_mask"], expected)
+
+
+def test_a_full_turn_just_tall_enough_blocks_the_disc_around_an_obstacle(tmp_path) -> None:
+    """27 rows over 26 degrees, 360 columns over a full turn: only the horizon row can be safe,
+    and there every pixel but the 13 columns on each side of an obstacle (1 m away, inside l_th;
+    wrapping around the seam) is; 26 rows over 25 degrees: nothing, with the reason."""
+    depth = _open_image(27, 360)
+    depth[13, 5] = 1.0  # azimuth -175 deg: its disc wraps past -180
+    np.save(tmp_path / "tall.npy", depth)
+    np.save(tmp_path / "short.npy", depth[1:])
+    proc = _run("scan3d", str(tmp_path / "tall.npy"), "--fov-el", "26")
+    assert proc.returncode == 0, proc.stderr
+    mask = np.array(json.loads(proc.stdout)["safe_mask"])
+    cols = np.arange(360)
+    gap = np.minimum(np.abs(cols - 5), 360 - np.abs(cols - 5))  # columns from the obstacle
+    np.testing.assert_array_equal(mask[13], (gap > 13).astype(int))
+    assert not np.delete(mask, 13, axis=0).any()
+    proc = _run("scan3d", str(tmp_path / "short.npy"), "--fov-el", "25")
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["reason"] == NARROW.format(have="26 rows", need="27 rows")
+    assert not np.array(out["safe_mask"]).any()
+
+
+def test_narrow_reason_agrees_with_the_bank_it_stands_for() -> None:
+    """The library: None where DiscFilterBank can be made, the reason where it refuses the
+    grid; the paper's 90 x 360 image fits."""
+    from fftnav.observe.spherical import narrow_reason
+
+    assert narrow_reason(SphericalGrid(90, 360)) is None
+    for rows, cols in ((27, 27), (26, 27), (27, 26)):
+        grid = SphericalGrid(rows, cols, math.radians(rows - 1), math.radians(cols - 1))
+        reason = narrow_reason(grid)
+        if reason is None:
+            DiscFilterBank(grid)
+        else:
+            with pytest.raises(ValueError, match=r"(rows|cols) must be >= the disc footprint's "
+                                                 r"27 for alpha=26\.7 deg, got \1=26"):
+                DiscFilterBank(grid)
+    with pytest.raises(ValueError, match=r"range_m must be finite and > l_th_m=2\.817, got "
+                                         r"range_m=2"):
+        narrow_reason(SphericalGrid(5, 360, math.radians(10)), range_m=2)
 
 
 def test_scan3d_refuses_an_npz_archive(tmp_path) -> None:

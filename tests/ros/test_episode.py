@@ -3,9 +3,14 @@ import pytest
 
 pytest.importorskip("rosbags")
 
-from fftnav.config import SwarmConfig  # noqa: E402
+from fftnav.config import EpisodeConfig, SwarmConfig  # noqa: E402
 from fftnav.episode import episode_csv, run_episode  # noqa: E402
+from fftnav.episode.recording import read_recording  # noqa: E402
+from fftnav.navigation.controllers import Controller  # noqa: E402
+from fftnav.report.replay import failure_ticks  # noqa: E402
 from fftnav.ros.episode import EpisodeBag  # noqa: E402
+from fftnav.states import Status  # noqa: E402
+from fftnav.world import Circle, World  # noqa: E402
 from fftnav.world.generate import generate_world  # noqa: E402
 
 
@@ -83,3 +88,159 @@ def test_special_targets_are_refused_and_links_written_through(world, tmp_path):
         run_episode(world, "fusion", seed=2, config=CONFIG.replace({"time_limit_s": "0.5"}),
                     on_tick=bag)
     assert link.is_symlink() and real.read_bytes()[:8] == b"\x89MCAP0\r\n"
+
+
+# -- what a viewer needs: latched topics, safe directions, robots and failures --------------
+
+UP = np.pi / 2
+LATCHED = {"/world", "/tf_static"}
+
+
+class Straight(Controller):
+    """Drives straight at its goal, no pipeline."""
+
+    uses_pipeline = False
+
+    def act(self, obs):
+        return self.v_max_mps, 2.0 * obs.goal_bearing_rad
+
+
+def read(path):
+    """Every connection (topic -> Connection) and message (topic -> [(t_ns, msg)])."""
+    from rosbags.highlevel import AnyReader
+
+    with AnyReader([path]) as reader:
+        conns = {c.topic: c for c in reader.connections}
+        msgs = {t: [] for t in conns}
+        for conn, t_ns, raw in reader.messages():
+            msgs[conn.topic].append((t_ns, reader.deserialize(raw, conn.msgtype)))
+    return conns, msgs
+
+
+def recorded(world, policy, config, path, seed=2):
+    """The episode written to the bag ``path``, its result and its recording."""
+    with EpisodeBag(path, world, config) as bag:
+        result = run_episode(world, policy, seed=seed, config=config, on_tick=bag, record=True)
+        bag.finish(result.rows, result.trajectories)
+    rec_path = path.with_suffix(".npz")
+    rec_path.write_bytes(result.recording())
+    return result, read_recording(rec_path)
+
+
+@pytest.mark.parametrize("name", ["ep.mcap", "ep.db3", "ep.bag"])
+def test_world_and_tf_static_are_latched_and_nothing_else(world, tmp_path, name):
+    config = CONFIG.replace({"time_limit_s": "0.3"})
+    recorded(world, "fusion", config, tmp_path / name)
+    conns, msgs = read(tmp_path / name)
+    for topic, conn in conns.items():
+        if name == "ep.bag":  # ROS 1: the connection header's latching flag
+            assert bool(conn.ext.latching) == (topic in LATCHED), topic
+            continue
+        qos = conn.ext.offered_qos_profiles
+        if topic in LATCHED:  # ROS 2: what RViz's transient-local subscription matches
+            from rosbags.interfaces import QosDurability, QosHistory, QosReliability
+
+            (q,) = qos
+            assert (q.durability, q.history, q.depth, q.reliability) == (
+                QosDurability.TRANSIENT_LOCAL, QosHistory.KEEP_LAST, 1, QosReliability.RELIABLE)
+        else:
+            assert not qos, topic
+    (_, static), = msgs["/tf_static"]
+    assert [(t.header.frame_id, t.child_frame_id) for t in static.transforms] == [
+        (f"robot_{i}/base_link", f"robot_{i}/laser") for i in range(3)]
+    assert {t.transform.translation.z for t in static.transforms} == {config.robot.r0_m}
+    assert [t for t, _ in msgs["/world"]] == [t for t, _ in msgs["/tf_static"]] == [0]
+
+
+def test_each_robots_safe_directions_are_the_episodes_masks(world, tmp_path):
+    """The oracle: the recording's safe mask of each robot at each tick it drove."""
+    _, rec = recorded(world, "fusion", CONFIG, tmp_path / "ep.mcap")
+    _, msgs = read(tmp_path / "ep.mcap")
+    r_m, walls = CONFIG.sensor.range_m, 0
+    for i in range(3):
+        moving = np.flatnonzero(rec.status[:-1, i] == Status.MOVING)
+        scans = msgs[f"/robot_{i}/fftnav/safe_scan"]
+        wedges = msgs[f"/robot_{i}/fftnav/safe_directions"]
+        assert [t for t, _ in scans] == [round(rec.time_s[k] * 1e9) for k in moving]
+        for k, (_, scan), (_, array) in zip(moving, scans, wedges, strict=False):
+            ranges = np.asarray(scan.ranges)
+            np.testing.assert_array_equal(np.isfinite(ranges), rec.safe[k, i])
+            assert scan.header.frame_id == f"robot_{i}/laser"
+            assert ((ranges[rec.safe[k, i]] > 0) & (ranges[rec.safe[k, i]] <= r_m)).all()
+            (marker,) = array.markers
+            assert marker.ns == f"robot_{i}/safe_directions"
+            assert len(marker.points) == 3 * rec.safe[k, i].sum()
+            walls += rec.safe[k, i].sum()
+    assert walls > 0
+
+
+def test_robot_markers_follow_the_robots_and_are_deleted_when_they_leave(tmp_path):
+    """Robot 0 arrives after 1 m, robot 1 drives into a trunk, robot 2 departs 0.5 s late
+    and runs out of time."""
+    world = World("t", 0, (12.0, 14.0), (Circle((4.0, 3.0), 0.3, 1.0),),
+                  np.array([[1, 1, UP], [4, 1, UP], [7, 1, UP]], float),
+                  np.array([[1, 2], [4, 6], [7, 12]], float))
+    config = SwarmConfig(episode=EpisodeConfig(time_limit_s=4.0, departure="staggered",
+                                               stagger_s=0.5))
+    result, rec = recorded(world, f"{__name__}:Straight", config, tmp_path / "ep.mcap")
+    assert [(r.arrived, r.collided) for r in result.rows] == [(True, False), (False, True),
+                                                              (False, False)]
+    conns, msgs = read(tmp_path / "ep.mcap")
+    assert not any("fftnav/safe" in t for t in conns)  # no pipeline, no safe directions
+    shown = {}  # robot -> ticks its footprint was added
+    for t_ns, array in msgs["/fftnav/robots"]:
+        for m in array.markers:
+            robot, ns = m.ns.split("/")
+            assert robot.startswith("robot_") and ns in ("footprint", "heading", "label", "goal")
+            if ns == "footprint" and m.action == 0:
+                assert m.header.frame_id == f"{robot}/base_link" and m.frame_locked
+                shown.setdefault(int(robot[6:]), []).append(t_ns)
+    times = np.round(rec.time_s * 1e9).astype(int)
+    present = (rec.status[:-1] == Status.MOVING) | (rec.status[:-1] == Status.WAITING)
+    for i in range(3):
+        assert shown[i] == times[:-1][present[:, i]].tolist()
+    deletes = [(t, m.ns) for t, a in msgs["/fftnav/robots"] for m in a.markers if m.action == 2]
+    for i in range(2):  # deleted at the first tick it is gone
+        gone = times[np.argmax(~present[:, i] & (np.arange(len(present)) > 0))]
+        assert (gone, f"robot_{i}/footprint") in deletes
+
+    failures = {}
+    for t_ns, array in msgs["/fftnav/failures"]:
+        for m in array.markers:
+            failures.setdefault(m.ns, []).append((t_ns, m))
+    assert sorted(failures) == ["robot_1/cause", "robot_1/failure", "robot_2/cause",
+                                "robot_2/failure"]
+    for robot, tick in failure_ticks(rec).items():  # the replays' failure ticks
+        (t_ns, cross), = failures[f"robot_{robot}/failure"]
+        (_, text), = failures[f"robot_{robot}/cause"]
+        assert t_ns == times[tick]
+        centre = np.mean([[p.x, p.y] for p in cross.points], axis=0)
+        np.testing.assert_allclose(centre, rec.pose[tick, robot, :2], atol=1e-9)
+        assert text.text == f"robot_{robot}: {result.rows[robot].failure}"
+    assert result.rows[1].failure == "collision"
+
+
+def test_the_mcap_file_passes_the_mcap_librarys_validating_reader(world, tmp_path):
+    """The MCAP reference library reads the file with every CRC checked: each record, the
+    summary and its channel counts agree with what rosbags reads."""
+    mcap_reader = pytest.importorskip("mcap.reader")
+    from mcap.stream_reader import StreamReader
+
+    recorded(world, "fusion", CONFIG, tmp_path / "ep.mcap")
+    conns, msgs = read(tmp_path / "ep.mcap")
+    with open(tmp_path / "ep.mcap", "rb") as fh:
+        records = list(StreamReader(fh, validate_crcs=True).records)
+    assert type(records[-1]).__name__ == "Footer"
+    with open(tmp_path / "ep.mcap", "rb") as fh:
+        reader = mcap_reader.make_reader(fh, validate_crcs=True)
+        summary = reader.get_summary()
+        seen = {}
+        last = -1
+        for _, channel, message in reader.iter_messages(log_time_order=True):
+            seen[channel.topic] = seen.get(channel.topic, 0) + 1
+            assert message.log_time >= last
+            last = message.log_time
+    assert seen == {t: len(m) for t, m in msgs.items()}
+    counts = summary.statistics.channel_message_counts
+    assert {summary.channels[c].topic: n for c, n in counts.items()} == seen
+    assert summary.schemas[summary.channels[next(iter(counts))].schema_id].encoding == "ros2msg"
