@@ -202,7 +202,7 @@ def cannot_write(path: str | os.PathLike[str], exc: OSError, *,
                errno.EPERM: f"permission denied: the folder {where} is not writable",
                errno.EROFS: f"read-only file system: the folder {where} cannot be written",
                errno.ENOSPC: f"no space left on the device of the folder {where}",
-               errno.EDQUOT: f"disk quota exceeded in the folder {where}"}
+               getattr(errno, "EDQUOT", -1): f"disk quota exceeded in the folder {where}"}
     text = exc.strerror or str(exc) or type(exc).__name__
     why = reasons.get(exc.errno, text[:1].lower() + text[1:])  # type: ignore[arg-type]
     return FftnavError(f"{path}: cannot write here ({why})")

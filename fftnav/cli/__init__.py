@@ -87,26 +87,33 @@ def main(argv: Sequence[str] | None = None) -> int:
     if warnings.showwarning is not _one_line_warning:
         _one_line_warning.shown_by = warnings.showwarning  # type: ignore[attr-defined]
         warnings.showwarning = _one_line_warning
+    stopped_before = _stopped_by
     try:
         status = args.func(args)
     except BrokenPipeError:  # e.g. `fftnav scan ... | head`
         return 0
     except KeyboardInterrupt:
-        sys.stderr.write(f"fftnav {args.command}: interrupted\n")
-        return EXIT_INTERRUPTED
+        return _stopped(args.command, signal.SIGINT)
     except Terminated:
-        sys.stderr.write(f"fftnav {args.command}: terminated\n")
-        return EXIT_TERMINATED
-    except (CliError, ValueError, OSError) as exc:
-        if _stopped_by is not None:  # the stop's exception, replaced by code that caught it
-            stopped = _stopped_by == signal.SIGTERM
-            sys.stderr.write(f"fftnav {args.command}: "
-                             f"{'terminated' if stopped else 'interrupted'}\n")
-            return EXIT_TERMINATED if stopped else EXIT_INTERRUPTED
+        return _stopped(args.command, signal.SIGTERM)
+    except Exception as exc:
+        if stopped_before is None and _stopped_by is not None:
+            # the stop's exception, replaced by code that caught it (matplotlib's C++ drawing
+            # raises a ValueError in its place)
+            return _stopped(args.command, _stopped_by)
+        if not isinstance(exc, (CliError, ValueError, OSError)):
+            raise
         msg = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
         sys.stderr.write(f"fftnav {args.command}: error: {msg}\n")
         return EXIT_USAGE
     return int(status or 0)
+
+
+def _stopped(command: str, signum: int) -> int:
+    """One line for a command stopped by ``signum``; its exit status (130 or 143)."""
+    terminated = signum == signal.SIGTERM
+    sys.stderr.write(f"fftnav {command}: {'terminated' if terminated else 'interrupted'}\n")
+    return EXIT_TERMINATED if terminated else EXIT_INTERRUPTED
 
 
 def _one_line_warning(message: Warning | str, category: type[Warning],  # noqa: PLR0917

@@ -120,7 +120,7 @@ def cmd_episode(args: argparse.Namespace) -> int:
         result = run_episode(world, args.policy, seed=args.seed, config=config, gui=args.gui,
                              record=bool(args.record), on_tick=bag)
         if bag is not None:
-            bag.finish(result.rows, result.trajectories)
+            bag.finish(result)
     text = episode_csv(result.rows)
     if args.out:
         write_atomic(args.out, text)

@@ -118,7 +118,8 @@ def run_episode(
     trajectories = core.trajectories()
     rows = episode_rows(core, method.name, (optimal, geodesic))
     return EpisodeResult(rows=rows, trajectories=trajectories, tape=tape,
-                         compute_s=core.compute_s, robot_ticks=core.robot_ticks)
+                         compute_s=core.compute_s, robot_ticks=core.robot_ticks,
+                         left=core.robots.left.copy())
 
 
 def episode_rows(core: EpisodeCore, policy: str,

@@ -127,6 +127,9 @@ class EpisodeResult:
     #: controller uses it, and the controller's ``step``) and the robot-ticks it served.
     compute_s: float = 0.0
     robot_ticks: int = 0
+    #: The :class:`~fftnav.states.Status` each robot left the world with (arrived, collided,
+    #: timed out, lost), one code per robot.
+    left: np.ndarray = dataclasses.field(default_factory=lambda: np.zeros(0, dtype=np.uint8))
 
     @property
     def compute_ms(self) -> float:

@@ -169,26 +169,41 @@ def _check_range(range_m: float, geometry: RobotGeometry) -> None:
 def narrow_reason(grid: SphericalGrid, *, geometry: RobotGeometry = DRONE,
                   range_m: float = 10.0) -> str | None:
     """Why an image on ``grid`` has no safe pixel whatever it holds, because it has fewer rows or
-    columns than the disc filter at the horizon (the 2D pipeline's segment narrower than the
-    safety window); None when the filter fits and :class:`DiscFilterBank` can be made.
+    columns than the disc filter (the 2D pipeline's segment narrower than the safety window);
+    None when a pixel can be safe.
 
-    ``range_m`` is checked as the bank checks it (ValueError).
+    The horizon's disc must fit (else :class:`DiscFilterBank` cannot be made); and the bank's
+    footprints, widened per band of rows, must leave a safe pixel in an image open everywhere
+    (depth ``range_m``), which is then the test. ``range_m`` is checked as the bank checks it
+    (ValueError).
 
     >>> import math
     >>> narrow_reason(SphericalGrid(5, 360, math.radians(10), 2 * math.pi))
     'image narrower than the disc filter: 5 rows, its footprint for alpha=26.7 deg spans 11 rows'
+    >>> print(narrow_reason(SphericalGrid(90, 27, math.radians(89), math.radians(26)))
+    ...       .replace(", ", ",\\n"))
+    image narrower than the disc filter: 27 columns,
+    its widened footprints for alpha=26.7 deg span 29 columns or more
     """
     _check_range(range_m, geometry)
     need = disc_footprint(grid, 0.0, half_angle_rad=geometry.alpha_rad / 2).shape
     short = [(name, have, n) for name, have, n in zip(("rows", "columns"),
                                                        (grid.rows, grid.cols), need, strict=True)
              if have < n]
-    if not short:
+    if short:
+        have = " and ".join(f"{h} {name}" for name, h, _ in short)
+        spans = " and ".join(f"{n} {name}" for name, _, n in short)
+        return (f"image narrower than the disc filter: {have}, its footprint for "
+                f"alpha={geometry.alpha_deg:.1f} deg spans {spans}")
+    bank = DiscFilterBank(grid, geometry=geometry, range_m=range_m)
+    if bank.safe_mask(np.full((grid.rows, grid.cols), float(range_m))).any():
         return None
-    have = " and ".join(f"{h} {name}" for name, h, _ in short)
-    spans = " and ".join(f"{n} {name}" for name, _, n in short)
-    return (f"image narrower than the disc filter: {have}, its footprint for "
-            f"alpha={geometry.alpha_deg:.1f} deg spans {spans}")
+    cols = min(band.footprint.shape[1] for band in bank.bands)
+    if cols > grid.cols:
+        return (f"image narrower than the disc filter: {grid.cols} columns, its widened "
+                f"footprints for alpha={geometry.alpha_deg:.1f} deg span {cols} columns or more")
+    return (f"image narrower than the disc filter: {grid.rows} rows and {grid.cols} columns "
+            f"leave no pixel whose footprint for alpha={geometry.alpha_deg:.1f} deg fits")
 
 
 class Band(NamedTuple):

@@ -41,18 +41,19 @@ from __future__ import annotations
 
 import colorsys
 import dataclasses
-from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
 import numpy as np
 
 from fftnav.config import SwarmConfig
+from fftnav.episode.record import EpisodeResult
 from fftnav.errors import FftnavError
 from fftnav.navigation.controllers import SwarmStep
 from fftnav.ros import messages as rosmsg
 from fftnav.ros import require_rosbags
 from fftnav.ros.bags import LASERSCAN, MARKER_ARRAY, BagWriter, _wedges
+from fftnav.states import Status
 from fftnav.world.model import World
 
 __all__ = ["EpisodeBag", "check_episode_bag", "failure_tick"]
@@ -61,7 +62,7 @@ _KINDS = {".mcap": (False, "mcap"), ".db3": (False, "db3"), ".bag": (True, None)
 #: The latched topics.
 LATCHED = ("/world", "/tf_static")
 ROBOTS, FAILURES = "/fftnav/robots", "/fftnav/failures"
-#: The namespaces of a robot's markers on ``/fftnav/robots``, by marker id.
+#: The namespaces of a robot's markers on ``/fftnav/robots`` (each holds one marker, id 0).
 _ROBOT_NS = ("footprint", "heading", "label", "goal")
 _GREY = (0.6, 0.6, 0.6)
 
@@ -208,28 +209,35 @@ class EpisodeBag(BagWriter):
                       rosmsg.make(s, "std_msgs/msg/UInt8MultiArray",
                                   data=np.frombuffer(bytes(data), dtype=np.uint8)))
 
-    def finish(self, rows: Sequence[Any], trajectories: Sequence[np.ndarray]) -> None:
-        """Write ``/fftnav/failures`` from the episode's result (its ``rows`` and
-        ``trajectories``): each robot that did not arrive, at its failure tick
-        (:func:`failure_tick`), at its true position then; and delete the markers of the
-        robots still shown at the end."""
+    def finish(self, result: EpisodeResult) -> None:
+        """Write ``/fftnav/failures`` from the episode's result: each robot that did not arrive,
+        at its failure tick (:func:`failure_tick`, by the status it left with), at its true
+        position then. Each message holds the markers of every robot failed so far (a viewer
+        that jumps to a time shows the latest message of a topic, so all of them). Then delete
+        the markers of the robots still shown at the end."""
         s, hz = self.store, self.config.episode.control_hz
         departure = self.config.episode.departure_ticks(self.robots)
         last = max(self.times, default=0)
         end_ns = round((self.times.get(last, 0.0) + 1.0 / hz) * 1e9)
         self._delete_robots(end_ns, rosmsg.stamp(s, end_ns * 1e-9), sorted(self.shown))
-        for row in rows:
+        failures = []
+        for row in result.rows:
             if row.arrived:
                 continue
             i = int(row.robot)
-            timed_out = not row.collided and row.failure != "lost"
-            tick = failure_tick(trajectories[i], departure[i], timed_out=timed_out)
+            trajectory = np.asarray(result.trajectories[i], dtype=float)
+            timed_out = Status(int(result.left[i])) == Status.TIMED_OUT
+            tick = failure_tick(trajectory, departure[i], timed_out=timed_out)
             time_s = (self.times[tick] if tick in self.times
                       else self.times.get(last, 0.0) + (tick - last) / hz)
-            x, y = np.asarray(trajectories[i], dtype=float)[tick - int(departure[i]), :2]
-            self._put(FAILURES, MARKER_ARRAY, round(time_s * 1e9), rosmsg.make(
-                s, MARKER_ARRAY, markers=self._failure(i, time_s, x, y,
-                                                       row.failure or "no cause")))
+            x, y = trajectory[tick - int(departure[i]), :2]
+            failures.append((round(time_s * 1e9), i, self._failure(
+                i, time_s, x, y, row.failure or "no cause")))
+        shown: list[Any] = []
+        for t_ns, _, markers in sorted(failures, key=lambda f: f[:2]):
+            shown += markers
+            self._put(FAILURES, MARKER_ARRAY, t_ns, rosmsg.make(s, MARKER_ARRAY,
+                                                                markers=list(shown)))
 
     # -- markers ------------------------------------------------------------------------------
 
@@ -329,7 +337,8 @@ class EpisodeBag(BagWriter):
         return rosmsg.make(
             self.store, LASERSCAN, header=rosmsg.header(self.store, when, frame),
             angle_min=float(a[0]), angle_max=float(a[-1]), angle_increment=float(a[1] - a[0]),
-            scan_time=1.0 / self.config.episode.control_hz, range_min=0.0,
+            scan_time=1.0 / self.config.episode.control_hz,
+            range_min=float(self.config.robot.r0_m),
             range_max=float(self.config.sensor.range_m),
             ranges=np.asarray(ranges, dtype=np.float32))
 

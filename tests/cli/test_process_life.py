@@ -125,4 +125,19 @@ def test_a_swallowed_first_interrupt_is_delivered_again_outside_the_hook(exc_typ
     finally:
         for s, handler in saved.items():
             signal.signal(s, handler)
-        cli._stopping = False
+        cli._stopping, cli._stopped_by = False, None
+
+
+def test_an_error_after_an_earlier_stop_is_still_an_error(tmp_path, capsys):
+    """A stop (SIGINT/SIGTERM) that an earlier command of this process received does not turn a
+    later command's bad input into "terminated": only a stop during the command does."""
+    from fftnav import cli
+
+    saved = cli._stopped_by
+    cli._stopped_by = signal.SIGTERM
+    try:
+        status = cli.main(["scan", str(tmp_path / "missing.npy")])
+    finally:
+        cli._stopped_by = saved
+    assert status == 2
+    assert capsys.readouterr().err.startswith("fftnav scan: error: ")

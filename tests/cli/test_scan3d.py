@@ -181,6 +181,24 @@ def test_a_full_turn_just_tall_enough_blocks_the_disc_around_an_obstacle(tmp_pat
     assert not np.array(out["safe_mask"]).any()
 
 
+def test_an_image_whose_widened_band_footprints_do_not_fit_is_all_unsafe_with_a_reason(
+        tmp_path) -> None:
+    """90 rows over 89 degrees, 27 columns over 26: the horizon's disc (27 x 27) fits, but the
+    bank widens each band's footprint to its widest row's (29 columns at the horizon band), so
+    an image open everywhere has no safe pixel; the bank itself says so."""
+    grid = SphericalGrid(90, 27, math.radians(89), math.radians(26))
+    bank = DiscFilterBank(grid)
+    assert min(band.footprint.shape[1] for band in bank.bands) == 29
+    assert not bank.safe_mask(_open_image(90, 27)).any()
+    np.save(tmp_path / "tall.npy", _open_image(90, 27))
+    proc = _run("scan3d", str(tmp_path / "tall.npy"), "--fov-el", "89", "--fov-az", "26")
+    assert proc.returncode == 0, proc.stderr
+    out = json.loads(proc.stdout)
+    assert out["reason"] == ("image narrower than the disc filter: 27 columns, its widened "
+                             "footprints for alpha=26.7 deg span 29 columns or more")
+    assert not np.array(out["safe_mask"]).any() and out["bands"] == []
+
+
 def test_narrow_reason_agrees_with_the_bank_it_stands_for() -> None:
     """The library: None where DiscFilterBank can be made, the reason where it refuses the
     grid; the paper's 90 x 360 image fits."""

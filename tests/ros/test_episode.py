@@ -7,6 +7,7 @@ from fftnav.config import EpisodeConfig, SwarmConfig  # noqa: E402
 from fftnav.episode import episode_csv, run_episode  # noqa: E402
 from fftnav.episode.recording import read_recording  # noqa: E402
 from fftnav.navigation.controllers import Controller  # noqa: E402
+from fftnav.observe.geometry import RobotGeometry  # noqa: E402
 from fftnav.report.replay import failure_ticks  # noqa: E402
 from fftnav.ros.episode import EpisodeBag  # noqa: E402
 from fftnav.states import Status  # noqa: E402
@@ -121,7 +122,7 @@ def recorded(world, policy, config, path, seed=2):
     """The episode written to the bag ``path``, its result and its recording."""
     with EpisodeBag(path, world, config) as bag:
         result = run_episode(world, policy, seed=seed, config=config, on_tick=bag, record=True)
-        bag.finish(result.rows, result.trajectories)
+        bag.finish(result)
     rec_path = path.with_suffix(".npz")
     rec_path.write_bytes(result.recording())
     return result, read_recording(rec_path)
@@ -153,25 +154,32 @@ def test_world_and_tf_static_are_latched_and_nothing_else(world, tmp_path, name)
 
 
 def test_each_robots_safe_directions_are_the_episodes_masks(world, tmp_path):
-    """The oracle: the recording's safe mask of each robot at each tick it drove."""
+    """The oracle: the recording's safe mask of each robot at each tick it drove; a safe beam
+    is safe to l_th (y1 = l_th / R there, the filter's clip); the wedges are deleted once
+    (the robots are all out of time when the episode ends)."""
     _, rec = recorded(world, "fusion", CONFIG, tmp_path / "ep.mcap")
     _, msgs = read(tmp_path / "ep.mcap")
-    r_m, walls = CONFIG.sensor.range_m, 0
+    l_th = RobotGeometry(r0_m=CONFIG.robot.r0_m, r_m=CONFIG.robot.r_m).l_th_m
+    safe_beams = 0
     for i in range(3):
         moving = np.flatnonzero(rec.status[:-1, i] == Status.MOVING)
         scans = msgs[f"/robot_{i}/fftnav/safe_scan"]
         wedges = msgs[f"/robot_{i}/fftnav/safe_directions"]
-        assert [t for t, _ in scans] == [round(rec.time_s[k] * 1e9) for k in moving]
-        for k, (_, scan), (_, array) in zip(moving, scans, wedges, strict=False):
+        assert [t for t, _ in scans] == [t for t, _ in wedges[:-1]] == [
+            round(rec.time_s[k] * 1e9) for k in moving]
+        for k, (_, scan), (_, array) in zip(moving, scans, wedges[:-1], strict=True):
             ranges = np.asarray(scan.ranges)
             np.testing.assert_array_equal(np.isfinite(ranges), rec.safe[k, i])
             assert scan.header.frame_id == f"robot_{i}/laser"
-            assert ((ranges[rec.safe[k, i]] > 0) & (ranges[rec.safe[k, i]] <= r_m)).all()
+            np.testing.assert_allclose(ranges[rec.safe[k, i]], l_th, atol=1e-6)
             (marker,) = array.markers
             assert marker.ns == f"robot_{i}/safe_directions"
             assert len(marker.points) == 3 * rec.safe[k, i].sum()
-            walls += rec.safe[k, i].sum()
-    assert walls > 0
+            safe_beams += rec.safe[k, i].sum()
+        t_end, (deleted,) = wedges[-1][0], wedges[-1][1].markers
+        assert (deleted.ns, deleted.action) == (f"robot_{i}/safe_directions", 2)
+        assert t_end == round((rec.time_s[-2] + 1 / CONFIG.episode.control_hz) * 1e9)
+    assert safe_beams > 0
 
 
 def test_robot_markers_follow_the_robots_and_are_deleted_when_they_leave(tmp_path):
@@ -199,25 +207,47 @@ def test_robot_markers_follow_the_robots_and_are_deleted_when_they_leave(tmp_pat
     present = (rec.status[:-1] == Status.MOVING) | (rec.status[:-1] == Status.WAITING)
     for i in range(3):
         assert shown[i] == times[:-1][present[:, i]].tolist()
-    deletes = [(t, m.ns) for t, a in msgs["/fftnav/robots"] for m in a.markers if m.action == 2]
-    for i in range(2):  # deleted at the first tick it is gone
-        gone = times[np.argmax(~present[:, i] & (np.arange(len(present)) > 0))]
-        assert (gone, f"robot_{i}/footprint") in deletes
+    deletes = {(t, m.ns) for t, a in msgs["/fftnav/robots"] for m in a.markers if m.action == 2}
+    end = round((rec.time_s[-2] + 1 / config.episode.control_hz) * 1e9)
+    for i in range(3):  # deleted at the first tick it is gone; robot 2 when the episode ends
+        gone = (times[np.argmax(~present[:, i] & (np.arange(len(present)) > 0))] if i < 2
+                else end)
+        for ns in ("footprint", "heading", "label", "goal"):
+            assert (gone, f"robot_{i}/{ns}") in deletes
+    assert len(deletes) == 3 * 4
+    check_failures(msgs, rec, result, times)
+    assert [r.failure for r in result.rows[1:]] == ["collision", "slow"]
 
-    failures = {}
-    for t_ns, array in msgs["/fftnav/failures"]:
-        for m in array.markers:
-            failures.setdefault(m.ns, []).append((t_ns, m))
-    assert sorted(failures) == ["robot_1/cause", "robot_1/failure", "robot_2/cause",
-                                "robot_2/failure"]
-    for robot, tick in failure_ticks(rec).items():  # the replays' failure ticks
-        (t_ns, cross), = failures[f"robot_{robot}/failure"]
-        (_, text), = failures[f"robot_{robot}/cause"]
-        assert t_ns == times[tick]
+
+def check_failures(msgs, rec, result, times):
+    """``/fftnav/failures`` against the replays' failure ticks (fftnav.report.replay) and the
+    recorded poses: each message holds every failure so far, the newest added at its tick."""
+    ticks = failure_ticks(rec)
+    order = sorted(ticks, key=lambda r: (ticks[r], r))
+    assert [t for t, _ in msgs["/fftnav/failures"]] == [times[ticks[r]] for r in order]
+    for n, (_, array) in enumerate(msgs["/fftnav/failures"]):
+        assert [m.ns for m in array.markers] == [
+            f"robot_{r}/{ns}" for r in order[:n + 1] for ns in ("failure", "cause")]
+    for robot, tick in ticks.items():
+        cross, text = [m for m in msgs["/fftnav/failures"][-1][1].markers
+                       if m.ns.startswith(f"robot_{robot}/")]
         centre = np.mean([[p.x, p.y] for p in cross.points], axis=0)
         np.testing.assert_allclose(centre, rec.pose[tick, robot, :2], atol=1e-9)
         assert text.text == f"robot_{robot}: {result.rows[robot].failure}"
-    assert result.rows[1].failure == "collision"
+
+
+def test_a_lost_robots_failure_is_where_it_stopped(tmp_path):
+    """Odometry with a gyro bias of 15 deg/s: robot 0 stops where its estimate puts its goal,
+    far from it (lost); robot 1 arrives."""
+    world = World("t", 0, (14.0, 14.0), (), np.array([[3, 1, UP], [9, 1, UP]], float),
+                  np.array([[3, 6], [9, 2]], float))
+    config = SwarmConfig().replace({"localization.mode": "odometry",
+                                    "localization.drift": "custom",
+                                    "localization.gyro_bias_degps": "15", "time_limit_s": "20"})
+    result, rec = recorded(world, f"{__name__}:Straight", config, tmp_path / "ep.bag")
+    assert [r.failure for r in result.rows] == ["lost", ""]
+    _, msgs = read(tmp_path / "ep.bag")
+    check_failures(msgs, rec, result, np.round(rec.time_s * 1e9).astype(int))
 
 
 def test_the_mcap_file_passes_the_mcap_librarys_validating_reader(world, tmp_path):
@@ -235,11 +265,8 @@ def test_the_mcap_file_passes_the_mcap_librarys_validating_reader(world, tmp_pat
         reader = mcap_reader.make_reader(fh, validate_crcs=True)
         summary = reader.get_summary()
         seen = {}
-        last = -1
-        for _, channel, message in reader.iter_messages(log_time_order=True):
+        for _, channel, _ in reader.iter_messages():
             seen[channel.topic] = seen.get(channel.topic, 0) + 1
-            assert message.log_time >= last
-            last = message.log_time
     assert seen == {t: len(m) for t, m in msgs.items()}
     counts = summary.statistics.channel_message_counts
     assert {summary.channels[c].topic: n for c, n in counts.items()} == seen

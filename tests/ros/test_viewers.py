@@ -27,7 +27,7 @@ def bag(tmp_path_factory):
     path = tmp_path_factory.mktemp("viewers") / "ep.mcap"
     with EpisodeBag(path, world, config) as episode_bag:
         result = run_episode(world, "fusion", seed=0, config=config, on_tick=episode_bag)
-        episode_bag.finish(result.rows, result.trajectories)
+        episode_bag.finish(result)
     with AnyReader([path]) as reader:
         types = {c.topic: c.msgtype for c in reader.connections}
         (tf,) = [c for c in reader.connections if c.topic == "/tf"]
