@@ -55,3 +55,20 @@ def test_regenerable_files_are_ignored_at_any_depth():
     assert ignored == names
     kinds = ("/episodes/", "/reference/", "/records/", "/trajectories/", "/timing/")
     assert [p for p in _tracked_results() if any(k in p for k in kinds)] == []
+
+
+def test_config_json_names_no_machines_paths():
+    """A committed results folder's config.json names its files (plugins, trained networks,
+    world files) relative to the folder, so a clone anywhere resumes it without --fresh."""
+    import json
+
+    found = 0
+    for path in _tracked_results():
+        if path.endswith("/config.json"):
+            found += 1
+            stored = json.loads((ROOT / path).read_text())
+            files = [*stored.get("plugin_sha256", {}), *stored.get("world_sha256", {}),
+                     *(p.split(":", 1)[1] for p in stored.get("policies", [])
+                       if p.startswith(("learned:", "learned-decider:", "/")))]
+            assert [f for f in files if Path(f).is_absolute()] == [], path
+    assert found

@@ -28,7 +28,8 @@ from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import Task
 
 __all__ = ["FolderLock", "InvocationClock", "canonical_config", "check_same_experiment",
-           "config_changes", "remove_results", "remove_stale_temporaries", "task_file_problem"]
+           "config_changes", "portable_path", "remove_results", "remove_stale_temporaries",
+           "task_file_problem"]
 
 LOCK_NAME = ".lock"
 #: Folders and files ``fftnav run`` writes into a results folder (what :func:`remove_results`
@@ -189,7 +190,8 @@ class InvocationClock:
         self.path.unlink(missing_ok=True)
 
 
-def canonical_config(config: ExperimentConfig, columns: tuple[str, ...]) -> str:
+def canonical_config(config: ExperimentConfig, columns: tuple[str, ...], *,
+                     folder: str | Path | None = None) -> str:
     """The ``config.json`` of a results folder: the config (without ``out`` and its source
     text), the fftnav version, the CSV ``columns``, and the SHA-256 of every plugin source
     (:func:`fftnav.plugins.plugin_sources`: the plugin files named by path and the modules
@@ -197,21 +199,57 @@ def canonical_config(config: ExperimentConfig, columns: tuple[str, ...]) -> str:
     for them (nor ``world_files``), and one with the default ``[planner]`` or ``[localization]``
     no ``planner`` or ``localization`` key:
     the ``config.json`` of results folders that hold no such key stays valid. ``record`` is
-    left out: recordings change no result."""
+    left out: recordings change no result.
+
+    With ``folder`` (the results folder), the files (plugins, trained networks, world files) are
+    named by their path relative to it (:func:`portable_path`), so that a clone of a repository
+    holding the results and the files, wherever it is, has the same ``config.json``; their
+    contents are pinned by the hashes."""
     fields = {k: v for k, v in asdict(config).items()
               if not (k == "world_files" and not v) and k != "record"}
     if config.swarm.planner == PlannerConfig():
         del fields["swarm"]["planner"]
     if config.swarm.localization == LocalizationConfig():
         del fields["swarm"]["localization"]
-    plugins = {str(source): file_sha256(source) for found in config.resolved.values()
+
+    def name(path: str | Path) -> str:
+        return str(path) if folder is None else portable_path(path, folder)
+
+    plugins = {name(source): file_sha256(source) for found in config.resolved.values()
                if found.file for source in plugin_sources(found.file)}
-    worlds = {path: file_sha256(Path(path)) for path in config.world_files.values()}
+    worlds = {name(path): file_sha256(Path(path)) for path in config.world_files.values()}
+    if folder is not None:
+        fields["policies"] = [_portable_ref(ref, folder) for ref in config.policies]
+        if "world_files" in fields:
+            fields["world_files"] = {env: name(path) for env, path in config.world_files.items()}
     return json.dumps({**fields, "out": None, "source": None, "fftnav_version": fftnav.__version__,
                        "csv_columns": list(columns),
                        **({"plugin_sha256": plugins} if plugins else {}),
                        **({"world_sha256": worlds} if worlds else {})},
                       indent=1, sort_keys=True)
+
+
+def portable_path(path: str | Path, folder: str | Path) -> str:
+    """``path`` relative to ``folder`` (both made absolute), with ``/`` between its parts: the
+    same wherever a tree holding both is.
+
+    >>> portable_path("/repo/results/nets/a.npz", "/repo/results/table1")
+    '../nets/a.npz'
+    """
+    rel = os.path.relpath(os.path.abspath(path), os.path.abspath(folder))
+    return Path(rel).as_posix()
+
+
+def _portable_ref(ref: str, folder: str | Path) -> str:
+    """A policy reference with its file (``path/to/file.py:attr``, ``learned:PATH``,
+    ``learned-decider:PATH``) relative to ``folder``; any other reference as it is."""
+    for prefix in ("learned-decider:", "learned:"):
+        if ref.startswith(prefix) and Path(ref[len(prefix):]).is_absolute():
+            return prefix + portable_path(ref[len(prefix):], folder)
+    head, sep, attr = ref.rpartition(":")
+    if sep and head.endswith(".py") and Path(head).is_absolute():
+        return f"{portable_path(head, folder)}:{attr}"
+    return ref
 
 
 def check_same_experiment(config: ExperimentConfig, out: Path, *, columns: tuple[str, ...],
@@ -226,14 +264,27 @@ def check_same_experiment(config: ExperimentConfig, out: Path, *, columns: tuple
     scratch; a folder of the same experiment keeps its results until the rerun replaces them.
     """
     record = out / "config.json"
-    canonical = canonical_config(config, columns)
+    canonical = canonical_config(config, columns, folder=out)
     problem = _folder_problem(out, canonical, columns)
+    if problem is not None and stored_as_absolute(config, out, columns):
+        problem = None  # the same experiment, its files named by absolute paths
     if problem is not None:
         if not fresh:
             raise FftnavError(f"{out} {problem}; rerun with --fresh to replace its results, or "
                               "use another --out")
         remove_results(out)
     write_atomic(record, canonical)
+
+
+def stored_as_absolute(config: ExperimentConfig, out: Path, columns: tuple[str, ...]) -> bool:
+    """Whether ``out/config.json`` is this experiment's with its files named by absolute paths
+    (:func:`canonical_config` without ``folder``, as folders written before the portable form
+    hold them)."""
+    try:
+        return (out / "config.json").read_text(encoding="utf-8") == canonical_config(config,
+                                                                                      columns)
+    except (OSError, UnicodeDecodeError):
+        return False
 
 
 def _folder_problem(out: Path, canonical: str, columns: tuple[str, ...]) -> str | None:

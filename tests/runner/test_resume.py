@@ -230,7 +230,7 @@ def test_a_changed_plugin_or_module_beside_it_is_named_and_fresh_reruns(newcomer
         edited = newcomer / name
         text = edited.read_text()
         edited.write_text(text + "# edited\n")
-        with pytest.raises(ValueError, match=rf"; changed: plugin file {edited.resolve()}; "
+        with pytest.raises(ValueError, match=rf"; changed: plugin file \.\./newcomer/{name}; "
                                              r"rerun with --fresh"):
             run_experiment(config, out, workers=1, task_fn=fake_task, progress=False)
         edited.write_text(text)
@@ -241,8 +241,43 @@ def test_a_changed_plugin_or_module_beside_it_is_named_and_fresh_reruns(newcomer
                              fresh=True)
     assert (outcome.skipped, outcome.completed) == (0, 4)
     recorded = json.loads((out / "config.json").read_text())["plugin_sha256"]
-    assert recorded == {str((newcomer / n).resolve()): file_sha256(newcomer / n)
+    assert recorded == {f"../newcomer/{n}": file_sha256(newcomer / n)
                         for n in ("newcomer_policy.py", "newcomer_sides.py")}
+
+
+def test_a_tree_of_results_and_plugin_moved_elsewhere_resumes_as_it_is(newcomer, tmp_path):
+    """config.json names the plugin files relative to the results folder (their contents by
+    hash), so a copy of the whole tree at another path (another clone, another machine's mount)
+    holds the same config.json and resumes without --fresh; a folder whose config.json names
+    them by absolute paths (written before) is the same experiment too, and is rewritten."""
+    import shutil
+
+    from fftnav.runner.resume import canonical_config
+    from fftnav.runner.run import CSV_COLUMNS
+
+    def config_at(folder):
+        return parse_config({"experiment": {
+            "name": "mine", "envs": ["forest"], "maps": 2, "map_seed": 5, "robots": 3,
+            "policies": ["fusion", "newcomer_policy.py:mine"]}}, base=folder)
+
+    out = tmp_path / "newcomer" / "results"
+    run_experiment(config_at(newcomer), out, workers=1, task_fn=fake_task, progress=False)
+    stored = json.loads((out / "config.json").read_text())
+    assert stored["policies"] == ["fusion", "../newcomer_policy.py:mine"]
+    moved = tmp_path / "elsewhere" / "deeper"
+    shutil.copytree(newcomer, moved)
+    sys.modules.pop("newcomer_sides", None)  # a new process would import the moved copy
+    outcome = run_experiment(config_at(moved), moved / "results", workers=1, task_fn=fake_task,
+                             progress=False)
+    assert (outcome.skipped, outcome.completed) == (4, 0)
+    assert (moved / "results" / "config.json").read_bytes() == (out / "config.json").read_bytes()
+    absolute = canonical_config(config_at(moved), CSV_COLUMNS)
+    assert str(moved / "newcomer_policy.py") in absolute
+    (moved / "results" / "config.json").write_text(absolute)
+    outcome = run_experiment(config_at(moved), moved / "results", workers=1, task_fn=fake_task,
+                             progress=False)
+    assert (outcome.skipped, outcome.completed) == (4, 0)
+    assert (moved / "results" / "config.json").read_bytes() == (out / "config.json").read_bytes()
 
 
 
