@@ -42,7 +42,13 @@ from fftnav.report.trajectories import draw_trajectories as draw_paths
 from fftnav.report.trajectories import plot_failures
 from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.maps import maps_current, write_maps_csv
-from fftnav.runner.resume import FolderLock, canonical_config, config_changes, stored_as_absolute
+from fftnav.runner.resume import (
+    FolderLock,
+    canonical_config,
+    config_changes,
+    located,
+    stored_as_absolute,
+)
 from fftnav.runner.run import CSV_COLUMNS, read_episodes
 from fftnav.runner.summary import EXACT, NORMAL_APPROX, WILCOXON_EXACT_MAX, in_order
 from fftnav.runner.tasks import task_count, task_world
@@ -181,8 +187,8 @@ def _check_folder(config: ExperimentConfig, out: Path) -> None:
     read_json(out / "run_info.json")
     canonical = canonical_config(config, CSV_COLUMNS, folder=out)
     if stored != json.loads(canonical) and not stored_as_absolute(config, out, CSV_COLUMNS):
-        changes = config_changes(stored if isinstance(stored, dict) else {},
-                                 json.loads(canonical))
+        changes = config_changes(located(stored if isinstance(stored, dict) else {}, out),
+                                 located(json.loads(canonical), out))
         raise FftnavError(f"--out must hold results of {config.name!r} as configured, got "
                           f"{given} whose config.json differs: "
                           f"{', '.join(changes) or 'the layout of config.json'}")

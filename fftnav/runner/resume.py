@@ -28,8 +28,8 @@ from fftnav.runner.config import ExperimentConfig
 from fftnav.runner.tasks import Task
 
 __all__ = ["FolderLock", "InvocationClock", "canonical_config", "check_same_experiment",
-           "config_changes", "portable_path", "remove_results", "remove_stale_temporaries",
-           "task_file_problem"]
+           "config_changes", "located", "portable_path", "remove_results",
+           "remove_stale_temporaries", "stored_as_absolute", "task_file_problem"]
 
 LOCK_NAME = ".lock"
 #: Folders and files ``fftnav run`` writes into a results folder (what :func:`remove_results`
@@ -313,9 +313,26 @@ def _folder_problem(out: Path, canonical: str, columns: tuple[str, ...]) -> str 
         extra = [c for c in stored_columns if c not in columns]
         return (f"holds episodes with other columns than this fftnav writes (missing {missing}, "
                 f"extra {extra}{', or in another order' if not missing + extra else ''})")
-    changes = config_changes(_with_planner(stored), _with_planner(json.loads(canonical)))
+    changes = config_changes(located(_with_planner(stored), out),
+                             located(_with_planner(json.loads(canonical)), out))
     return (f"holds results of a different experiment config ({record}); changed: "
             f"{', '.join(changes) or 'the layout of config.json'}")
+
+
+def located(stored: dict[str, Any], folder: Path) -> dict[str, Any]:
+    """A ``config.json`` content with the files it names relative to the results ``folder``
+    (:func:`portable_path`) named by their absolute paths, as a reader finds them.
+
+    >>> located({"plugin_sha256": {"../p/a.py": "1"}}, Path("/r/out"))
+    {'plugin_sha256': {'/r/p/a.py': '1'}}
+    """
+    out = dict(stored)
+    for key in ("plugin_sha256", "world_sha256"):
+        files = stored.get(key)
+        if isinstance(files, dict):
+            out[key] = {os.path.normpath(os.path.join(os.path.abspath(folder), str(name))): digest
+                        for name, digest in files.items()}
+    return out
 
 
 def _with_planner(stored: dict[str, Any]) -> dict[str, Any]:
