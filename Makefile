@@ -94,6 +94,7 @@ bench: $(STAMP)
 	$(BIN)/fftnav bench sim --env rocky --csv results/sim_speed.csv --append
 	$(BIN)/fftnav bench worlds --csv results/large_worlds.csv
 	$(BIN)/fftnav bench env --csv results/env_speed.csv
+	$(BIN)/fftnav bench bag --csv results/bag_speed.csv
 	$(BIN)/fftnav bench scale
 
 figures: $(STAMP)

@@ -1,6 +1,6 @@
-"""``fftnav bench {pipeline,sim,scale,env,optimal,worlds,drift}``: measured latency, simulation
-speed, scale, the PettingZoo environment, the optimal-path reference, large worlds, the odometry
-drift presets."""
+"""``fftnav bench {pipeline,sim,scale,env,optimal,worlds,drift,bag}``: measured latency,
+simulation speed, scale, the PettingZoo environment, the optimal-path reference, large worlds,
+the odometry drift presets, the cost of an episode's bag."""
 
 from __future__ import annotations
 
@@ -29,7 +29,7 @@ def _report(result: dict, args: argparse.Namespace, table: str,
 
 #: The committed results each bench compares itself with by default (if present).
 _DEFAULT_PREVIOUS = {"pipeline": "results/pipeline_latency.csv", "sim": "results/sim_speed.csv",
-                     "env": "results/env_speed.csv",
+                     "env": "results/env_speed.csv", "bag": "results/bag_speed.csv",
                      "optimal": "results/optimal.csv", "scale": "results/scale.csv"}
 
 
@@ -86,6 +86,15 @@ def cmd_bench_env(args: argparse.Namespace) -> int:
     return _report(result, args, format_env(result))
 
 
+def cmd_bench_bag(args: argparse.Namespace) -> int:
+    """An episode without and with ``--bag``, alternating in one process."""
+    from fftnav.bench.bag import bench_bag, format_bag
+
+    result = bench_bag(env=args.env, seed=args.seed, seconds=args.seconds,
+                       repeats=args.repeats, suffix=args.suffix)
+    return _report(result, args, format_bag(result), match=("env", "suffix"))
+
+
 def cmd_bench_optimal(args: argparse.Namespace) -> int:
     """Time the optimal-path reference (heapq A* vs batched Dijkstra) on a generated world."""
     from fftnav.bench.optimal import bench_optimal_paths, format_optimal_paths
@@ -132,7 +141,7 @@ def register(sub: argparse._SubParsersAction) -> None:
     benches = p.add_subparsers(dest="bench", metavar="BENCH", parser_class=type(p))
     benches.required = True
     for add in (_pipeline_parser, _sim_parser, _env_parser, _scale_parser, _optimal_parser,
-                _worlds_parser, _drift_parser):
+                _worlds_parser, _drift_parser, _bag_parser):
         add(benches)
 
 
@@ -188,6 +197,19 @@ def _env_parser(benches: argparse._SubParsersAction) -> None:
     e.add_argument("--seed", type=int, default=0)
     _record_options(e)
     e.set_defaults(func=cmd_bench_env)
+
+
+def _bag_parser(benches: argparse._SubParsersAction) -> None:
+    g = benches.add_parser("bag", help="an episode without and with --bag (needs fftnav[ros])")
+    g.add_argument("--env", choices=world_kinds(), default="forest")
+    g.add_argument("--seed", type=int, default=1000, help="world seed (default 1000)")
+    g.add_argument("--seconds", type=float, default=20.0,
+                   help="the episode's time limit (default 20)")
+    g.add_argument("--repeats", type=int, default=3, help="runs of each (default 3)")
+    g.add_argument("--suffix", choices=(".mcap", ".db3", ".bag"), default=".mcap",
+                   help="the bag's kind (default .mcap)")
+    _record_options(g)
+    g.set_defaults(func=cmd_bench_bag)
 
 
 def _scale_parser(benches: argparse._SubParsersAction) -> None:

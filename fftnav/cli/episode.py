@@ -90,7 +90,9 @@ def last_period_s(trajectories: Sequence[np.ndarray], departure_ticks: Sequence[
     >>> last_period_s([np.zeros((5, 3)), np.zeros((2, 3))], [0, 30], 10.0)
     [0.3, 3.0]
     """
-    return [max(int(d) + len(t) - 2, 0) / control_hz
+    from fftnav.episode.record import failure_tick
+
+    return [max(failure_tick(t, d, timed_out=False), 0) / control_hz
             for t, d in zip(trajectories, departure_ticks, strict=True)]
 
 

@@ -18,7 +18,7 @@ from fftnav.errors import FftnavError
 if TYPE_CHECKING:
     from fftnav.episode.recording import Tape
 
-__all__ = ["EPISODE_COLUMNS", "EpisodeResult", "EpisodeRow", "episode_csv"]
+__all__ = ["EPISODE_COLUMNS", "EpisodeResult", "EpisodeRow", "episode_csv", "failure_tick"]
 
 
 @dataclass(frozen=True)
@@ -112,6 +112,20 @@ neighbours_no_message, neighbours_lost : int
 
 #: Columns of an episode's per-robot table, in order: the fields of :class:`EpisodeRow`.
 EPISODE_COLUMNS: tuple[str, ...] = tuple(f.name for f in dataclasses.fields(EpisodeRow))
+
+
+def failure_tick(trajectory: np.ndarray, departure: int, *, timed_out: bool) -> int:
+    """The tick a robot that left without arriving failed at: the last control period it drove
+    for one that touched something or stopped (its trajectory's sample k is tick
+    ``departure + k``, the last one the pose after that period), the tick its time was up for
+    one out of time (its last sample), as :func:`fftnav.report.replay.failure_ticks` reads them
+    from a recording.
+
+    >>> failure_tick(np.zeros((5, 3)), 2, timed_out=False), failure_tick(np.zeros((5, 3)), 2,
+    ...                                                                   timed_out=True)
+    (5, 6)
+    """
+    return int(departure) + len(trajectory) - (1 if timed_out else 2)
 
 
 @dataclass

@@ -456,9 +456,16 @@ class BagFile:
         out = out.resolve() if out.is_symlink() else out
         return out.parent / f".{out.name}.{os.getpid()}.tmp"
 
-    def add(self, topic: str, msgtype: str) -> Any:
-        """A connection for ``topic`` with this bag's message definitions."""
-        return self.writer.add_connection(topic, msgtype, typestore=self.store)
+    def add(self, topic: str, msgtype: str, *, latched: bool = False) -> Any:
+        """A connection for ``topic`` with this bag's message definitions; ``latched``: ROS 1's
+        ``latching=1``, ROS 2's offered QoS of depth 1, reliable and transient-local (what RViz
+        subscribes to a map published once with)."""
+        if not latched:
+            return self.writer.add_connection(topic, msgtype, typestore=self.store)
+        if self.ros1:
+            return self.writer.add_connection(topic, msgtype, typestore=self.store, latching=1)
+        return self.writer.add_connection(topic, msgtype, typestore=self.store,
+                                          offered_qos_profiles=[_latched_qos()])
 
     def write(self, conn: Any, timestamp: int, msg: Any) -> None:
         """Serialise ``msg`` (of the connection's type) and write it at ``timestamp`` (ns)."""
@@ -484,6 +491,17 @@ class BagFile:
                 self.writer.close()
         shutil.rmtree(self.tmp, ignore_errors=True)
         track_temporary(self.tmp, done=True)
+
+
+def _latched_qos() -> Any:
+    """ROS 2's latched profile: keep the last message, reliable, transient-local."""
+    require_rosbags()
+    from rosbags import interfaces as q
+
+    never = q.QosTime(0, 0)
+    return q.Qos(q.QosHistory.KEEP_LAST, 1, q.QosReliability.RELIABLE,
+                 q.QosDurability.TRANSIENT_LOCAL, never, never, q.QosLiveliness.AUTOMATIC, never,
+                 False)
 
 
 class BagWriter:

@@ -47,7 +47,7 @@ from typing import Any
 import numpy as np
 
 from fftnav.config import SwarmConfig
-from fftnav.episode.record import EpisodeResult
+from fftnav.episode.record import EpisodeResult, failure_tick
 from fftnav.errors import FftnavError
 from fftnav.navigation.controllers import SwarmStep
 from fftnav.ros import messages as rosmsg
@@ -56,7 +56,7 @@ from fftnav.ros.bags import LASERSCAN, MARKER_ARRAY, BagWriter, _wedges
 from fftnav.states import Status
 from fftnav.world.model import World
 
-__all__ = ["EpisodeBag", "check_episode_bag", "failure_tick"]
+__all__ = ["EpisodeBag", "check_episode_bag"]
 
 _KINDS = {".mcap": (False, "mcap"), ".db3": (False, "db3"), ".bag": (True, None)}
 #: The latched topics.
@@ -78,19 +78,6 @@ def check_episode_bag(path: str | Path) -> tuple[bool, str | None]:
                           f"--bag={str(path)!r}")
     require_rosbags()
     return _KINDS[suffix]
-
-
-def failure_tick(trajectory: np.ndarray, departure: int, *, timed_out: bool) -> int:
-    """The tick of a failed robot's failure: the last control period it drove for a robot
-    that touched something or stopped (its trajectory's sample k is tick ``departure + k``, the
-    last one the pose after that period), the tick its time was up for one out of time (its
-    last sample), as :func:`fftnav.report.replay.failure_ticks` reads them from a recording.
-
-    >>> failure_tick(np.zeros((5, 3)), 2, timed_out=False), failure_tick(np.zeros((5, 3)), 2,
-    ...                                                                   timed_out=True)
-    (5, 6)
-    """
-    return int(departure) + len(trajectory) - (1 if timed_out else 2)
 
 
 def robot_color(i: int) -> tuple[float, float, float]:
@@ -128,20 +115,10 @@ class EpisodeBag(BagWriter):
         #: Simulated time of each tick written (s).
         self.times: dict[int, float] = {}
 
-    def _connection(self, topic: str, msgtype: str) -> Any:
-        if topic not in self.conns:
-            if topic not in LATCHED:
-                self.conns[topic] = self.file.add(topic, msgtype)
-            elif self.ros1:
-                self.conns[topic] = self.file.writer.add_connection(
-                    topic, msgtype, typestore=self.store, latching=1)
-            else:
-                self.conns[topic] = self.file.writer.add_connection(
-                    topic, msgtype, typestore=self.store, offered_qos_profiles=[_latched_qos()])
-        return self.conns[topic]
-
     def _put(self, topic: str, msgtype: str, t_ns: int, msg: Any) -> None:
-        self.file.write(self._connection(topic, msgtype), t_ns, msg)
+        if topic not in self.conns:
+            self.conns[topic] = self.file.add(topic, msgtype, latched=topic in LATCHED)
+        self.file.write(self.conns[topic], t_ns, msg)
 
     def setup(self) -> None:
         """Write ``/world`` and ``/tf_static``."""
@@ -359,14 +336,3 @@ class EpisodeBag(BagWriter):
                                   translation=rosmsg.vector(s, pose[0], pose[1]),
                                   rotation=rosmsg.yaw_quaternion(s, float(pose[2]))))
 
-
-def _latched_qos() -> Any:
-    """ROS 2's latched profile: keep the last message, reliable, transient-local (a
-    subscriber that joins later, as RViz does, gets it)."""
-    require_rosbags()
-    from rosbags import interfaces as q
-
-    never = q.QosTime(0, 0)
-    return q.Qos(q.QosHistory.KEEP_LAST, 1, q.QosReliability.RELIABLE,
-                 q.QosDurability.TRANSIENT_LOCAL, never, never, q.QosLiveliness.AUTOMATIC, never,
-                 False)

@@ -278,8 +278,7 @@ def check_same_experiment(config: ExperimentConfig, out: Path, *, columns: tuple
 
 def stored_as_absolute(config: ExperimentConfig, out: Path, columns: tuple[str, ...]) -> bool:
     """Whether ``out/config.json`` is this experiment's with its files named by absolute paths
-    (:func:`canonical_config` without ``folder``, as folders written before the portable form
-    hold them)."""
+    (:func:`canonical_config` without ``folder``)."""
     try:
         return (out / "config.json").read_text(encoding="utf-8") == canonical_config(config,
                                                                                       columns)
